@@ -1,0 +1,1 @@
+"""Package data: the instrument catalog (catalog.json), generated GLB assets and their collision caches."""

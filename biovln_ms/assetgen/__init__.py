@@ -1,0 +1,1 @@
+"""Reproducible procedural GLB assets (trimesh): instruments, furniture and room-shell pieces."""

@@ -1,0 +1,215 @@
+"""The instrument catalog: one source of truth for every asset's numbers (paper Table 2).
+
+The data lives in ``assets/catalog.json``; this module validates it and gives typed access.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from functools import lru_cache
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from rapidfuzz import process as fuzz_process
+
+from biovln_ms.errors import CatalogError
+from biovln_ms.paths import CATALOG_PATH
+
+Face = Literal["+X", "-X", "+Y", "-Y"]
+Placement = Literal["wall", "table_top", "floor", "furniture"]
+
+#: Model-space unit vectors of the four operational-face labels.
+FACE_VECTORS: dict[str, tuple[float, float]] = {
+    "+X": (1.0, 0.0), "-X": (-1.0, 0.0), "+Y": (0.0, 1.0), "-Y": (0.0, -1.0),
+}
+#: Tolerance between a printed d_half and half the printed dimension along the face axis
+#: (the paper's d_half values come from Blender vertex analysis and differ by up to 7 mm).
+D_HALF_TOLERANCE = 0.01
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class AssetSpec(_Strict):
+    """One catalog asset: dimensions in model space (x, y, z metres), origin at the bbox centre."""
+
+    name: str = Field(pattern=r"^[a-z][a-z0-9_]*$")
+    display_name: str
+    dimensions: tuple[float, float, float]
+    placement: Placement
+    face: Face | None
+    d_half: float | None = Field(default=None, gt=0)
+    approach_distance: float | None = Field(default=None, ge=0.5, le=0.9)
+    success_radius: float | None = Field(default=None, ge=0.8, le=1.3)
+    goal_category: bool = False
+    collision: Literal["box", "coacd"] = "box"
+    support_height: float | None = Field(default=None, gt=0)
+    rationale: str = ""
+
+    @field_validator("dimensions")
+    @classmethod
+    def _positive(cls, v: tuple[float, float, float]) -> tuple[float, float, float]:
+        if not all(np.isfinite(x) and x > 0 for x in v):
+            raise ValueError("every dimension must be a positive finite number of metres")
+        return v
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "AssetSpec":
+        if self.face is None:
+            if self.placement != "furniture":
+                raise ValueError(f"face: only furniture may have no operational face (placement={self.placement})")
+            if self.goal_category:
+                raise ValueError("goal_category: an asset without an operational face cannot be a goal")
+            return self
+        for key in ("d_half", "approach_distance", "success_radius"):
+            if getattr(self, key) is None:
+                raise ValueError(f"{key}: required for an asset with an operational face")
+        axis = 0 if self.face[1] == "X" else 1
+        half = self.dimensions[axis] / 2.0
+        if abs(self.d_half - half) > D_HALF_TOLERANCE:
+            raise ValueError(
+                f"d_half: {self.d_half} is not half the {self.face[1]} dimension ({half:.3f}) within "
+                f"{D_HALF_TOLERANCE} m")
+        return self
+
+    @property
+    def face_vector(self) -> np.ndarray | None:
+        """Model-space unit normal of the operational face, or None."""
+        return None if self.face is None else np.array(FACE_VECTORS[self.face])
+
+    @property
+    def face_width(self) -> float:
+        """Horizontal width of the operational face (the footprint side parallel to it)."""
+        if self.face is None:
+            return max(self.dimensions[:2])
+        return self.dimensions[1] if self.face[1] == "X" else self.dimensions[0]
+
+    @property
+    def height(self) -> float:
+        return self.dimensions[2]
+
+
+class RoomShellPiece(_Strict):
+    name: str
+    dimensions: tuple[float, float, float]
+
+
+class RoomInner(_Strict):
+    dimensions: tuple[float, float, float]
+    source: str = ""
+
+
+class CatalogFile(_Strict):
+    schema_version: Literal[1]
+    source: str = ""
+    zone2_clearance: float = Field(gt=0)
+    rules: dict[str, str] = {}
+    support_heights: dict[str, float]
+    room_inner: RoomInner
+    assets: list[AssetSpec]
+    room_shell: list[RoomShellPiece] = []
+
+    @model_validator(mode="after")
+    def _unique(self) -> "CatalogFile":
+        names = [a.name for a in self.assets] + [p.name for p in self.room_shell]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"assets: duplicate names {dup}")
+        for furn, h in self.support_heights.items():
+            if furn not in {a.name for a in self.assets}:
+                raise ValueError(f"support_heights: '{furn}' is not an asset")
+            if h <= 0:
+                raise ValueError(f"support_heights.{furn}: must be positive")
+        return self
+
+
+class Catalog:
+    """Typed, validated view of ``catalog.json``."""
+
+    def __init__(self, data: CatalogFile, raw_bytes: bytes, source: Path) -> None:
+        self.data = data
+        self.source = source
+        self.sha256 = hashlib.sha256(raw_bytes).hexdigest()
+        self._assets = {a.name: a for a in data.assets}
+
+    @property
+    def zone2_clearance(self) -> float:
+        return self.data.zone2_clearance
+
+    @property
+    def support_heights(self) -> dict[str, float]:
+        return dict(self.data.support_heights)
+
+    @property
+    def room_shell(self) -> list[RoomShellPiece]:
+        return list(self.data.room_shell)
+
+    def names(self) -> list[str]:
+        return list(self._assets)
+
+    def assets(self) -> list[AssetSpec]:
+        return list(self._assets.values())
+
+    def goal_categories(self) -> list[str]:
+        return [a.name for a in self._assets.values() if a.goal_category]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._assets
+
+    def get(self, name: str) -> AssetSpec:
+        """The asset called ``name``; an unknown name raises CatalogError listing the known ones."""
+        try:
+            return self._assets[name]
+        except KeyError:
+            known = sorted(self._assets)
+            guess = fuzz_process.extractOne(str(name), known)
+            hint = f" Did you mean '{guess[0]}'?" if guess and guess[1] >= 70 else ""
+            raise CatalogError(f"unknown instrument '{name}'.{hint} Known: {', '.join(known)}",
+                               source=str(self.source), field="name") from None
+
+    __getitem__ = get
+
+    def to_json_list(self) -> list[dict]:
+        """The catalog as the plain objects `biovln-ms catalog --json` prints."""
+        return [a.model_dump(mode="json") for a in self._assets.values()]
+
+
+def _format_validation_error(err: ValidationError) -> tuple[str, str]:
+    first = err.errors()[0]
+    loc = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in first["loc"]).replace(".[", "[")
+    return loc or "<root>", first["msg"]
+
+
+def load_catalog(path: str | Path | None = None) -> Catalog:
+    """Load and validate a catalog file (default: the packaged ``assets/catalog.json``)."""
+    if path is None:
+        return _default_catalog()
+    return _load(Path(path))
+
+
+@lru_cache(maxsize=1)
+def _default_catalog() -> Catalog:
+    return _load(CATALOG_PATH)
+
+
+def _load(path: Path) -> Catalog:
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise CatalogError(f"cannot read the catalog ({e.strerror})", source=str(path),
+                           fix="reinstall biovln-ms or pass an existing catalog file") from None
+    try:
+        obj = json.loads(raw)
+    except json.JSONDecodeError as e:
+        raise CatalogError(f"not valid JSON at line {e.lineno} column {e.colno}: {e.msg}", source=str(path)) from None
+    try:
+        data = CatalogFile.model_validate(obj)
+    except ValidationError as e:
+        field, msg = _format_validation_error(e)
+        raise CatalogError(msg, source=str(path), field=field,
+                           fix="correct that value (see the 'rules' section of the packaged catalog.json)") from None
+    return Catalog(data, raw, path)

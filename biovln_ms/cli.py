@@ -1,0 +1,112 @@
+"""The `biovln-ms` command line."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+
+from biovln_ms.errors import BioVLNError
+
+app = typer.Typer(help="BioVLN-MS: operational-face navigation to laboratory instruments (SAPIEN / ManiSkill3).",
+                  no_args_is_help=True, pretty_exceptions_enable=False)
+assets_app = typer.Typer(help="Generate, verify and preview the procedural instrument assets.", no_args_is_help=True)
+app.add_typer(assets_app, name="assets")
+console = Console(stderr=True)
+
+
+@app.command()
+def doctor() -> None:
+    """Check versions, the Vulkan device SAPIEN renders with (one frame) and the shipped assets."""
+    from biovln_ms.doctor import run_doctor
+
+    raise typer.Exit(run_doctor(typer.echo))
+
+
+@app.command()
+def catalog(as_json: bool = typer.Option(False, "--json", help="Print the catalog as a JSON list."),
+            path: Optional[Path] = typer.Option(None, help="Another catalog file to validate and print.")) -> None:
+    """Print the instrument catalog (paper Table 2 plus the goal categories of Tables 6 and 8)."""
+    from rich.table import Table
+
+    from biovln_ms.catalog import load_catalog
+
+    cat = load_catalog(path)
+    if as_json:
+        typer.echo(json.dumps(cat.to_json_list(), indent=2))
+        return
+    table = Table(title=f"Instrument catalog ({cat.source})")
+    for col in ("name", "dimensions (m)", "placement", "face", "d_half", "delta", "r", "goal"):
+        table.add_column(col)
+    for a in cat.assets():
+        table.add_row(a.name, " x ".join(f"{d:.2f}" for d in a.dimensions), a.placement, a.face or "-",
+                      f"{a.d_half:.3f}" if a.d_half else "-", f"{a.approach_distance}" if a.approach_distance else "-",
+                      f"{a.success_radius}" if a.success_radius else "-", "yes" if a.goal_category else "no")
+    Console().print(table)
+
+
+@assets_app.command("generate")
+def assets_generate(out: Optional[Path] = typer.Option(None, "-o", "--out", help="Output folder (default: the package's assets/)."),
+                    only: Optional[list[str]] = typer.Option(None, "--only", help="Regenerate just these assets.")) -> None:
+    """Regenerate the GLB assets and coacd collision caches (bit-identical for the same catalog)."""
+    from biovln_ms.assetgen.generate import generate_assets
+    from biovln_ms.catalog import load_catalog
+    from biovln_ms.paths import ASSET_DIR
+
+    cat = load_catalog()
+    for name in only or []:
+        if name not in cat and name not in {p.name for p in cat.room_shell}:
+            cat.get(name)  # raises with the list of known names
+    manifest = generate_assets(out or ASSET_DIR, cat, names=list(only) if only else None)
+    typer.echo(f"wrote {len(manifest['files'])} GLBs and {len(manifest['collision'])} collision caches to {out or ASSET_DIR}")
+
+
+@assets_app.command("verify")
+def assets_verify(path: Optional[Path] = typer.Option(None, help="Asset folder (default: the package's).")) -> None:
+    """Check every shipped asset against the manifest (missing, corrupt or stale files)."""
+    from biovln_ms.assetgen.generate import verify_assets
+    from biovln_ms.paths import ASSET_DIR
+
+    problems = verify_assets(path or ASSET_DIR)
+    for p in problems:
+        typer.echo(p)
+    if problems:
+        raise typer.Exit(1)
+    typer.echo("assets OK")
+
+
+@assets_app.command("preview")
+def assets_preview(out: Path = typer.Option(Path("asset_sheet.png"), "-o", "--out", help="PNG to write."),
+                   tile: int = typer.Option(320, help="Tile size in pixels.")) -> None:
+    """Render every asset with SAPIEN (front and back, operational face marked) into one contact sheet."""
+    from biovln_ms.render.asset_preview import contact_sheet
+
+    renders = contact_sheet(out, tile=tile)
+    for r in renders:
+        typer.echo(f"{r.name:<18} face {r.face or '-':<3} colours front {r.front_colors:>5}  back {r.back_colors:>5}")
+    typer.echo(f"wrote {out}")
+
+
+@app.command()
+def demo(out: Path = typer.Option(Path("outputs/demo"), "-o", "--out", help="Folder for the demo's files.")) -> None:
+    """Run the demo: the asset contact sheet and catalog table (grows into a full episode later)."""
+    from biovln_ms.demo import run_demo
+
+    run_demo(out, typer.echo)
+
+
+def main() -> None:
+    """Entry point: user-facing errors print as one clear line, not a traceback."""
+    try:
+        app()
+    except BioVLNError as e:
+        console.print(f"[bold red]error:[/] {e}", highlight=False, soft_wrap=True)
+        sys.exit(2)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+"""SAPIEN rendering helpers (offscreen; CPU lavapipe or GPU)."""

@@ -1,0 +1,121 @@
+"""Contact sheet of every asset rendered with SAPIEN: front and back, operational face marked.
+
+Each tile also reports the number of distinct colours on the asset's pixels (the paper's Table 8
+measure of surface diversity).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+from biovln_ms.assetgen.generate import AssetPlan, plans
+from biovln_ms.catalog import Catalog, load_catalog
+from biovln_ms.paths import ASSET_DIR
+from biovln_ms.render.sapien_utils import look_at_pose, new_scene, take_rgb
+
+MARKER_COLOR = [0.95, 0.1, 0.1, 1.0]
+
+
+@dataclass
+class AssetRender:
+    name: str
+    face: str | None
+    front: np.ndarray
+    back: np.ndarray
+    front_colors: int
+    back_colors: int
+
+
+def _add_face_marker(scene, plan: AssetPlan):
+    """A red arrow on the floor, from the operational face outwards."""
+    import sapien
+
+    f = np.array([*plan.model_face, 0.0])
+    depth = plan.dimensions[0] / 2 if abs(f[0]) > 0.5 else plan.dimensions[1] / 2
+    length = 0.35 + 0.1 * max(plan.dimensions[:2])
+    yaw = float(np.arctan2(f[1], f[0]))
+    q = [np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]
+    b = scene.create_actor_builder()
+    mat = sapien.render.RenderMaterial(base_color=MARKER_COLOR)
+    b.add_box_visual(sapien.Pose([length / 2, 0, 0.005], [1, 0, 0, 0]), half_size=[length / 2, 0.025, 0.005], material=mat)
+    b.add_box_visual(sapien.Pose([length, 0, 0.005], [np.cos(np.pi / 8), 0, 0, np.sin(np.pi / 8)]), half_size=[0.07, 0.07, 0.005],
+                     material=mat)
+    marker = b.build_kinematic(name="face_marker")
+    marker.set_pose(sapien.Pose((f * (depth + 0.02)).tolist(), q))
+    return marker
+
+
+class AssetRenderer:
+    """One SAPIEN scene reused for every asset (a new scene per asset costs seconds on lavapipe)."""
+
+    def __init__(self, size: int = 320, asset_dir: Path = ASSET_DIR) -> None:
+        import sapien
+
+        self.asset_dir = Path(asset_dir)
+        self.scene = new_scene()
+        floor = self.scene.create_actor_builder()
+        floor.add_box_visual(sapien.Pose([0, 0, -0.01]), half_size=[8, 8, 0.01],
+                             material=sapien.render.RenderMaterial(base_color=[0.78, 0.80, 0.82, 1]))
+        floor.build_static(name="floor")
+        self.camera = self.scene.add_camera("preview", size, size, np.deg2rad(50), 0.05, 50)
+
+    def render(self, plan: AssetPlan) -> AssetRender:
+        """The asset on the floor, seen from its operational face and from behind."""
+        import sapien
+
+        b = self.scene.create_actor_builder()
+        b.add_visual_from_file(str(self.asset_dir / f"{plan.name}.glb"))
+        actor = b.build_kinematic(name=plan.name)
+        actor.set_pose(sapien.Pose([0, 0, plan.dimensions[2] / 2]))
+        marker = _add_face_marker(self.scene, plan) if plan.face is not None else None
+        target = np.array([0.0, 0.0, plan.dimensions[2] * 0.45])
+        radius = float(np.linalg.norm(plan.dimensions)) * 1.05 + 0.4
+        f = np.array([*plan.model_face, 0.0])
+        side = np.array([-f[1], f[0], 0.0])
+        out = []
+        for sign in (1.0, -1.0):
+            eye = target + sign * f * radius + 0.35 * side * radius + np.array([0, 0, 0.45 * radius])
+            self.camera.entity.set_pose(look_at_pose(eye, target))
+            rgb = take_rgb(self.scene, self.camera)
+            mask = self.camera.get_picture("Segmentation")[..., 1] == actor.per_scene_id
+            colors = len(np.unique(rgb[mask].reshape(-1, 3), axis=0)) if mask.any() else 0
+            out.append((rgb, colors))
+        self.scene.remove_entity(actor)
+        if marker is not None:
+            self.scene.remove_entity(marker)
+        return AssetRender(plan.name, plan.face, out[0][0], out[1][0], out[0][1], out[1][1])
+
+
+def contact_sheet(out_path: Path, catalog: Catalog | None = None, tile: int = 320, progress: bool = True,
+                  asset_dir: Path = ASSET_DIR) -> list[AssetRender]:
+    """Render every asset (front and back) into one PNG; returns the renders with colour counts."""
+    from tqdm import tqdm
+
+    catalog = catalog or load_catalog()
+    renderer = AssetRenderer(tile, asset_dir)
+    renders = [renderer.render(p) for p in tqdm(plans(catalog), desc="rendering assets", disable=not progress)]
+    cols = 4
+    caption = 44
+    rows = (2 * len(renders) + cols - 1) // cols
+    sheet = Image.new("RGB", (cols * tile, rows * (tile + caption)), (250, 250, 250))
+    draw = ImageDraw.Draw(sheet)
+    font = ImageFont.load_default(size=15)
+    for i, r in enumerate(renders):
+        for j, (img, view, n) in enumerate(((r.front, "FRONT", r.front_colors), (r.back, "BACK", r.back_colors))):
+            k = 2 * i + j
+            x, y = (k % cols) * tile, (k // cols) * (tile + caption)
+            sheet.paste(Image.fromarray(img), (x, y))
+            draw.text((x + 6, y + tile + 3), f"{r.name}  [{view}]", fill=(0, 0, 0), font=font)
+            if r.face is None:
+                face_note = "room shell" if j == 0 else "room shell, reverse"
+            else:
+                face_note = f"op. face {r.face} (red arrow)" if j == 0 else "rear side"
+            draw.text((x + 6, y + tile + 22), f"{face_note}; {n} colours", fill=(90, 90, 90), font=font)
+    out_path = Path(out_path)
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    sheet.save(out_path)
+    return renders

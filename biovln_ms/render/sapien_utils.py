@@ -1,0 +1,63 @@
+"""Thin SAPIEN helpers: a lit scene, look-at cameras, and clear errors when no renderer exists."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from biovln_ms.errors import RenderError
+
+BACKPORTS_FIX = ("install a Vulkan driver: on Debian bookworm without a GPU run `bash scripts/install_system.sh` "
+                 "(adds bookworm-backports and installs mesa-vulkan-drivers >= 24.3 for lavapipe)")
+
+
+def new_scene(ambient: float = 0.35):
+    """A SAPIEN scene with ambient, key and fill lights; raises RenderError without a Vulkan device."""
+    import sapien
+
+    try:
+        scene = sapien.Scene()
+    except RuntimeError as e:
+        raise RenderError(f"SAPIEN cannot create a render device ({e})", fix=BACKPORTS_FIX) from None
+    scene.set_ambient_light([ambient] * 3)
+    scene.add_directional_light([0.4, 0.6, -1.0], [0.9, 0.9, 0.88])
+    scene.add_directional_light([-0.5, -0.3, -0.6], [0.35, 0.35, 0.4])
+    return scene
+
+
+def look_at_pose(eye, target, up=(0.0, 0.0, 1.0)):
+    """SAPIEN pose of a camera at ``eye`` looking at ``target`` (SAPIEN cameras look along +x, z up)."""
+    import sapien
+
+    eye = np.asarray(eye, float)
+    forward = np.asarray(target, float) - eye
+    forward /= np.linalg.norm(forward)
+    left = np.cross(up, forward)
+    if np.linalg.norm(left) < 1e-6:
+        left = np.array([0.0, 1.0, 0.0])
+    left /= np.linalg.norm(left)
+    true_up = np.cross(forward, left)
+    mat = np.eye(4)
+    mat[:3, :3] = np.stack([forward, left, true_up], axis=1)
+    mat[:3, 3] = eye
+    return sapien.Pose(mat)
+
+
+def take_rgb(scene, camera) -> np.ndarray:
+    """uint8 RGB (H, W, 3) from a camera after updating the render state."""
+    scene.update_render()
+    camera.take_picture()
+    rgba = camera.get_picture("Color")
+    return (np.clip(rgba[..., :3], 0, 1) * 255).round().astype(np.uint8)
+
+
+SOFTWARE_RENDERERS = ("llvmpipe", "lavapipe", "swiftshader", "softpipe")
+
+
+def device_kind(device) -> str:
+    """'CPU' for a software Vulkan driver (Mesa lavapipe/llvmpipe, SwiftShader), else 'GPU'.
+
+    SAPIEN's ``Device.is_cpu()`` means "not a Vulkan device" and is False for lavapipe, so the
+    driver name decides.
+    """
+    name = device.name.lower()
+    return "CPU" if device.is_cpu() or any(s in name for s in SOFTWARE_RENDERERS) else "GPU"

@@ -1,0 +1,1 @@
+"""ManiSkill tasks of BioVLN-MS (installed as ``biovln_ms.tasks``)."""
