@@ -11,8 +11,6 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,6 +21,7 @@ from biovln_ms.assetgen.instruments import BUILDERS
 from biovln_ms.assetgen.parts import CANONICAL_FACE, Kit
 from biovln_ms.catalog import Catalog, load_catalog
 from biovln_ms.errors import AssetError
+from biovln_ms.io_utils import atomic_write_bytes
 
 GENERATOR_VERSION = 1
 #: Generated bounds must match the catalog dimensions this closely (issue: within 1 cm).
@@ -80,18 +79,6 @@ def merged_mesh(scene: trimesh.Scene) -> trimesh.Trimesh:
     return trimesh.util.concatenate(meshes)
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _sha(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
@@ -132,7 +119,7 @@ def generate_assets(out_dir: Path, catalog: Catalog | None = None, names: list[s
     for plan in tqdm(todo, desc="assets", disable=not progress):
         scene = build_scene(plan)
         glb = scene.export(file_type="glb")
-        _atomic_write(out_dir / f"{plan.name}.glb", glb)
+        atomic_write_bytes(out_dir / f"{plan.name}.glb", glb)
         manifest["files"][f"{plan.name}.glb"] = _sha(glb)
         if plan.collision == "coacd":
             mesh = merged_mesh(scene)
@@ -144,7 +131,7 @@ def generate_assets(out_dir: Path, catalog: Catalog | None = None, names: list[s
                 obj = (out_dir / rel).read_bytes()
             else:
                 obj = hulls_to_obj(convex_decomposition(mesh))
-                _atomic_write(out_dir / rel, obj)
+                atomic_write_bytes(out_dir / rel, obj)
             manifest["collision"][plan.name] = {"file": rel, "input_sha256": key, "sha256": _sha(obj)}
     if names is not None:  # partial run: keep entries of the assets not regenerated
         for k, v in old.get("files", {}).items():
@@ -153,7 +140,7 @@ def generate_assets(out_dir: Path, catalog: Catalog | None = None, names: list[s
             manifest["collision"].setdefault(k, v)
     manifest["files"] = dict(sorted(manifest["files"].items()))
     manifest["collision"] = dict(sorted(manifest["collision"].items()))
-    _atomic_write(manifest_path, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
+    atomic_write_bytes(manifest_path, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
     return manifest
 
 

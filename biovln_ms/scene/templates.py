@@ -1,0 +1,185 @@
+"""Layout templates as data (the paper's config.py / config_two_room.py, one JSON file each).
+
+A template lists floor rectangles (rooms, corridors, doorway passages), fixed furniture and
+instrument slots. Packaged templates live in ``biovln_ms/scene/templates/``; users add their own
+with :func:`register_template` (a path or a dict) or by putting JSON files in a folder named by the
+``BIOVLN_TEMPLATE_PATH`` environment variable — the generator is never edited.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from biovln_ms.errors import BioVLNError
+
+TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
+Side = Literal["N", "S", "E", "W"]
+
+
+class TemplateError(BioVLNError):
+    """A malformed or unknown layout template."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class RoomRect(_Strict):
+    id: str
+    kind: Literal["room", "corridor", "passage"] = "room"
+    rect: tuple[float, float, float, float] = Field(description="x0, y0, x1, y1 of the inner floor")
+
+    @model_validator(mode="after")
+    def _order(self) -> "RoomRect":
+        x0, y0, x1, y1 = self.rect
+        if not (x1 > x0 and y1 > y0):
+            raise ValueError("rect: must be [x0, y0, x1, y1] with x1 > x0 and y1 > y0")
+        return self
+
+
+class FurnitureSlot(_Strict):
+    """Fixed furniture: centre on the floor and the world direction its operational face points."""
+
+    id: str
+    category: str
+    room: str
+    center: tuple[float, float]
+    face: tuple[float, float]
+    goal: bool = False
+
+
+class InstrumentSlot(_Strict):
+    id: str
+    placement: Literal["wall", "table_top", "floor"]
+    categories: list[str] = Field(min_length=1)
+    room: str | None = None
+    wall: Side | None = Field(default=None, description="wall slots: which wall of the room")
+    span: tuple[float, float] | None = Field(
+        default=None, description="wall: world interval along the wall; table_top: fraction interval along the support")
+    support: str | None = Field(default=None, description="table_top slots: furniture id")
+    region: tuple[float, float, float, float] | None = Field(default=None, description="floor slots: x0, y0, x1, y1")
+    fixed: bool = Field(default=False, description="always active (e.g. every slot of two_room)")
+
+    @model_validator(mode="after")
+    def _by_placement(self) -> "InstrumentSlot":
+        need = {"wall": ("room", "wall", "span"), "table_top": ("support", "span"), "floor": ("room", "region")}[self.placement]
+        for key in need:
+            if getattr(self, key) is None:
+                raise ValueError(f"{key}: required for a {self.placement} slot")
+        return self
+
+
+class Template(_Strict):
+    name: str = Field(pattern=r"^[a-z][a-z0-9_]*$")
+    description: str = ""
+    name_pattern: str = "{template}_s{seed}_v0"
+    wall_height: float = Field(default=3.24, gt=0)
+    rooms: list[RoomRect] = Field(min_length=1)
+    furniture: list[FurnitureSlot] = []
+    slots: list[InstrumentSlot] = Field(min_length=1)
+    active_slots: tuple[int, int]
+    yaw_jitter_deg: float = Field(default=30.0, ge=0, le=180, description="floor instruments: face-to-centre jitter")
+    max_attempts: int = Field(default=400, ge=1)
+
+    @model_validator(mode="after")
+    def _refs(self) -> "Template":
+        from biovln_ms.catalog import load_catalog
+
+        cat = load_catalog()
+        rooms = {r.id for r in self.rooms}
+        furn = {f.id for f in self.furniture}
+        lo, hi = self.active_slots
+        if not (1 <= lo <= hi <= len(self.slots)):
+            raise ValueError(f"active_slots: [{lo}, {hi}] must satisfy 1 <= min <= max <= {len(self.slots)} slots")
+        if sum(s.fixed for s in self.slots) > hi:
+            raise ValueError("active_slots: fewer than the number of fixed slots")
+        for i, f in enumerate(self.furniture):
+            if f.room not in rooms:
+                raise ValueError(f"furniture[{i}].room: '{f.room}' is not a room id")
+            if f.category not in cat:
+                raise ValueError(f"furniture[{i}].category: unknown '{f.category}'")
+        for i, s in enumerate(self.slots):
+            if s.room is not None and s.room not in rooms:
+                raise ValueError(f"slots[{i}].room: '{s.room}' is not a room id")
+            if s.support is not None and s.support not in furn:
+                raise ValueError(f"slots[{i}].support: '{s.support}' is not a furniture id")
+            for c in s.categories:
+                if c not in cat:
+                    raise ValueError(f"slots[{i}].categories: unknown '{c}' (known: {', '.join(cat.names())})")
+                if cat.get(c).placement != s.placement:
+                    raise ValueError(f"slots[{i}].categories: '{c}' is a {cat.get(c).placement} asset, not {s.placement}")
+        ids = [s.id for s in self.slots] + [f.id for f in self.furniture]
+        if len(set(ids)) != len(ids):
+            raise ValueError("slots/furniture: ids must be unique")
+        return self
+
+    def scene_name(self, seed: int) -> str:
+        return self.name_pattern.format(template=self.name, seed=seed)
+
+
+_REGISTRY: dict[str, Template] = {}
+_BUILTIN_LOADED = False
+
+
+def parse_template(obj: dict, source: str) -> Template:
+    try:
+        return Template.model_validate(obj)
+    except ValidationError as e:
+        first = e.errors()[0]
+        loc = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"]).lstrip(".")
+        raise TemplateError(first["msg"], source=source, field=loc or "<root>") from None
+
+
+def load_template_file(path: str | Path) -> Template:
+    path = Path(path)
+    try:
+        obj = json.loads(path.read_text())
+    except OSError as e:
+        raise TemplateError(f"cannot read ({e.strerror})", source=str(path)) from None
+    except json.JSONDecodeError as e:
+        raise TemplateError(f"not valid JSON at line {e.lineno}: {e.msg}", source=str(path)) from None
+    return parse_template(obj, str(path))
+
+
+def register_template(template: Template | dict | str | Path, override: bool = False) -> Template:
+    """Add a template (object, dict or JSON path) to the registry under its name."""
+    if isinstance(template, dict):
+        template = parse_template(template, "<dict>")
+    elif not isinstance(template, Template):
+        template = load_template_file(template)
+    if template.name in _REGISTRY and not override and _REGISTRY[template.name] != template:
+        raise TemplateError(f"a different template named '{template.name}' is already registered",
+                            fix="pick another name or pass override=True")
+    _REGISTRY[template.name] = template
+    return template
+
+
+def _load_builtin() -> None:
+    global _BUILTIN_LOADED
+    if _BUILTIN_LOADED:
+        return
+    _BUILTIN_LOADED = True
+    for path in sorted(TEMPLATE_DIR.glob("*.json")):
+        register_template(path)
+    for folder in filter(None, os.environ.get("BIOVLN_TEMPLATE_PATH", "").split(os.pathsep)):
+        for path in sorted(Path(folder).glob("*.json")):
+            register_template(path)
+
+
+def template_names() -> list[str]:
+    _load_builtin()
+    return sorted(_REGISTRY)
+
+
+def get_template(name: str | Template) -> Template:
+    if isinstance(name, Template):
+        return name
+    _load_builtin()
+    if name not in _REGISTRY:
+        raise TemplateError(f"unknown template '{name}'", field="template", fix=f"use one of: {', '.join(sorted(_REGISTRY))}")
+    return _REGISTRY[name]

@@ -1,0 +1,108 @@
+"""Top-down map of a scene spec (PNG): walls, furniture, Zones 1/2/3, face arrows, goals with their
+success radii, and the robot's navigable area. Episodes can be overlaid (start, goal, path)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.patches import Circle, FancyArrow, Polygon as MplPolygon  # noqa: E402
+
+from biovln_ms.scene.rules import scene_free_space  # noqa: E402
+from biovln_ms.scene.spec import SceneSpec  # noqa: E402
+
+CATEGORY_COLORS = {
+    "refrigerator": "#3b7dd8", "incubator": "#d8643b", "centrifuge": "#8e44ad", "mini_centrifuge": "#b07cc6",
+    "pipette": "#16a085", "cabinet": "#7f8c3b", "waste_bin": "#e0b000", "biosafety_cabinet": "#2e8b57",
+    "lab_bench": "#6d5a45", "lab_table": "#8a7f72",
+}
+
+
+def _poly(ax, coords, **kw):
+    ax.add_patch(MplPolygon(np.asarray(coords), closed=True, **kw))
+
+
+def _draw_geom(ax, geom, **kw):
+    for g in getattr(geom, "geoms", [geom]):
+        if g.is_empty:
+            continue
+        _poly(ax, np.asarray(g.exterior.coords), **kw)
+        for hole in g.interiors:
+            _poly(ax, np.asarray(hole.coords), facecolor="white", edgecolor="none")
+
+
+def draw_map(spec: SceneSpec, ax=None, show_free: bool = True, title: str | None = None):
+    """Draw the scene on a matplotlib axis (created when None); returns the axis."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(9, 7))
+    for r in spec.rooms:
+        _poly(ax, r.polygon, facecolor="#f4f4f0", edgecolor="none", zorder=0)
+    if show_free:
+        _draw_geom(ax, scene_free_space(spec), facecolor="#cfeccf", edgecolor="#8cc68c", lw=0.5, alpha=0.9, zorder=1,
+                   label=f"navigable (robot r = {spec.robot_radius} m)")
+    for w in spec.walls:
+        s, e, n = np.asarray(w.start), np.asarray(w.end), np.asarray(w.interior)
+        _poly(ax, [s, e, e - n * w.thickness, s - n * w.thickness], facecolor="#333333", edgecolor="#333333", zorder=5)
+    for o in spec.objects():
+        p = o.placed()
+        color = CATEGORY_COLORS.get(o.category, "#999999")
+        if o.is_goal:
+            _poly(ax, p.zone3_corners(), facecolor=color, alpha=0.18, edgecolor=color, lw=1.0, ls="-", zorder=2)
+        _poly(ax, p.zone2_corners(), facecolor="none", edgecolor="#d62728", lw=0.9, ls="--", zorder=3)
+        alpha = 0.55 if o.placement == "furniture" else 0.95
+        _poly(ax, p.zone1_corners(), facecolor=color, alpha=alpha, edgecolor="black", lw=0.8, zorder=4 if o.placement != "furniture" else 3)
+        if o.face is not None:
+            f = np.asarray(o.face)
+            start = p.center_xy + f * (o.d_half or 0.0) * 0.2
+            length = (o.d_half or 0.2) * 0.8
+            ax.add_patch(FancyArrow(*start, *(f * length), width=0.04, head_width=0.14, head_length=0.12, color="black", zorder=6))
+        if o.is_goal:
+            g = np.asarray(o.goal)
+            ax.add_patch(Circle(g, o.success_radius, facecolor="none", edgecolor=color, lw=1.0, ls=":", zorder=6))
+            ax.plot(*g, marker="*", ms=13, color=color, markeredgecolor="black", zorder=7)
+            ax.annotate(o.id, g, xytext=(4, 6), textcoords="offset points", fontsize=7, zorder=8)
+    xs = [x for r in spec.rooms for x, _ in r.polygon]
+    ys = [y for r in spec.rooms for _, y in r.polygon]
+    ax.set_xlim(min(xs) - 0.4, max(xs) + 0.4)
+    ax.set_ylim(min(ys) - 0.4, max(ys) + 0.4)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title or f"{spec.name} ({spec.template}, seed {spec.seed})")
+    ax.grid(True, lw=0.3, alpha=0.5)
+    return ax
+
+
+def legend_handles():
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    return [Patch(facecolor="#cfeccf", edgecolor="#8cc68c", label="navigable area"),
+            Patch(facecolor="#999999", edgecolor="black", label="Zone 1 (body)"),
+            Line2D([], [], color="#d62728", ls="--", label="Zone 2 (0.25 m clearance)"),
+            Patch(facecolor="#999999", alpha=0.2, label="Zone 3 (operation area)"),
+            Line2D([], [], marker="*", color="none", markerfacecolor="#999999", markeredgecolor="black", ms=12, label="goal (Eq. 1)"),
+            Line2D([], [], color="#999999", ls=":", label="success radius r")]
+
+
+def save_map(spec: SceneSpec, out: str | Path, episodes: Sequence | None = None, dpi: int = 130) -> Path:
+    """Write the map PNG; ``episodes`` (optional) are dicts with start, goal and an optional path."""
+    fig, ax = plt.subplots(figsize=(10, 8))
+    draw_map(spec, ax)
+    for ep in episodes or []:
+        path = np.asarray(ep.get("path") or [], float)
+        if len(path):
+            ax.plot(path[:, 0], path[:, 1], "-", color="#1f77b4", lw=2, zorder=9)
+        ax.plot(*ep["start"][:2], marker="o", ms=9, color="#1f77b4", markeredgecolor="white", zorder=10)
+    ax.legend(handles=legend_handles(), loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    fig.tight_layout()
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=dpi)
+    plt.close(fig)
+    return out
