@@ -15,7 +15,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from rapidfuzz import process as fuzz_process
 
-from biovln_ms.errors import CatalogError
+from biovln_ms.errors import CatalogError, describe_validation_error
 from biovln_ms.paths import CATALOG_PATH
 
 Face = Literal["+X", "-X", "+Y", "-Y"]
@@ -178,12 +178,6 @@ class Catalog:
         return [a.model_dump(mode="json") for a in self._assets.values()]
 
 
-def _format_validation_error(err: ValidationError) -> tuple[str, str]:
-    first = err.errors()[0]
-    loc = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in first["loc"]).replace(".[", "[")
-    return loc or "<root>", first["msg"]
-
-
 def load_catalog(path: str | Path | None = None) -> Catalog:
     """Load and validate a catalog file (default: the packaged ``assets/catalog.json``)."""
     if path is None:
@@ -209,7 +203,7 @@ def _load(path: Path) -> Catalog:
     try:
         data = CatalogFile.model_validate(obj)
     except ValidationError as e:
-        field, msg = _format_validation_error(e)
+        field, msg = describe_validation_error(e)
         raise CatalogError(msg, source=str(path), field=field,
                            fix="correct that value (see the 'rules' section of the packaged catalog.json)") from None
     return Catalog(data, raw, path)

@@ -16,6 +16,8 @@ app = typer.Typer(help="BioVLN-MS: operational-face navigation to laboratory ins
                   no_args_is_help=True, pretty_exceptions_enable=False)
 assets_app = typer.Typer(help="Generate, verify and preview the procedural instrument assets.", no_args_is_help=True)
 app.add_typer(assets_app, name="assets")
+scene_app = typer.Typer(help="Generate, validate, map, render and export lab scenes.", no_args_is_help=True)
+app.add_typer(scene_app, name="scene")
 console = Console(stderr=True)
 
 
@@ -97,6 +99,59 @@ def demo(out: Path = typer.Option(Path("outputs/demo"), "-o", "--out", help="Fol
     from biovln_ms.demo import run_demo
 
     run_demo(out, typer.echo)
+
+
+@scene_app.command("templates")
+def scene_templates() -> None:
+    """List the registered layout templates."""
+    from biovln_ms.scene.templates import get_template, template_names
+
+    for name in template_names():
+        t = get_template(name)
+        typer.echo(f"{name:<12} {len(t.slots)} slots, {t.active_slots[0]}-{t.active_slots[1]} active: {t.description}")
+
+
+@scene_app.command("generate")
+def scene_generate(template: str = typer.Option("single_room", "--template", "-t", help="Template name (see `scene templates`)."),
+                   seed: int = typer.Option(..., "--seed", "-s", help="Scene seed."),
+                   out: Optional[Path] = typer.Option(None, "-o", "--out", help="Spec JSON to write (default: NAME.json)."),
+                   require: Optional[list[str]] = typer.Option(None, "--require", help="Categories the scene must hold."),
+                   render: Optional[Path] = typer.Option(None, "--render", help="Also write a SAPIEN view from above at an angle."),
+                   map_png: Optional[Path] = typer.Option(None, "--map", help="Also write the top-down map.")) -> None:
+    """Generate the scene of a seed deterministically and write its spec JSON."""
+    from biovln_ms.scene.generator import generate_scene
+    from biovln_ms.scene.spec import save_spec
+
+    spec = generate_scene(template, seed, required_categories=tuple(require or ()))
+    path = save_spec(spec, out or Path(f"{spec.name}.json"))
+    typer.echo(f"wrote {path}: {len(spec.instruments)} instruments ({', '.join(o.id for o in spec.instruments)})")
+    if map_png:
+        from biovln_ms.scene.topdown import save_map
+
+        typer.echo(f"wrote {save_map(spec, map_png)}")
+    if render:
+        from biovln_ms.render.scene_view import render_overview
+
+        typer.echo(f"wrote {render_overview(spec, render)}")
+
+
+@scene_app.command("validate")
+def scene_validate(spec_path: Path = typer.Argument(..., help="Scene spec JSON.")) -> None:
+    """Check a spec against the schema, the catalog and every layout rule."""
+    from biovln_ms.scene.spec import load_spec
+
+    spec = load_spec(spec_path)
+    typer.echo(f"{spec_path}: valid ({spec.name}, {len(spec.instruments)} instruments, {len(spec.furniture)} furniture)")
+
+
+@scene_app.command("map")
+def scene_map(spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
+              out: Path = typer.Option(Path("map.png"), "-o", "--out", help="PNG to write.")) -> None:
+    """Draw the top-down map: walls, furniture, Zones 1/2/3, faces, goals, success radii, navigable area."""
+    from biovln_ms.scene.spec import load_spec
+    from biovln_ms.scene.topdown import save_map
+
+    typer.echo(f"wrote {save_map(load_spec(spec_path), out)}")
 
 
 def main() -> None:

@@ -37,3 +37,19 @@ class AssetError(BioVLNError):
 
 class RenderError(BioVLNError):
     """SAPIEN could not render (no Vulkan device, missing driver)."""
+
+
+def describe_validation_error(err) -> tuple[str, str]:
+    """(field, message) of a pydantic ValidationError's first error.
+
+    Field paths read like ``instruments[2].position``. Model-level validators in this package
+    raise "FIELD: message"; that FIELD is used when pydantic itself can only say "<root>".
+    """
+    first = err.errors()[0]
+    loc = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"]).lstrip(".")
+    msg = first["msg"].removeprefix("Value error, ")
+    head, sep, rest = msg.partition(": ")
+    if sep and " " not in head and head:
+        loc = f"{loc}.{head}" if loc else head
+        msg = rest
+    return loc or "<root>", msg

@@ -86,7 +86,7 @@ def _write(tmp_path, mutate):
     (lambda o: o["assets"][2].update(dimensions=[0.49, -0.42, 0.63]), "assets[2].dimensions"),
     (lambda o: o["assets"][3].update(d_half=0.9), "assets[3]"),
     (lambda o: o["assets"][4].pop("placement"), "assets[4].placement"),
-    (lambda o: o["assets"].append(dict(o["assets"][0])), "<root>"),
+    (lambda o: o["assets"].append(dict(o["assets"][0])), "assets"),
     (lambda o: o["assets"][0].update(colour="red"), "assets[0].colour"),
 ])
 def test_malformed_catalog_names_file_and_field(tmp_path, mutate, field):

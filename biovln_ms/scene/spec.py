@@ -15,7 +15,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from biovln_ms.errors import BioVLNError
+from biovln_ms.errors import BioVLNError, describe_validation_error
 from biovln_ms.geometry.zones import PlacedInstrument
 from biovln_ms.io_utils import atomic_write_text
 
@@ -172,12 +172,6 @@ def _round(obj, nd: int = 6):
     return obj
 
 
-def _loc(err: ValidationError) -> tuple[str, str]:
-    first = err.errors()[0]
-    loc = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"]).lstrip(".")
-    return loc or "<root>", first["msg"]
-
-
 def parse_spec(obj: dict, source: str = "<scene spec>", check_rules: bool = True) -> SceneSpec:
     """Validate a spec object: schema, then consistency with the catalog and the layout rules."""
     if not isinstance(obj, dict):
@@ -189,7 +183,7 @@ def parse_spec(obj: dict, source: str = "<scene spec>", check_rules: bool = True
     try:
         spec = SceneSpec.model_validate(obj)
     except ValidationError as e:
-        field, msg = _loc(e)
+        field, msg = describe_validation_error(e)
         raise SceneSpecError(msg, source=source, field=field) from None
     if check_rules:
         from biovln_ms.scene.rules import check_consistency, check_layout

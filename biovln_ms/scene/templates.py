@@ -15,7 +15,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from biovln_ms.errors import BioVLNError
+from biovln_ms.errors import BioVLNError, describe_validation_error
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 Side = Literal["N", "S", "E", "W"]
@@ -130,9 +130,8 @@ def parse_template(obj: dict, source: str) -> Template:
     try:
         return Template.model_validate(obj)
     except ValidationError as e:
-        first = e.errors()[0]
-        loc = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in first["loc"]).lstrip(".")
-        raise TemplateError(first["msg"], source=source, field=loc or "<root>") from None
+        field, msg = describe_validation_error(e)
+        raise TemplateError(msg, source=source, field=field) from None
 
 
 def load_template_file(path: str | Path) -> Template:
