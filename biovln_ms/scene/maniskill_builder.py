@@ -1,0 +1,71 @@
+"""The ManiSkill scene builder of BioVLN lab scenes, registered as ``BioVLN-Lab``.
+
+``build_configs`` are scene specs; with several parallel envs each env can get a different spec
+(ManiSkill's ``set_scene_idxs``), as ManiSkill's ReplicaCAD and AI2-THOR builders do.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence, Union
+
+import numpy as np
+import torch
+from mani_skill.utils.scene_builder import SceneBuilder
+from mani_skill.utils.scene_builder.registration import register_scene_builder
+
+from biovln_ms.scene.sapien_builder import BuiltScene, add_lights, add_spec_to_scene
+from biovln_ms.scene.spec import SceneSpec, load_spec
+
+SpecLike = Union[SceneSpec, str, Path]
+
+
+def as_spec(s: SpecLike) -> SceneSpec:
+    return s if isinstance(s, SceneSpec) else load_spec(s)
+
+
+@register_scene_builder("BioVLN-Lab")
+class LabSceneBuilder(SceneBuilder):
+    """Builds scene specs: room shell, furniture and instruments (one static actor each)."""
+
+    builds_lighting = True
+
+    def __init__(self, env, specs: Sequence[SpecLike], ceiling: bool = True, robot_init_qpos_noise: float = 0.0) -> None:
+        super().__init__(env, robot_init_qpos_noise=robot_init_qpos_noise)
+        self.build_configs = [as_spec(s) for s in specs]
+        self.init_configs = [None]
+        self.ceiling = ceiling
+        self.env_specs: list[SceneSpec] = []
+        self.built: dict[int, BuiltScene] = {}
+
+    def build(self, build_config_idxs: int | list[int] = 0) -> None:
+        if isinstance(build_config_idxs, int):
+            build_config_idxs = [build_config_idxs] * self.env.num_envs
+        if len(build_config_idxs) != self.env.num_envs:
+            raise ValueError(f"build_config_idxs: {len(build_config_idxs)} given for {self.env.num_envs} envs")
+        self.env_specs = [self.build_configs[i] for i in build_config_idxs]
+        self.built = {}
+        self.scene_objects = {}
+        self.movable_objects = {}
+        self.articulations = {}
+        for bci in sorted(set(build_config_idxs)):
+            env_idx = [i for i, v in enumerate(build_config_idxs) if v == bci]
+            spec = self.build_configs[bci]
+            prefix = "" if self.env.num_envs == 1 else f"scs-{bci}_"
+            idxs = None if self.env.num_envs == 1 else env_idx
+            built = add_spec_to_scene(self.scene, spec, ceiling=self.ceiling, scene_idxs=idxs, name_prefix=prefix)
+            add_lights(self.scene, spec, scene_idxs=idxs)
+            self.built[bci] = built
+            for obj_id, actor in built.objects.items():
+                self.scene_objects[f"{prefix}{obj_id}"] = actor
+
+    def initialize(self, env_idx: torch.Tensor, init_config_idxs: list[int] | None = None) -> None:
+        """The scene is static: nothing to reset between episodes."""
+
+    def segmentation_ids(self, bci: int = 0) -> dict[int, str]:
+        """Per-scene segmentation id -> object id for one build config."""
+        out = {}
+        for obj_id, actor in self.built[bci].objects.items():
+            for sid in np.atleast_1d(actor.per_scene_id.cpu().numpy() if hasattr(actor.per_scene_id, "cpu") else actor.per_scene_id):
+                out[int(sid)] = obj_id
+        return out

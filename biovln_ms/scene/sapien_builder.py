@@ -1,0 +1,92 @@
+"""Build a scene spec into a SAPIEN or ManiSkill scene (thin layer over the pure-geometry spec).
+
+Each instrument and piece of furniture becomes a static actor named by its id, with its own
+segmentation id; walls and the floor are box colliders, instruments use their catalog collision
+(a box, or the cached coacd convex hulls).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import sapien
+
+from biovln_ms.catalog import load_catalog
+from biovln_ms.paths import COLLISION_DIR, asset_glb
+from biovln_ms.scene.shell import FLOOR_DEPTH, shell_glbs
+from biovln_ms.scene.spec import ObjectSpec, SceneSpec
+
+
+def yaw_quat(yaw: float) -> list[float]:
+    """wxyz quaternion of a rotation about Z."""
+    return [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
+
+
+@dataclass
+class BuiltScene:
+    """Handles to what was built: actors by object id, plus the shell."""
+
+    objects: dict[str, object] = field(default_factory=dict)
+    shell: list = field(default_factory=list)
+
+
+def _builder(scene, scene_idxs):
+    b = scene.create_actor_builder()
+    if scene_idxs is not None:
+        b.set_scene_idxs(scene_idxs)
+    return b
+
+
+def add_spec_to_scene(scene, spec: SceneSpec, *, ceiling: bool = True, scene_idxs: list[int] | None = None,
+                      name_prefix: str = "") -> BuiltScene:
+    """Add the spec's shell, furniture and instruments to ``scene`` (sapien.Scene or ManiSkillScene)."""
+    cat = load_catalog()
+    built = BuiltScene()
+    shell_path, ceiling_path = shell_glbs(spec)
+    b = _builder(scene, scene_idxs)
+    b.add_visual_from_file(str(shell_path))
+    for r in spec.rooms:
+        xy = np.asarray(r.polygon)
+        lo, hi = xy.min(0), xy.max(0)
+        b.add_box_collision(sapien.Pose([*(lo + hi) / 2, -FLOOR_DEPTH / 2]), half_size=[*(hi - lo) / 2, FLOOR_DEPTH / 2])
+    for w in spec.walls:
+        s, e, n = np.asarray(w.start), np.asarray(w.end), np.asarray(w.interior)
+        length = float(np.linalg.norm(e - s)) + 2 * w.thickness
+        centre = (s + e) / 2 - n * w.thickness / 2
+        yaw = math.atan2(e[1] - s[1], e[0] - s[0])
+        b.add_box_collision(sapien.Pose([*centre, w.height / 2], yaw_quat(yaw)), half_size=[length / 2, w.thickness / 2, w.height / 2])
+    b.initial_pose = sapien.Pose()
+    built.shell.append(b.build_static(name=f"{name_prefix}room_shell"))
+    if ceiling:
+        b = _builder(scene, scene_idxs)
+        b.add_visual_from_file(str(ceiling_path))
+        b.initial_pose = sapien.Pose()
+        built.shell.append(b.build_static(name=f"{name_prefix}ceiling"))
+    for o in spec.objects():
+        built.objects[o.id] = _add_object(scene, o, cat.get(o.category).collision, scene_idxs, name_prefix)
+    return built
+
+
+def _add_object(scene, o: ObjectSpec, collision: str, scene_idxs, name_prefix: str):
+    b = _builder(scene, scene_idxs)
+    b.add_visual_from_file(str(asset_glb(o.category)))
+    if collision == "coacd":
+        b.add_multiple_convex_collisions_from_file(str(COLLISION_DIR / f"{o.category}.obj"))
+    else:
+        b.add_box_collision(half_size=[s / 2 for s in o.size])
+    b.initial_pose = sapien.Pose(list(o.position), yaw_quat(o.yaw))
+    return b.build_static(name=f"{name_prefix}{o.id}")
+
+
+def add_lights(scene, spec: SceneSpec, shadows: bool = False, scene_idxs: list[int] | None = None) -> None:
+    """Ambient light, a key directional light and one point light per room under its ceiling."""
+    kw = {} if scene_idxs is None else {"scene_idxs": scene_idxs}
+    scene.set_ambient_light([0.45, 0.45, 0.45])
+    scene.add_directional_light([0.3, 0.5, -1.0], [0.7, 0.7, 0.68], shadow=shadows, **kw)
+    for r in spec.rooms:
+        if r.kind != "room":
+            continue
+        xy = np.asarray(r.polygon).mean(0)
+        scene.add_point_light([*xy, r.height - 0.3], [2.0, 2.0, 1.9], **kw)
