@@ -154,6 +154,17 @@ def scene_map(spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
     typer.echo(f"wrote {save_map(load_spec(spec_path), out)}")
 
 
+@scene_app.command("export")
+def scene_export(spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
+                 out: Path = typer.Option(Path("lab.glb"), "-o", "--out", help="GLB to write.")) -> None:
+    """Write the assembled scene as one GLB: a node per object named by id, category in extras and COLOR_0."""
+    from biovln_ms.scene.export_glb import export_scene_glb
+    from biovln_ms.scene.spec import load_spec
+
+    spec = load_spec(spec_path)
+    typer.echo(f"wrote {export_scene_glb(spec, out)} ({len(spec.objects())} objects)")
+
+
 def main() -> None:
     """Entry point: user-facing errors print as one clear line, not a traceback."""
     try:
