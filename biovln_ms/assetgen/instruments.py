@@ -39,7 +39,7 @@ def feet(k: Kit, height: float, inset: float, radius: float = 0.022) -> None:
 
 
 def refrigerator(k: Kit) -> None:
-    W, D = k.W, k.D
+    W = k.W
     body = paint(k, "body", WHITE)
     door = paint(k, "door", (0.93, 0.94, 0.95), amount=6)
     feet(k, 0.04, 0.06)

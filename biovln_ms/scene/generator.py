@@ -125,7 +125,6 @@ def _place_table_top(cat, t, slot: InstrumentSlot, category, rng, furniture: dic
     local = np.zeros(2)
     local[long_axis] = (frac - 0.5) * 2 * half[long_axis]
     local[1 - long_axis] = rng.uniform(-0.9, 0.9) * half[1 - long_axis]
-    p = sp.center_xy + rot2(sup.yaw) @ local
     best = None
     for axis in (0, 1):
         for sgn in (-1.0, 1.0):
