@@ -18,6 +18,8 @@ assets_app = typer.Typer(help="Generate, verify and preview the procedural instr
 app.add_typer(assets_app, name="assets")
 scene_app = typer.Typer(help="Generate, validate, map, render and export lab scenes.", no_args_is_help=True)
 app.add_typer(scene_app, name="scene")
+dataset_app = typer.Typer(help="Build and inspect the episode datasets (paper Tables 3, 4, 12, 13).", no_args_is_help=True)
+app.add_typer(dataset_app, name="dataset")
 console = Console(stderr=True)
 
 
@@ -163,6 +165,63 @@ def scene_export(spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
 
     spec = load_spec(spec_path)
     typer.echo(f"wrote {export_scene_glb(spec, out)} ({len(spec.objects())} objects)")
+
+
+@dataset_app.command("build")
+def dataset_build(out: Path = typer.Option(Path("data/biovln"), "-o", "--out", help="Dataset folder to (re)write.")) -> None:
+    """Build every scene and episode of the paper's datasets, deterministically and atomically."""
+    from biovln_ms.episodes.benchmark import paper_splits
+    from biovln_ms.episodes.dataset import write_dataset
+
+    m = write_dataset(out, paper_splits())
+    for name, s in m["splits"].items():
+        note = f"  (missing: {s['missing']})" if s.get("missing") else ""
+        typer.echo(f"{name:<12} {len(s['scenes']):>3} scenes {s['episodes']:>5} episodes{note}")
+    typer.echo(f"wrote {out}")
+
+
+@dataset_app.command("stats")
+def dataset_stats(root: Path = typer.Argument(..., help="Dataset folder.")) -> None:
+    """Scenes, episodes, categories and difficulty mix per split (paper's MS DEV mix beside ours)."""
+    from rich.table import Table
+
+    from biovln_ms.episodes.benchmark import PAPER_MS_DEV_DIFFICULTY
+    from biovln_ms.episodes.dataset import EpisodeDataset
+
+    ds = EpisodeDataset(root)
+    table = Table(title=f"{root} (agent radius {ds.agent_radius} m)")
+    for col in ("split", "scenes", "episodes", "categories", "easy %", "medium %", "hard %", "start fallback", "paper"):
+        table.add_column(col)
+    for name in ds.split_names():
+        info = ds.manifest["splits"][name]
+        if info.get("missing") and not info["files"]:
+            table.add_row(name, "-", "-", "-", "-", "-", "-", "-", f"MISSING: {info['missing']}")
+            continue
+        st = ds.stats(name)
+        d = st["difficulty"]
+        paper = ("paper " + " / ".join(f"{v}" for v in PAPER_MS_DEV_DIFFICULTY.values())) if name == "ms_dev" else ""
+        table.add_row(name, str(st["scenes"]), str(st["episodes"]), str(len(st["categories"])), f"{d['easy']}",
+                      f"{d['medium']}", f"{d['hard']}", str(st["start_fallback"]), paper)
+    Console(width=160).print(table)
+
+
+@dataset_app.command("show")
+def dataset_show(root: Path = typer.Argument(..., help="Dataset folder."),
+                 split: str = typer.Option("ms_dev", help="Split name."),
+                 episode: str = typer.Option("0", help="episode_id (the first scene holding it)."),
+                 scene: Optional[str] = typer.Option(None, help="scene_id, when ids repeat across scenes."),
+                 out: Path = typer.Option(Path("episode.png"), "-o", "--out", help="PNG to write.")) -> None:
+    """Map of one episode: navigable islands, start and heading, goal, view points, shortest path."""
+    from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+    from biovln_ms.geometry.navigation import scene_navigation
+    from biovln_ms.scene.topdown import save_map
+
+    ds = EpisodeDataset(root)
+    ep = next((e for e in ds.episodes(split) if e["episode_id"] == episode and (scene is None or e["scene_id"] == scene)), None)
+    if ep is None:
+        raise DatasetError(f"no episode '{episode}' in split '{split}'" + (f" scene '{scene}'" if scene else ""), field="episode")
+    spec = ds.spec(ep["scene_id"])
+    typer.echo(f"wrote {save_map(spec, out, episode=ep, nav=scene_navigation(spec, ds.agent_radius))}")
 
 
 def main() -> None:

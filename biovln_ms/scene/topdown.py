@@ -90,15 +90,51 @@ def legend_handles():
             Line2D([], [], color="#999999", ls=":", label="success radius r")]
 
 
-def save_map(spec: SceneSpec, out: str | Path, episodes: Sequence | None = None, dpi: int = 130) -> Path:
-    """Write the map PNG; ``episodes`` (optional) are dicts with start, goal and an optional path."""
+ISLAND_COLORS = ["#cfeccf", "#cfe0f4", "#f4e6cf", "#eccfe9"]
+
+
+def draw_islands(ax, nav) -> None:
+    """Each island of the navigable area in its own colour (drawn over the single-colour area)."""
+    for k, poly in enumerate(nav.islands):
+        _draw_geom(ax, poly, facecolor=ISLAND_COLORS[k % len(ISLAND_COLORS)], edgecolor="#6a9a6a", lw=0.6, zorder=1.5)
+
+
+def draw_episode(ax, episode: dict, path=None) -> None:
+    """Start (with heading), goal, view points and the shortest path of a Habitat-style episode."""
+    s = np.asarray(episode["start_position"][:2])
+    w, _, _, z = episode["start_rotation"]
+    yaw = 2 * np.arctan2(z, w)
+    goal = episode["goals"][0]
+    if path is not None and len(path):
+        path = np.asarray(path)
+        ax.plot(path[:, 0], path[:, 1], "-", color="#1f77b4", lw=2.2, zorder=9, label="shortest path")
+    for vp in goal["view_points"]:
+        p = np.asarray(vp["agent_state"]["position"][:2])
+        vw, _, _, vz = vp["agent_state"]["rotation"]
+        vyaw = 2 * np.arctan2(vz, vw)
+        ax.add_patch(FancyArrow(*p, 0.12 * np.cos(vyaw), 0.12 * np.sin(vyaw), width=0.01, head_width=0.05,
+                                head_length=0.04, color="#444444", zorder=9))
+    ax.add_patch(FancyArrow(*s, 0.35 * np.cos(yaw), 0.35 * np.sin(yaw), width=0.04, head_width=0.14, head_length=0.1,
+                            color="#1f77b4", zorder=10))
+    ax.plot(*s, marker="o", ms=10, color="#1f77b4", markeredgecolor="white", zorder=11)
+    ax.plot(*goal["position"][:2], marker="X", ms=11, color="#d62728", markeredgecolor="white", zorder=11)
+    info = episode["info"]
+    ax.set_title(f"{episode['scene_id']} episode {episode['episode_id']}: {episode['object_id']} - geodesic "
+                 f"{info['geodesic_distance']:.2f} m ({info['difficulty']})")
+
+
+def save_map(spec: SceneSpec, out: str | Path, episode: dict | None = None, nav=None, dpi: int = 130) -> Path:
+    """Write the map PNG; with ``episode`` (and its scene's ``nav``) overlay islands, start, goal,
+    view points and the shortest path."""
     fig, ax = plt.subplots(figsize=(10, 8))
     draw_map(spec, ax)
-    for ep in episodes or []:
-        path = np.asarray(ep.get("path") or [], float)
-        if len(path):
-            ax.plot(path[:, 0], path[:, 1], "-", color="#1f77b4", lw=2, zorder=9)
-        ax.plot(*ep["start"][:2], marker="o", ms=9, color="#1f77b4", markeredgecolor="white", zorder=10)
+    if nav is not None:
+        draw_islands(ax, nav)
+    if episode is not None:
+        path = None
+        if nav is not None:
+            path = nav.shortest_path(episode["start_position"][:2], episode["goals"][0]["position"][:2])
+        draw_episode(ax, episode, path)
     ax.legend(handles=legend_handles(), loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     fig.tight_layout()
     out = Path(out)

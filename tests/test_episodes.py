@@ -1,0 +1,151 @@
+import json
+import math
+
+import numpy as np
+import pytest
+import shapely
+
+from biovln_ms.episodes.benchmark import FOUR_CATEGORIES
+from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset, SplitPlan, write_dataset
+from biovln_ms.episodes.generator import EpisodeError, EpisodeSampler, difficulty
+from biovln_ms.geometry.navigation import scene_navigation
+from biovln_ms.scene.generator import generate_scene
+from biovln_ms.scene.rules import floor_polygon
+
+
+@pytest.fixture(scope="module")
+def spec150():
+    return generate_scene("single_room", 150, required_categories=FOUR_CATEGORIES)
+
+
+def test_episode_fields_and_geometry(spec150):
+    nav = scene_navigation(spec150)
+    eps = EpisodeSampler(spec150, nav).episodes(40, seed=3)
+    floor = floor_polygon(spec150)
+    assert len({e["episode_id"] for e in eps}) == 40
+    assert {e["object_category"] for e in eps} == set(FOUR_CATEGORIES)
+    for e in eps:
+        s = np.asarray(e["start_position"][:2])
+        g = np.asarray(e["goals"][0]["position"][:2])
+        o = spec150.get(e["object_id"])
+        assert nav.is_navigable(s) and nav.is_navigable(g)
+        clear = min(min(obj.placed().clearance(s) for obj in spec150.objects()), floor.exterior.distance(shapely.Point(s)))
+        assert clear >= e["info"]["start_clearance"] - 1e-6 and e["info"]["start_clearance"] == 1.0
+        assert e["info"]["geodesic_distance"] == pytest.approx(nav.geodesic_distance(s, g), abs=1e-5)
+        assert e["info"]["euclidean_distance"] == pytest.approx(np.linalg.norm(g - s), abs=1e-5)
+        assert e["info"]["difficulty"] == difficulty(e["info"]["geodesic_distance"])
+        assert np.linalg.norm(g - np.asarray(o.goal)) <= o.success_radius
+        assert e["goals"][0]["radius"] == o.success_radius
+        assert abs(np.linalg.norm(e["start_rotation"]) - 1) < 1e-6
+        for vp in e["goals"][0]["view_points"]:
+            p = np.asarray(vp["agent_state"]["position"][:2])
+            assert nav.is_navigable(p)
+            w, _, _, z = vp["agent_state"]["rotation"]
+            yaw = 2 * math.atan2(z, w)
+            to_obj = np.asarray(o.position[:2]) - p
+            assert np.dot([math.cos(yaw), math.sin(yaw)], to_obj / np.linalg.norm(to_obj)) > 0.999
+
+
+def test_difficulty_tiers():
+    assert [difficulty(x) for x in (0.5, 2.999, 3.0, 6.0, 6.001)] == ["easy", "easy", "medium", "medium", "hard"]
+
+
+def test_cross_room_starts_in_the_other_room():
+    spec = generate_scene("two_room", 200)
+    eps = EpisodeSampler(spec).episodes(20, seed=0, cross_room=True)
+    rooms = {r.id: shapely.Polygon(r.polygon) for r in spec.rooms}
+    for e in eps:
+        target_room = spec.get(e["object_id"]).room
+        assert not rooms[target_room].contains(shapely.Point(e["start_position"][:2]))
+    # Room B has no floor 1 m from every obstacle: the fallback is recorded on the episode.
+    assert any(e["info"]["start_clearance_fallback"] and e["info"]["start_clearance"] < 1.0 for e in eps)
+
+
+def test_unreachable_zone3_fails_loudly(spec150):
+    nav = scene_navigation(spec150, radius=0.55)
+    with pytest.raises(EpisodeError, match="Zone 3 of 'waste_bin_0'"):
+        EpisodeSampler(spec150, nav)
+
+
+def _small_splits():
+    a = generate_scene("single_room", 150, required_categories=FOUR_CATEGORIES)
+    b = generate_scene("single_room", 3)
+    return [SplitPlan("full", [(a, 10, False), (b, 6, False)]), SplitPlan("train", [(b, 6, False)], view_of="full"),
+            SplitPlan("ms_dev", [(a, 8, False)]), SplitPlan("lsat_target", [], missing="not built")]
+
+
+def test_dataset_is_deterministic_and_loads(tmp_path):
+    m1 = write_dataset(tmp_path / "a", _small_splits(), progress=False)
+    m2 = write_dataset(tmp_path / "b", _small_splits(), progress=False)
+    assert m1 == m2
+    for f in (tmp_path / "a").rglob("*"):
+        if f.is_file():
+            assert f.read_bytes() == (tmp_path / "b" / f.relative_to(tmp_path / "a")).read_bytes(), f
+    ds = EpisodeDataset(tmp_path / "a")
+    assert len(list(ds.episodes("full"))) == 16 and len(list(ds.episodes("train"))) == 6
+    assert ds.stats("ms_dev")["episodes"] == 8
+    with pytest.raises(DatasetError, match="split 'lsat_target' is not built"):
+        list(ds.episodes("lsat_target"))
+    with pytest.raises(DatasetError, match="unknown split 'ms_devv'"):
+        list(ds.episodes("ms_devv"))
+
+
+def test_dataset_refuses_other_radius_catalog_and_tampering(tmp_path):
+    root = tmp_path / "ds"
+    write_dataset(root, _small_splits(), progress=False)
+    with pytest.raises(DatasetError, match="built for a 0.2 m agent, not the 0.25 m agent"):
+        EpisodeDataset(root, agent_radius=0.25)
+    m = json.loads((root / "manifest.json").read_text())
+    m["catalog_sha256"] = "0" * 64
+    (root / "manifest.json").write_text(json.dumps(m))
+    with pytest.raises(DatasetError, match="another instrument catalog"):
+        EpisodeDataset(root)
+    write_dataset(root, _small_splits(), progress=False)  # rebuild over the old one
+    f = next((root / "ms_dev" / "content").glob("*.json.gz"))
+    f.write_bytes(f.read_bytes()[:-3] + b"xyz")
+    with pytest.raises(DatasetError, match="does not match its hash"):
+        EpisodeDataset(root)
+
+
+def test_killed_build_leaves_nothing_that_loads(tmp_path, monkeypatch):
+    root = tmp_path / "ds"
+    write_dataset(root, _small_splits(), progress=False)
+    before = (root / "manifest.json").read_bytes()
+    calls = {"n": 0}
+    real = EpisodeSampler.episodes
+
+    def dying(self, *a, **k):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt("killed")
+        return real(self, *a, **k)
+
+    monkeypatch.setattr(EpisodeSampler, "episodes", dying)
+    with pytest.raises(KeyboardInterrupt):
+        write_dataset(root, _small_splits(), progress=False)
+    assert (root / "manifest.json").read_bytes() == before  # the old dataset is untouched
+    EpisodeDataset(root)
+    new = tmp_path / "fresh"
+    calls["n"] = 0
+    with pytest.raises(KeyboardInterrupt):
+        write_dataset(new, _small_splits(), progress=False)
+    with pytest.raises(DatasetError, match="interrupted build"):
+        EpisodeDataset(new)
+
+
+def test_paper_splits_are_disjoint_and_counted():
+    from biovln_ms.episodes.benchmark import paper_splits
+
+    splits = {s.name: s for s in paper_splits()}
+    full = splits["full"]
+    assert len(full.scenes) == 47
+    assert sum(n for _, n, _ in full.scenes) == 1669
+    assert sum(n for s, n, _ in full.scenes if s.template == "single_room") == 1365
+    bench = ["ms_dev", "ms_val", "ms_test", "two_room", "lsat_target"]
+    names = {b: {s.name for s, _, _ in splits[b].scenes} for b in bench + ["train"]}
+    for i, a in enumerate(bench + ["train"]):
+        for b in (bench + ["train"])[i + 1:]:
+            assert not names[a] & names[b], (a, b)
+    assert [sum(n for _, n, _ in splits[b].scenes) for b in ("ms_dev", "ms_val", "ms_test", "two_room")] == [160, 50, 120, 50]
+    assert names["ms_dev"] == {f"lab_s{s}_v0" for s in (150, 151, 152, 153)}
+    assert splits["lsat_target"].missing
