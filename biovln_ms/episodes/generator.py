@@ -16,7 +16,7 @@ from typing import Sequence
 
 import numpy as np
 import shapely
-from shapely.geometry import Point, Polygon
+from shapely.geometry import Polygon
 from shapely.ops import unary_union
 
 from biovln_ms.errors import BioVLNError

@@ -4,7 +4,6 @@ success radii, and the robot's navigable area. Episodes can be overlaid (start, 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
 
 import matplotlib
 
