@@ -148,12 +148,34 @@ def scene_validate(spec_path: Path = typer.Argument(..., help="Scene spec JSON."
 
 @scene_app.command("map")
 def scene_map(spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
-              out: Path = typer.Option(Path("map.png"), "-o", "--out", help="PNG to write.")) -> None:
-    """Draw the top-down map: walls, furniture, Zones 1/2/3, faces, goals, success radii, navigable area."""
+              out: Path = typer.Option(Path("map.png"), "-o", "--out", help="PNG to write."),
+              dataset: Optional[Path] = typer.Option(None, help="Dataset folder, to overlay one of its episodes."),
+              split: str = typer.Option("ms_dev", help="Split of the episode (with --dataset)."),
+              episode: Optional[str] = typer.Option(None, help="episode_id to overlay (with --dataset)."),
+              islands: bool = typer.Option(False, help="Colour the navigable islands.")) -> None:
+    """Draw the top-down map: walls, furniture, Zones 1/2/3, faces, goals, success radii, navigable area;
+    optionally islands and one episode's start, goal, view points and shortest path."""
+    from biovln_ms.geometry.navigation import scene_navigation
     from biovln_ms.scene.spec import load_spec
     from biovln_ms.scene.topdown import save_map
 
-    typer.echo(f"wrote {save_map(load_spec(spec_path), out)}")
+    spec = load_spec(spec_path)
+    ep, radius = None, spec.robot_radius
+    if dataset is not None and episode is not None:
+        ep, radius = _find_episode(dataset, split, episode, spec.name)
+    nav = scene_navigation(spec, radius) if (islands or ep is not None) else None
+    typer.echo(f"wrote {save_map(spec, out, episode=ep, nav=nav)}")
+
+
+def _find_episode(root: Path, split: str, episode: str, scene: Optional[str]) -> tuple[dict, float]:
+    from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+
+    ds = EpisodeDataset(root)
+    ep = next((e for e in ds.episodes(split) if e["episode_id"] == episode and (scene is None or e["scene_id"] == scene)), None)
+    if ep is None:
+        raise DatasetError(f"no episode '{episode}' in split '{split}'" + (f" for scene '{scene}'" if scene else ""),
+                           field="episode", fix="list them with `biovln-ms dataset stats`")
+    return ep, ds.agent_radius
 
 
 @scene_app.command("export")
@@ -212,16 +234,13 @@ def dataset_show(root: Path = typer.Argument(..., help="Dataset folder."),
                  scene: Optional[str] = typer.Option(None, help="scene_id, when ids repeat across scenes."),
                  out: Path = typer.Option(Path("episode.png"), "-o", "--out", help="PNG to write.")) -> None:
     """Map of one episode: navigable islands, start and heading, goal, view points, shortest path."""
-    from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+    from biovln_ms.episodes.dataset import EpisodeDataset
     from biovln_ms.geometry.navigation import scene_navigation
     from biovln_ms.scene.topdown import save_map
 
-    ds = EpisodeDataset(root)
-    ep = next((e for e in ds.episodes(split) if e["episode_id"] == episode and (scene is None or e["scene_id"] == scene)), None)
-    if ep is None:
-        raise DatasetError(f"no episode '{episode}' in split '{split}'" + (f" scene '{scene}'" if scene else ""), field="episode")
-    spec = ds.spec(ep["scene_id"])
-    typer.echo(f"wrote {save_map(spec, out, episode=ep, nav=scene_navigation(spec, ds.agent_radius))}")
+    ep, radius = _find_episode(root, split, episode, scene)
+    spec = EpisodeDataset(root, verify=False).spec(ep["scene_id"])
+    typer.echo(f"wrote {save_map(spec, out, episode=ep, nav=scene_navigation(spec, radius))}")
 
 
 def main() -> None:

@@ -149,3 +149,24 @@ def test_paper_splits_are_disjoint_and_counted():
     assert [sum(n for _, n, _ in splits[b].scenes) for b in ("ms_dev", "ms_val", "ms_test", "two_room")] == [160, 50, 120, 50]
     assert names["ms_dev"] == {f"lab_s{s}_v0" for s in (150, 151, 152, 153)}
     assert splits["lsat_target"].missing
+
+
+def test_cli_dataset_build_stats_show_and_map_overlay(tmp_path):
+    import subprocess
+    import sys
+
+    root = tmp_path / "ds"
+    write_dataset(root, _small_splits(), progress=False)
+    exe = [sys.executable, "-m", "biovln_ms.cli"]
+    r = subprocess.run([*exe, "dataset", "stats", str(root)], capture_output=True, text=True)
+    assert r.returncode == 0 and "ms_dev" in r.stdout and "MISSING" in r.stdout, r.stderr
+    r = subprocess.run([*exe, "dataset", "show", str(root), "--split", "ms_dev", "--episode", "2", "-o", str(tmp_path / "e.png")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    spec = root / "scenes" / "lab_s150_v0.json"
+    r = subprocess.run([*exe, "scene", "map", str(spec), "--dataset", str(root), "--split", "ms_dev", "--episode", "2",
+                        "--islands", "-o", str(tmp_path / "m.png")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "m.png").stat().st_size > 20_000
+    r = subprocess.run([*exe, "dataset", "show", str(root), "--split", "ms_dev", "--episode", "999"], capture_output=True, text=True)
+    assert r.returncode == 2 and "no episode '999'" in r.stderr and "Traceback" not in r.stderr
