@@ -97,7 +97,7 @@ def assets_preview(out: Path = typer.Option(Path("asset_sheet.png"), "-o", "--ou
 
 @app.command()
 def demo(out: Path = typer.Option(Path("outputs/demo"), "-o", "--out", help="Folder for the demo's files.")) -> None:
-    """Run the demo: the asset contact sheet and catalog table (grows into a full episode later)."""
+    """Run the demo: asset sheet, catalog table, scene lab_s150_v0 (spec, SAPIEN view, episode map)."""
     from biovln_ms.demo import run_demo
 
     run_demo(out, typer.echo)

@@ -1,4 +1,4 @@
-"""The README demo: what the platform can show so far, written as PNG and Markdown."""
+"""The README demo: what the platform can show so far, written as PNG, JSON and Markdown."""
 
 from __future__ import annotations
 
@@ -9,12 +9,21 @@ from biovln_ms.render.asset_preview import contact_sheet
 
 
 def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
-    """Render the asset contact sheet and write the catalog with measured surface colours."""
+    """Asset contact sheet and catalog table; the held-out scene lab_s150_v0 as spec, SAPIEN view and
+    a map with one episode (start, goal, view points, exact shortest path)."""
+    from biovln_ms.episodes.benchmark import FOUR_CATEGORIES
+    from biovln_ms.episodes.generator import EpisodeSampler
+    from biovln_ms.geometry.navigation import scene_navigation
+    from biovln_ms.render.scene_view import render_overview
+    from biovln_ms.scene.generator import generate_scene
+    from biovln_ms.scene.spec import save_spec
+    from biovln_ms.scene.topdown import save_map
+
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cat = load_catalog()
-    sheet = out_dir / "asset_sheet.png"
-    renders = {r.name: r for r in contact_sheet(sheet, cat)}
+    files: dict[str, Path] = {"sheet": out_dir / "asset_sheet.png"}
+    renders = {r.name: r for r in contact_sheet(files["sheet"], cat)}
     lines = ["# BioVLN-MS catalog (paper Table 2 + Tables 6, 8)", "",
              "| asset | dimensions (m) | placement | face | d_half | delta | r | colours front / back |",
              "|---|---|---|---|---|---|---|---|"]
@@ -23,7 +32,19 @@ def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
         dims = " x ".join(f"{d:.2f}" for d in a.dimensions)
         lines.append(f"| {a.name} | {dims} | {a.placement} | {a.face or '-'} | {a.d_half} | {a.approach_distance} | "
                      f"{a.success_radius} | {r.front_colors} / {r.back_colors} |")
-    table = out_dir / "catalog.md"
-    table.write_text("\n".join(lines) + "\n")
-    echo(f"wrote {sheet} and {table}")
-    return {"sheet": sheet, "table": table}
+    spec = generate_scene("single_room", 150, required_categories=FOUR_CATEGORIES)
+    nav = scene_navigation(spec)
+    episode = EpisodeSampler(spec, nav).episodes(1, seed=0)[0]
+    files["spec"] = save_spec(spec, out_dir / f"{spec.name}.json")
+    files["map"] = save_map(spec, out_dir / f"{spec.name}_episode.png", episode=episode, nav=nav)
+    files["render"] = render_overview(spec, out_dir / f"{spec.name}_view.png")
+    info = episode["info"]
+    lines += ["", f"# Scene {spec.name}, episode 0", "",
+              "| target | start | goal | geodesic (m) | euclidean (m) | difficulty |", "|---|---|---|---|---|---|",
+              f"| {episode['object_id']} | {episode['start_position'][:2]} | {episode['goals'][0]['position'][:2]} | "
+              f"{info['geodesic_distance']:.3f} | {info['euclidean_distance']:.3f} | {info['difficulty']} |"]
+    files["table"] = out_dir / "demo.md"
+    files["table"].write_text("\n".join(lines) + "\n")
+    for k, p in files.items():
+        echo(f"wrote {p}")
+    return files
