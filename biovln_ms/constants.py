@@ -7,4 +7,4 @@ WALL_THICKNESS = 0.10
 #: Gap (m) between a table-top instrument's operational face and the edge of its support.
 SUPPORT_EDGE_MARGIN = 0.05
 #: Version of the procedural scene generator (bump when its output for a seed changes).
-SCENE_GENERATOR_VERSION = 1
+SCENE_GENERATOR_VERSION = 2  # 2: wall interior normals fixed (walls stood inside the floor)

@@ -10,7 +10,7 @@ import torch
 from mani_skill.envs.sapien_env import BaseEnv
 from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
-from mani_skill.utils.registration import register_env
+from biovln_ms.registration import register_biovln_env
 
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.maniskill_builder import LabSceneBuilder
@@ -27,7 +27,7 @@ def overview_pose(spec: SceneSpec):
     return sapien_utils.look_at(eye, [centre[0], centre[1] - 0.02 * span, 0.0])
 
 
-@register_env("BioVLN-LabScene-v0", max_episode_steps=1)
+@register_biovln_env("BioVLN-LabScene-v0", max_episode_steps=1)
 class LabSceneEnv(BaseEnv):
     """Builds one or more scene specs (``specs=``), or the scene of ``template``/``seed``."""
 

@@ -28,6 +28,12 @@ def test_wheel_maps_tasks_and_agents_into_the_package(wheel):
     assert "biovln_ms/assets/catalog.json" in names
     assert "biovln_ms/assets/refrigerator.glb" in names
     assert "biovln_ms/assets/collision/waste_bin.obj" in names
+    # every module and data file of the source tree is in the wheel (no package forgotten)
+    for folder, prefix in (("biovln_ms", "biovln_ms"), ("tasks", "biovln_ms/tasks"), ("agents", "biovln_ms/agents")):
+        for f in (ROOT / folder).rglob("*"):
+            if f.is_file() and f.suffix in {".py", ".json", ".urdf"} and "__pycache__" not in f.parts:
+                rel = f"{prefix}/{f.relative_to(ROOT / folder).as_posix()}"
+                assert rel in names, f"{rel} missing from the wheel"
 
 
 def test_wheel_installs_and_works_from_another_directory(wheel, tmp_path):
@@ -48,3 +54,6 @@ def test_wheel_installs_and_works_from_another_directory(wheel, tmp_path):
     assert r.returncode == 0, r.stderr
     r = subprocess.run([str(venv / "bin" / "biovln-ms"), "catalog", "--json"], cwd=tmp_path, capture_output=True, text=True)
     assert r.returncode == 0 and '"refrigerator"' in r.stdout, r.stderr
+    r = subprocess.run([str(venv / "bin" / "biovln-ms"), "scene", "generate", "--template", "two_room", "--seed", "1", "-o",
+                        str(tmp_path / "s.json")], cwd=tmp_path, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr

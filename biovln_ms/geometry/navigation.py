@@ -223,6 +223,26 @@ class NavGeometry:
             chain.append(self._pred[vs[a], chain[-1]])
         return best, [s, *self.vertices[chain[::-1]], g]
 
+    def distance_to(self, g):
+        """A function p -> geodesic distance from p to the fixed goal g (the goal's join is cached)."""
+        g = np.asarray(g, float)[:2]
+        i_g = self.island_of(g)
+        vg, dg = self._join(g, i_g) if i_g is not None else (np.zeros(0, int), np.zeros(0))
+
+        def dist(p) -> float:
+            p = np.asarray(p, float)[:2]
+            i_p = self.island_of(p)
+            if i_g is None or i_p != i_g:
+                return np.inf
+            if self._visible(p[None], g[None])[0]:
+                return float(np.linalg.norm(g - p))
+            vs, ds = self._join(p, i_p)
+            if len(vs) == 0 or len(vg) == 0:
+                return np.inf
+            return float((ds[:, None] + self._dist[np.ix_(vs, vg)] + dg[None, :]).min())
+
+        return dist
+
     def geodesic_distance(self, s, g) -> float:
         """Length of the shortest navigable path from s to g; inf when unreachable."""
         return self._solve(s, g)[0]

@@ -45,10 +45,10 @@ def build_rooms(t: Template) -> tuple[list[RoomSpec], list[WallSpec], list[Openi
     polys = list(getattr(floor, "geoms", [floor]))
     walls = []
     for poly in polys:
-        for ring in [poly.exterior, *poly.interiors]:
+        for k, ring in enumerate([poly.exterior, *poly.interiors]):
             coords = list(ring.coords)
-            # The floor lies left of a CCW exterior ring and right of a CCW hole ring.
-            floor_on_left = ring.is_ccw == (ring is poly.exterior)
+            # The floor lies left of a CCW exterior ring (k == 0) and right of a CCW hole ring.
+            floor_on_left = ring.is_ccw == (k == 0)
             for a, b in zip(coords[:-1], coords[1:]):
                 dx, dy = b[0] - a[0], b[1] - a[1]
                 n = math.hypot(dx, dy)

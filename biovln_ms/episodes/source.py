@@ -1,0 +1,77 @@
+"""Where an env's episodes come from: a dataset split, or a scene generated on the fly."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from biovln_ms.constants import ROBOT_RADIUS
+from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+from biovln_ms.scene.spec import SceneSpec
+
+
+def default_dataset_dir() -> Path:
+    """``$BIOVLN_DATA_DIR``, else ``~/.cache/biovln_ms/datasets/biovln``."""
+    env = os.environ.get("BIOVLN_DATA_DIR")
+    return Path(env) if env else Path.home() / ".cache" / "biovln_ms" / "datasets" / "biovln"
+
+
+def ensure_default_dataset(echo=print) -> Path:
+    """The default dataset, built on first use (deterministic, ~2 s; nothing is downloaded)."""
+    root = default_dataset_dir()
+    if not (root / "manifest.json").exists():
+        from biovln_ms.episodes.benchmark import paper_splits
+        from biovln_ms.episodes.dataset import write_dataset
+
+        echo(f"[biovln-ms] building the benchmark dataset in {root} (first use)")
+        write_dataset(root, paper_splits(), progress=False)
+    return root
+
+
+class EpisodeSource:
+    """A list of episodes and the scene specs they need."""
+
+    episodes: list[dict]
+
+    def spec(self, scene_id: str) -> SceneSpec:
+        raise NotImplementedError
+
+    def __len__(self) -> int:
+        return len(self.episodes)
+
+    def find(self, episode_id: str, scene_id: str | None = None) -> int:
+        for i, e in enumerate(self.episodes):
+            if e["episode_id"] == str(episode_id) and (scene_id is None or e["scene_id"] == scene_id):
+                return i
+        scenes = sorted({e["scene_id"] for e in self.episodes})
+        raise DatasetError(f"no episode '{episode_id}'" + (f" in scene '{scene_id}'" if scene_id else ""), field="episode_id",
+                           fix=f"episode ids are '0'..; scenes: {', '.join(scenes)}; or pass options={{'episode_index': k}} "
+                               f"with 0 <= k < {len(self.episodes)}")
+
+
+class DatasetEpisodes(EpisodeSource):
+    def __init__(self, split: str, root: str | Path | None = None, agent_radius: float = ROBOT_RADIUS) -> None:
+        root = Path(root) if root is not None else ensure_default_dataset()
+        self.dataset = EpisodeDataset(root, agent_radius=agent_radius)
+        self.split = split
+        self.episodes = list(self.dataset.episodes(split))
+        if not self.episodes:
+            raise DatasetError(f"split '{split}' of {root} has no episodes", field="split")
+
+    def spec(self, scene_id: str) -> SceneSpec:
+        return self.dataset.spec(scene_id)
+
+
+class GeneratedEpisodes(EpisodeSource):
+    """One scene generated from ``template``/``scene_seed``; ``n`` episodes sampled in it."""
+
+    def __init__(self, template: str = "single_room", scene_seed: int = 0, n: int = 100,
+                 required_categories: tuple[str, ...] = ()) -> None:
+        from biovln_ms.episodes.generator import EpisodeSampler
+        from biovln_ms.scene.generator import generate_scene
+
+        self._spec = generate_scene(template, scene_seed, required_categories=required_categories)
+        self.episodes = EpisodeSampler(self._spec).episodes(n, seed=scene_seed)
+
+    def spec(self, scene_id: str) -> SceneSpec:
+        return self._spec
