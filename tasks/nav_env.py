@@ -159,8 +159,9 @@ class BioVLNNavEnv(BaseEnv):
             return int(k)
         if "episode_id" in options:
             return self.source.find(options.pop("episode_id"), options.pop("scene_id", None))
-        if seed is not None and not self.cfg.shuffle_episodes:
-            return self._order[int(np.ravel(seed)[0]) % len(self._order)]
+        if seed is not None:  # the same seed gives the same episode, and the same ones after it
+            self._cursor = int(np.ravel(seed)[0]) % len(self._order)
+            return self._order[self._cursor]
         self._cursor = (self._cursor + 1) % len(self._order)
         return self._order[self._cursor]
 

@@ -1,0 +1,192 @@
+"""BioVLN-OpFace-v0 and its variants on the CPU (physx_cpu, lavapipe)."""
+
+import math
+import subprocess
+import sys
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+import biovln_ms  # noqa: F401
+from biovln_ms.episodes.benchmark import FOUR_CATEGORIES
+from biovln_ms.episodes.dataset import SplitPlan, write_dataset
+from biovln_ms.errors import BioVLNError
+from biovln_ms.scene.generator import generate_scene
+
+CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    root = tmp_path_factory.mktemp("data") / "ds"
+    a = generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES)
+    b = generate_scene("single_room", 155, required_categories=FOUR_CATEGORIES)
+    write_dataset(root, [SplitPlan("ms_val", [(a, 6, False), (b, 4, False)]), SplitPlan("train", [(a, 5, False)])], progress=False)
+    return root
+
+
+@pytest.fixture(scope="module")
+def env(dataset):
+    e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="state", reward_mode="dense", **CPU)
+    yield e
+    e.close()
+
+
+def test_registered_on_import_and_by_module_prefix():
+    assert {"BioVLN-OpFace-v0", "BioVLN-Centroid-v0", "BioVLN-OpFace-RL-v0"} <= set(gym.registry)
+    code = "import gymnasium as gym; e = gym.make('biovln_ms:BioVLN-OpFace-v0', obs_mode='state', sim_backend='physx_cpu', render_backend='cpu'); print(e.action_space)"
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0 and "Discrete(4)" in r.stdout, r.stderr
+    import biovln_ms.tasks  # noqa: F401  (what the first gym.make imports)
+    from mani_skill.agents.registration import REGISTERED_AGENTS
+    from mani_skill.utils.registration import REGISTERED_ENVS
+
+    assert "biovln_base" in REGISTERED_AGENTS
+    assert {"BioVLN-OpFace-v0", "BioVLN-Centroid-v0", "BioVLN-OpFace-RL-v0", "BioVLN-LabScene-v0"} <= set(REGISTERED_ENVS)
+
+
+def test_actions_are_exact_and_stop_terminates(env):
+    env.reset(options={"episode_index": 0})
+    u = env.unwrapped
+    assert env.action_space == gym.spaces.Discrete(4)
+    u.agent.reset(torch.tensor([[4.0, 2.6, 0.3]]))  # open floor in the middle of the room
+    p0 = u._planar()
+    env.step(1)
+    p1 = u._planar()
+    assert np.linalg.norm(p1[:2] - p0[:2]) == pytest.approx(0.25, abs=0.01)
+    assert p1[2] == pytest.approx(p0[2], abs=math.radians(0.5))
+    env.step(2)
+    assert math.degrees(u._planar()[2] - p1[2]) == pytest.approx(30.0, abs=0.5)
+    env.step(3)
+    env.step(3)
+    assert math.degrees(u._planar()[2] - p1[2]) == pytest.approx(-30.0, abs=0.5)
+    _, _, term, trunc, info = env.step(0)
+    assert bool(term) and not bool(trunc) and bool(info["stopped"])
+
+
+def test_walls_and_instruments_block_the_robot(env):
+    env.reset(options={"episode_index": 1})
+    u = env.unwrapped
+    spec = u.scene_spec
+    for heading in (0.0, math.pi / 2, math.pi, -math.pi / 2, 0.7):
+        u.agent.reset(torch.tensor([[4.0, 2.6, heading]]))
+        for _ in range(40):
+            _, _, _, _, info = env.step(1)
+        p = u._planar()[:2]
+        assert 0.19 <= p[0] <= 7.81 and 0.19 <= p[1] <= 5.81
+        for o in spec.objects():
+            assert o.placed().clearance(p) >= 0.19, (heading, o.id)
+    assert int(info["collisions"]) > 0
+
+
+def test_success_only_within_the_radius(env):
+    env.reset(options={"episode_index": 2})
+    u = env.unwrapped
+    ep = u.current_episode
+    g = np.asarray(ep["goals"][0]["position"][:2])
+    u.agent.reset(torch.tensor([[g[0], g[1], 0.0]]))
+    _, r, term, _, info = env.step(0)
+    assert bool(info["success"]) and bool(term) and float(info["distance_to_goal"]) < 1e-3
+    assert float(r) > 9.0  # Eq. 5 success bonus of 10
+    env.reset(options={"episode_index": 2})
+    _, r, term, _, info = env.step(0)
+    d = float(info["distance_to_goal"])
+    assert bool(info["success"]) == (d <= ep["goals"][0]["radius"])
+    assert bool(info["fail"]) == (not bool(info["success"]))
+
+
+def test_truncated_after_500_steps(dataset):
+    e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="none", **CPU)
+    e.reset(options={"episode_index": 0})
+    for k in range(500):
+        _, _, term, trunc, info = e.step(2)
+        assert not bool(term)
+    assert bool(trunc) and int(info["steps"]) == 500
+    e.close()
+
+
+def test_episode_selection_and_scene_rebuilds(env):
+    u = env.unwrapped
+    env.reset(options={"episode_id": "3", "scene_id": "lab_s154_v0"})
+    assert u.current_episode["episode_id"] == "3" and u.current_episode["scene_id"] == "lab_s154_v0"
+    builds = []
+    real = u._load_scene
+    u._load_scene = lambda options: (builds.append(1), real(options))
+    env.reset(options={"episode_id": "4", "scene_id": "lab_s154_v0"})
+    assert builds == []  # same scene: no rebuild
+    env.reset(options={"episode_id": "0", "scene_id": "lab_s155_v0"})
+    assert builds == [1] and u.scene_spec.name == "lab_s155_v0"
+    u._load_scene = real
+
+
+def test_info_has_every_metric(env):
+    _, info = env.reset(options={"episode_index": 0})
+    _, _, _, _, info = env.step(1)
+    for key in ("success", "distance_to_goal", "geodesic_distance_to_goal", "clearance", "zone2_violation", "in_zone3",
+                "facing_instrument", "collisions", "spl", "soft_spl", "mcr", "vrt", "steps"):
+        assert key in info, key
+    assert float(info["geodesic_distance_to_goal"]) >= float(info["distance_to_goal"]) - 1e-6
+
+
+def test_bad_input_is_named(dataset, env):
+    with pytest.raises(BioVLNError, match="unknown split 'ms_vall'"):
+        gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_vall", **CPU)
+    with pytest.raises(BioVLNError, match="unknown obs mode 'rgbdx'.*rgbd"):
+        gym.make("BioVLN-OpFace-v0", obs_mode="rgbdx", **CPU)
+    with pytest.raises(BioVLNError, match="unknown control mode 'teleport'.*discrete, continuous"):
+        gym.make("BioVLN-OpFace-v0", control_mode="teleport", **CPU)
+    with pytest.raises(BioVLNError, match="no episode '77'"):
+        env.reset(options={"episode_id": "77"})
+    env.reset(options={"episode_index": 0})
+    with pytest.raises(BioVLNError, match="outside Discrete\\(4\\).*0=STOP"):
+        env.step(7)
+    with pytest.raises(BioVLNError, match="num_envs > 1 needs sim_backend='physx_cuda'"):
+        gym.make("BioVLN-OpFace-v0", num_envs=2, **CPU)
+
+
+def test_rgbd_and_segmentation_observations(dataset):
+    e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="rgb+depth+segmentation",
+                 camera_width=96, camera_height=72, **CPU)
+    obs, _ = e.reset(options={"episode_index": 0})
+    cam = obs["sensor_data"]["head"]
+    assert cam["rgb"].shape == (1, 72, 96, 3) and cam["depth"].shape == (1, 72, 96, 1)
+    seg_map = e.unwrapped.instrument_segmentation()
+    spec = e.unwrapped.scene_spec
+    assert {oid for oid, _ in seg_map.values()} == {o.id for o in spec.objects()}
+    assert (cam["depth"] > 0).float().mean() > 0.95  # the ceiling closes the room: depth everywhere
+    extra = obs["extra"]
+    assert extra["goal_gps_compass"].shape == (1, 2) and extra["target_category"].sum() == 1
+    e.close()
+
+
+def test_centroid_variant_targets_the_bbox_centre(dataset):
+    e = gym.make("BioVLN-Centroid-v0", dataset=str(dataset), split="ms_val", obs_mode="none", **CPU)
+    e.reset(options={"episode_index": 0})
+    u = e.unwrapped
+    target = u.scene_spec.get(u.current_episode["object_id"])
+    assert np.allclose(u._ctx.goal, target.position[:2])
+    e.close()
+
+
+def test_rl_variant_and_conformance(dataset):
+    from gymnasium.utils.env_checker import check_env as gym_check
+    from stable_baselines3.common.env_checker import check_env as sb3_check
+
+    from biovln_ms.wrappers import GymnasiumEnv
+
+    e = gym.make("BioVLN-OpFace-RL-v0", dataset=str(dataset), **CPU)
+    u = e.unwrapped
+    assert u.cfg.turn_deg == 10.0 and u.cfg.proportional_safety
+    w = GymnasiumEnv(e)
+    obs, _ = w.reset(seed=0)
+    assert obs.dtype == np.float32 and obs.ndim == 1
+    p = u._planar()
+    assert obs[0] == pytest.approx(p[0] / 4.0, abs=1e-5) and obs[2] ** 2 + obs[3] ** 2 == pytest.approx(1.0, abs=1e-5)
+    u.agent.reset(torch.tensor([[4.0, 2.6, 0.0]]))
+    w.step(2)
+    assert math.degrees(u._planar()[2]) == pytest.approx(10.0, abs=0.5)
+    gym_check(w, skip_render_check=True)
+    sb3_check(w, warn=True)
+    e.close()
