@@ -14,6 +14,11 @@ def new_scene(ambient: float = 0.35):
     """A SAPIEN scene with ambient, key and fill lights; raises RenderError without a Vulkan device."""
     import sapien
 
+    # ManiSkill switches SAPIEN's global camera shader and picture formats (its minimal pack has
+    # 8-bit colour and no "Segmentation" picture): plain-SAPIEN views restore the default pack.
+    sapien.render.set_camera_shader_dir("default")
+    for picture in ("Color", "ColorRaw", "PositionSegmentation"):
+        sapien.render.set_picture_format(picture, "r32g32b32a32sfloat")
     try:
         scene = sapien.Scene()
     except RuntimeError as e:
