@@ -243,6 +243,22 @@ def dataset_show(root: Path = typer.Argument(..., help="Dataset folder."),
     typer.echo(f"wrote {save_map(spec, out, episode=ep, nav=scene_navigation(spec, radius))}")
 
 
+@app.command()
+def record(out: Path = typer.Option(Path("episode.mp4"), "-o", "--out", help="MP4 to write."),
+           split: str = typer.Option("ms_val", help="Split of the default (or --dataset) dataset."),
+           episode: int = typer.Option(0, help="Episode index within the split."),
+           policy: str = typer.Option("oracle", help="Policy to run."),
+           dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
+           env_id: str = typer.Option("BioVLN-OpFace-v0", "--env", help="Env id (a registered variant)."),
+           fps: int = typer.Option(5, help="Frames per second.")) -> None:
+    """Record one episode: the egocentric view beside a top-down map with trajectory, zones and goal."""
+    from biovln_ms.record import record_episode
+
+    m = record_episode(out, split, episode, policy, str(dataset) if dataset else None, env_id, fps=fps)
+    typer.echo(f"wrote {out}: success={m['success']} steps={m['steps']} spl={m['spl']:.3f} "
+               f"mcr={m['mcr']:.3f} vrt={m['vrt']:.3f}")
+
+
 def main() -> None:
     """Entry point: user-facing errors print as one clear line, not a traceback."""
     try:

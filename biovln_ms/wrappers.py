@@ -25,10 +25,16 @@ class GymnasiumEnv(CPUGymWrapper):
         return super().reset(seed=seed, options=options)
 
 
-def make_gym_env(env_id: str = "BioVLN-OpFace-RL-v0", **kwargs) -> gym.Env:
-    """``gym.make`` on the CPU backends, wrapped for gymnasium / SB3 (``SubprocVecEnv`` friendly)."""
+def make_gym_env(env_id: str = "BioVLN-OpFace-RL-v0", single_thread: bool = True, **kwargs) -> gym.Env:
+    """``gym.make`` on the CPU backends, wrapped for gymnasium / SB3. Picklable through
+    ``functools.partial``, so it serves as the env factory of ``AsyncVectorEnv`` / ``SubprocVecEnv``
+    (one env per process: ManiSkill refuses ``num_envs > 1`` on the CPU)."""
     import biovln_ms  # noqa: F401  (registration)
 
+    if single_thread:  # with the simulator on one core, 2 torch threads per worker slow it ~40x
+        import torch
+
+        torch.set_num_threads(1)
     kwargs.setdefault("sim_backend", "physx_cpu")
     kwargs.setdefault("render_backend", "cpu")
     return GymnasiumEnv(gym.make(env_id, **kwargs))

@@ -4,10 +4,18 @@ may download anything at run time, and a test that tries fails loudly."""
 from __future__ import annotations
 
 import ipaddress
+import os
 import socket
+import tempfile
 
 import pytest
 from hypothesis import settings
+
+# Hermetic caches: the default dataset and the room-shell meshes go to a fresh folder per run
+# (subprocesses inherit it).
+_TMP = tempfile.mkdtemp(prefix="biovln-tests-")
+os.environ["BIOVLN_DATA_DIR"] = os.path.join(_TMP, "data")
+os.environ["BIOVLN_CACHE_DIR"] = os.path.join(_TMP, "cache")
 
 settings.register_profile("biovln", deadline=None, print_blob=True)
 settings.load_profile("biovln")

@@ -101,6 +101,12 @@ def test_dataset_refuses_other_radius_catalog_and_tampering(tmp_path):
     with pytest.raises(DatasetError, match="another instrument catalog"):
         EpisodeDataset(root)
     write_dataset(root, _small_splits(), progress=False)  # rebuild over the old one
+    m = json.loads((root / "manifest.json").read_text())
+    m["scene_generator_version"] = 1
+    (root / "manifest.json").write_text(json.dumps(m))
+    with pytest.raises(DatasetError, match="made by scene generator version 1"):
+        EpisodeDataset(root)
+    write_dataset(root, _small_splits(), progress=False)
     f = next((root / "ms_dev" / "content").glob("*.json.gz"))
     f.write_bytes(f.read_bytes()[:-3] + b"xyz")
     with pytest.raises(DatasetError, match="does not match its hash"):

@@ -153,6 +153,12 @@ class EpisodeDataset:
             raise DatasetError(f"built for a {m.get('agent_radius')} m agent, not the {agent_radius} m agent in use: its "
                                f"geodesic distances (hence SPL) would be wrong", source=str(mpath), field="agent_radius",
                                fix="rebuild the dataset for this radius, or use the robot it was built for")
+        versions = {"scene_generator_version": SCENE_GENERATOR_VERSION, "episode_generator_version": EPISODE_GENERATOR_VERSION}
+        for key, want in versions.items():
+            if m.get(key) != want:
+                raise DatasetError(f"made by {key.replace('_', ' ')} {m.get(key)}, this build is {want}: its scenes or "
+                                   f"episodes differ from what this version generates", source=str(mpath), field=key,
+                                   fix="rebuild it: biovln-ms dataset build --out DIR")
         if m.get("catalog_sha256") != load_catalog().sha256:
             raise DatasetError("built from another instrument catalog (goals and radii may differ)", source=str(mpath),
                                field="catalog_sha256", fix="rebuild the dataset with the installed catalog")

@@ -17,13 +17,20 @@ def default_dataset_dir() -> Path:
 
 
 def ensure_default_dataset(echo=print) -> Path:
-    """The default dataset, built on first use (deterministic, ~2 s; nothing is downloaded)."""
+    """The default dataset, built on first use and rebuilt when stale (deterministic, ~2 s; nothing
+    is downloaded)."""
     root = default_dataset_dir()
-    if not (root / "manifest.json").exists():
+    stale = False
+    if (root / "manifest.json").exists():
+        try:
+            EpisodeDataset(root, verify=False)
+        except DatasetError:
+            stale = True
+    if stale or not (root / "manifest.json").exists():
         from biovln_ms.episodes.benchmark import paper_splits
         from biovln_ms.episodes.dataset import write_dataset
 
-        echo(f"[biovln-ms] building the benchmark dataset in {root} (first use)")
+        echo(f"[biovln-ms] building the benchmark dataset in {root} ({'stale' if stale else 'first use'})")
         write_dataset(root, paper_splits(), progress=False)
     return root
 
