@@ -23,8 +23,8 @@ URDF_PATH = Path(__file__).resolve().parent / "assets" / "biovln_base.urdf"
 BASE_JOINTS = ("root_x_joint", "root_y_joint", "root_yaw_joint")
 BODY_HEIGHT = 0.95
 CAMERA_HEIGHT = 0.88
-DRIVE_STIFFNESS = 1e5
-DRIVE_DAMPING = 2e3
+DRIVE_STIFFNESS = 3e6
+DRIVE_DAMPING = 1e4
 DRIVE_FORCE_LIMIT = 1e5
 
 

@@ -89,6 +89,9 @@ class BioVLNNavEnv(BaseEnv):
             if not gpu:
                 raise EnvConfigError("num_envs > 1 needs sim_backend='physx_cuda' and a CUDA GPU; on the CPU run one env per "
                                      "process (gymnasium AsyncVectorEnv or SB3 SubprocVecEnv, see README)", field="num_envs")
+            raise EnvConfigError("batched sub-envs (num_envs > 1 on physx_cuda) are not implemented in this version: the "
+                                 "episode bookkeeping and measures are per single env", field="num_envs",
+                                 fix="run one env per process (AsyncVectorEnv / SubprocVecEnv), see README")
         self.nav_control_mode = control_mode
         self.source: EpisodeSource = (DatasetEpisodes(split, dataset) if (split or dataset) and split
                                       else GeneratedEpisodes(template, scene_seed) if not dataset
@@ -113,7 +116,7 @@ class BioVLNNavEnv(BaseEnv):
     # --- configuration -------------------------------------------------------------------------
     @property
     def _default_sim_config(self):
-        return SimConfig(sim_freq=100, control_freq=5)
+        return SimConfig(sim_freq=100, control_freq=20)  # 5 substeps: the stiff drive settles in them
 
     @property
     def _default_sensor_configs(self):
@@ -222,9 +225,10 @@ class BioVLNNavEnv(BaseEnv):
         return bool(a[2] > 0), (a[0] + 1) / 2 * c.forward_step, a[1] * turn
 
     def evaluate(self):
+        self._pose = self._planar()  # read once per step; _get_obs_extra reuses it
         if self._pending is not None and self._ctx is not None:
             p = self._pending
-            pose = self._planar()
+            pose = self._pose
             heading = np.array([math.cos(p["pose"][2]), math.sin(p["pose"][2])])
             moved = float(np.dot(pose[:2] - p["pose"][:2], heading))
             self._prev_distance = self._measures["distance_to_goal"]
@@ -236,10 +240,10 @@ class BioVLNNavEnv(BaseEnv):
         info = self._measures.info()
         info["fail"] = self._stopped and not info["success"]
         info["stopped"] = self._stopped
-        return {k: _tensor(v, self.device) for k, v in info.items()}
+        return _batched(info, self.device)
 
     def _get_obs_extra(self, info: dict):
-        pose = self._planar()
+        pose = self._pose
         goal = self._ctx.goal if self._ctx is not None else np.zeros(2)
         d = goal - pose[:2]
         rho = float(np.linalg.norm(d))
@@ -283,12 +287,17 @@ class BioVLNNavEnv(BaseEnv):
         return {sid: (oid, self.scene_spec.get(oid).category) for sid, oid in ids.items()}
 
 
-def _tensor(v, device):
-    if isinstance(v, bool):
-        return torch.tensor([v], dtype=torch.bool, device=device)
-    if isinstance(v, int):
-        return torch.tensor([v], dtype=torch.int32, device=device)
-    return torch.tensor([float(v)], dtype=torch.float32, device=device)
+def _batched(info: dict, device) -> dict:
+    """Info values as (1,)-shaped tensors, made from three tensors (bool, int, float) in one go."""
+    kinds = {bool: ([], torch.bool), int: ([], torch.int32), float: ([], torch.float32)}
+    for k, v in info.items():
+        kinds[bool if isinstance(v, bool) else int if isinstance(v, int) else float][0].append(k)
+    out = {}
+    for keys, dtype in kinds.values():
+        if keys:
+            t = torch.tensor([info[k] for k in keys], dtype=dtype, device=device)
+            out.update({k: t[i:i + 1] for i, k in enumerate(keys)})
+    return out
 
 
 def _action_help() -> str:

@@ -35,7 +35,7 @@ class OpFaceRLEnv(BioVLNNavEnv):
 
     def _get_obs_extra(self, info: dict):
         s = self.cfg.position_scale
-        pose = self._planar()
+        pose = self._pose
         goal = self._ctx.goal if self._ctx is not None else np.zeros(2)
         d = goal - pose[:2]
         c, sn = math.cos(pose[2]), math.sin(pose[2])

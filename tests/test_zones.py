@@ -129,3 +129,19 @@ def test_furniture_without_face_has_no_goal():
         i.goal()
     with pytest.raises(ValueError, match="no operational face"):
         i.zone3()
+
+
+@given(st.lists(st.tuples(coord, coord, angle, size, size), min_size=1, max_size=6), st.floats(-12, 12), st.floats(-12, 12))
+def test_instrument_array_matches_the_scalar_geometry(items, px, py):
+    from biovln_ms.geometry.zones import InstrumentArray
+
+    insts = [inst(*it) for it in items]
+    arr = InstrumentArray(insts)
+    p = np.array([px, py])
+    assert arr.clearance(p) == pytest.approx(min(i.clearance(p) for i in insts), abs=1e-9)
+    inside = any(i.zone2().buffer(1e-9).contains(Point(px, py)) for i in insts)
+    strictly = any(i.zone2().buffer(-1e-9).contains(Point(px, py)) for i in insts)
+    if strictly:
+        assert arr.in_zone2(p)
+    elif not inside:
+        assert not arr.in_zone2(p)

@@ -112,11 +112,18 @@ class NavGeometry:
         return np.concatenate(verts), np.concatenate(isl), np.concatenate(prev), np.concatenate(nxt)
 
     def _visible(self, p: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """Segments p[i]->q[i] lying in the free space."""
+        """Segments p[i]->q[i] lying in the free space.
+
+        No proper crossing of a boundary edge decides it, except for a segment that passes through a
+        boundary vertex (it may slip out there): those are also sampled against the polygons.
+        """
         if len(p) == 0:
             return np.zeros(0, bool)
         ok = ~_segments_cross(p, q, self._edges_a, self._edges_b).any(axis=1)
         idx = np.flatnonzero(ok)
+        if len(idx):
+            through = self._through_vertex(p[idx], q[idx])
+            idx = idx[through]
         if len(idx):
             length = np.linalg.norm(q[idx] - p[idx], axis=1)
             n = np.maximum(2, np.ceil(length / SAMPLE_STEP).astype(int) + 1)
@@ -128,6 +135,17 @@ class NavGeometry:
             bad = np.unique(owner[~inside])
             ok[bad] = False
         return ok
+
+    def _through_vertex(self, p: np.ndarray, q: np.ndarray, tol: float = 1e-7) -> np.ndarray:
+        """Which segments pass within ``tol`` of a boundary vertex strictly between their ends."""
+        v = self._edges_a
+        d = q - p
+        L2 = np.maximum((d ** 2).sum(axis=1), 1e-18)
+        t = ((v[None, :, 0] - p[:, None, 0]) * d[:, None, 0] + (v[None, :, 1] - p[:, None, 1]) * d[:, None, 1]) / L2[:, None]
+        inner = (t > 1e-9) & (t < 1 - 1e-9)
+        cx = p[:, None, 0] + t * d[:, None, 0] - v[None, :, 0]
+        cy = p[:, None, 1] + t * d[:, None, 1] - v[None, :, 1]
+        return (inner & (cx * cx + cy * cy < tol * tol)).any(axis=1)
 
     def _tangent(self, v_idx: np.ndarray, other: np.ndarray) -> np.ndarray:
         """Edge from reflex vertex v to ``other`` keeps both ring neighbours of v on one side."""
@@ -172,6 +190,10 @@ class NavGeometry:
     # --- queries ----------------------------------------------------------------------------
     def island_of(self, p) -> int | None:
         """Index of the island holding point p (on its boundary counts), or None."""
+        g = self.grid
+        i, j = int((p[1] - g.origin[1]) // g.resolution), int((p[0] - g.origin[0]) // g.resolution)
+        if 0 <= i < g.inner.shape[0] and 0 <= j < g.inner.shape[1] and g.inner[i, j]:
+            return int(g.island[i, j])  # the whole cell is navigable: no polygon test needed
         pt = Point(float(p[0]), float(p[1]))
         for k, poly in enumerate(self.islands):
             if poly.distance(pt) <= 1e-7:

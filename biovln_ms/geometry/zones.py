@@ -209,3 +209,32 @@ def min_clearance(points: np.ndarray, instruments: Iterable[PlacedInstrument],
     for inst in instruments:
         out = np.minimum(out, inst.clearance(p, z))
     return out
+
+
+class InstrumentArray:
+    """Many instruments stacked for vectorised per-point queries (the per-step measures' hot path)."""
+
+    def __init__(self, instruments: Sequence[PlacedInstrument]) -> None:
+        self.n = len(instruments)
+        self.centers = np.array([i.center_xy for i in instruments]).reshape(-1, 2)
+        yaw = np.array([i.yaw for i in instruments])
+        self.cos, self.sin = np.cos(yaw), np.sin(yaw)
+        self.half = np.array([i.half_xy for i in instruments]).reshape(-1, 2)
+        self.eps = np.array([i.eps_c for i in instruments])
+
+    def _local(self, p: np.ndarray) -> np.ndarray:
+        d = np.asarray(p, float)[:2] - self.centers
+        return np.abs(np.stack([self.cos * d[:, 0] + self.sin * d[:, 1], -self.sin * d[:, 0] + self.cos * d[:, 1]], axis=1))
+
+    def clearance(self, p) -> float:
+        """Planar distance from p to the nearest body (inf when there are none)."""
+        if self.n == 0:
+            return math.inf
+        gap = np.maximum(self._local(p) - self.half, 0.0)
+        return float(np.sqrt((gap ** 2).sum(axis=1)).min())
+
+    def in_zone2(self, p) -> bool:
+        """Whether p lies inside any instrument's Zone 2 (the body rectangle grown by eps_c)."""
+        if self.n == 0:
+            return False
+        return bool(np.any(np.all(self._local(p) <= self.half + self.eps[:, None], axis=1)))

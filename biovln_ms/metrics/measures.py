@@ -22,9 +22,7 @@ from dataclasses import dataclass, field
 from typing import Callable, ClassVar
 
 import numpy as np
-from shapely.geometry import Point
-
-from biovln_ms.geometry.zones import SAFETY_THRESHOLD, PlacedInstrument
+from biovln_ms.geometry.zones import SAFETY_THRESHOLD, InstrumentArray, PlacedInstrument
 
 
 @dataclass
@@ -38,6 +36,10 @@ class EpisodeContext:
     geodesic: Callable[[np.ndarray], float]
     start_geodesic: float
     hfov: float
+    array: InstrumentArray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.array = InstrumentArray(self.instruments)
 
 
 @dataclass
@@ -101,20 +103,15 @@ class Clearance(Measure):
     uuid = "clearance"
 
     def update(self, ctx, state, m):
-        self.value = float(min((i.clearance(state.position) for i in ctx.instruments), default=math.inf))
+        self.value = ctx.array.clearance(state.position)
 
 
 @register_measure
 class Zone2Violation(Measure):
     uuid = "zone2_violation"
 
-    def reset(self, ctx, state, m):
-        self._zones = [i.zone2() for i in ctx.instruments]
-        self.update(ctx, state, m)
-
     def update(self, ctx, state, m):
-        p = Point(*state.position)
-        self.value = any(z.contains(p) for z in self._zones)
+        self.value = ctx.array.in_zone2(state.position)
 
 
 @register_measure
@@ -122,11 +119,21 @@ class InZone3(Measure):
     uuid = "in_zone3"
 
     def reset(self, ctx, state, m):
-        self._zone = ctx.target.zone3() if ctx.target.model_face is not None else None
+        self._zone = None
+        if ctx.target.model_face is not None:
+            corners = ctx.target.zone3_corners()
+            centre = corners.mean(axis=0)
+            u, v = corners[1] - corners[0], corners[3] - corners[0]
+            self._zone = (centre, u / np.linalg.norm(u), v / np.linalg.norm(v), np.linalg.norm(u) / 2, np.linalg.norm(v) / 2)
         self.update(ctx, state, m)
 
     def update(self, ctx, state, m):
-        self.value = bool(self._zone is not None and self._zone.covers(Point(*state.position)))
+        if self._zone is None:
+            self.value = False
+            return
+        c, u, v, hu, hv = self._zone
+        d = state.position - c
+        self.value = bool(abs(d @ u) <= hu + 1e-9 and abs(d @ v) <= hv + 1e-9)
 
 
 @register_measure

@@ -1,0 +1,122 @@
+"""Speed of the BioVLN-OpFace-v0 env on this machine, against raw SAPIEN measured in the same run.
+
+    python benchmarks/env_speed.py [--steps 300] [--resets 1000]
+
+Reports (budgets from the issue in brackets):
+* steps/s at 640x480 RGB-D vs the raw SAPIEN render rate of the same scene and camera (>= 0.8x);
+* state-only steps/s (>= 1,500); 128x128 RGB-D steps/s (>= 300);
+* reset to a new episode in the same scene (<= 20 ms) and to a new scene (<= 0.5 s);
+* resident memory over ``--resets`` resets alternating scenes (flat).
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import resource
+import time
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+import biovln_ms  # noqa: F401
+
+CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
+
+
+def rss_mb() -> float:
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def raw_render_rate(env, frames: int) -> float:
+    """update_render + take_picture + colour and position/segmentation read-back, SAPIEN only."""
+    u = env.unwrapped
+    cams = u.scene.sensors["head"].camera._render_cameras
+    for _ in range(3):
+        u.scene.update_render()
+        for c in cams:
+            c.take_picture()
+    t = time.perf_counter()
+    for _ in range(frames):
+        u.scene.update_render()
+        for c in cams:
+            c.take_picture()
+            c.get_picture("Color")
+            c.get_picture("PositionSegmentation")
+    return frames / (time.perf_counter() - t)
+
+
+def step_rate(env, steps: int) -> float:
+    rng = np.random.default_rng(0)
+    env.reset(options={"episode_index": 0})
+    for a in rng.integers(1, 4, 10):
+        env.step(int(a))
+    t = time.perf_counter()
+    n = 0
+    for a in rng.integers(1, 4, steps):
+        _, _, term, trunc, _ = env.step(int(a))
+        n += 1
+        if bool(term) or bool(trunc):
+            env.reset()
+    return n / (time.perf_counter() - t)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--steps", type=int, default=300)
+    ap.add_argument("--resets", type=int, default=1000)
+    args = ap.parse_args()
+    torch.set_num_threads(1)
+    rows = []
+    for label, obs_mode, w, h in (("640x480 RGB-D", "rgbd", 640, 480), ("128x128 RGB-D", "rgbd", 128, 128),
+                                  ("state only", "state", 128, 128)):
+        env = gym.make("BioVLN-OpFace-v0", split="ms_val", obs_mode=obs_mode, camera_width=w, camera_height=h, **CPU)
+        env.reset(seed=0)
+        raw = raw_render_rate(env, max(20, args.steps // 5)) if obs_mode != "state" else None
+        rate = step_rate(env, args.steps if obs_mode != "state" else args.steps * 5)
+        rows.append((label, rate, raw))
+        env.close()
+    print(f"{'mode':<16} {'env steps/s':>12} {'raw SAPIEN frames/s':>20} {'ratio':>7}")
+    for label, rate, raw in rows:
+        print(f"{label:<16} {rate:12.0f} {raw if raw else float('nan'):20.0f} {rate / raw if raw else float('nan'):7.2f}")
+
+    # Resets: same scene vs new scene (state obs, so the timing is the env's, not a frame's).
+    env = gym.make("BioVLN-OpFace-v0", split="ms_dev", obs_mode="state", **CPU)
+    u = env.unwrapped
+    eps = u.source.episodes
+    by_scene: dict[str, list[int]] = {}
+    for i, e in enumerate(eps):
+        by_scene.setdefault(e["scene_id"], []).append(i)
+    scenes = list(by_scene)
+    env.reset(options={"episode_index": by_scene[scenes[0]][0]})
+    same, new = [], []
+    for k in range(1, 40):
+        t = time.perf_counter()
+        env.reset(options={"episode_index": by_scene[scenes[0]][k % len(by_scene[scenes[0]])]})
+        same.append(time.perf_counter() - t)
+    for k in range(12):
+        idx = by_scene[scenes[(k + 1) % len(scenes)]][0]
+        t = time.perf_counter()
+        env.reset(options={"episode_index": idx})
+        new.append(time.perf_counter() - t)
+    print(f"reset, same scene: median {np.median(same) * 1e3:.1f} ms (budget 20 ms); "
+          f"new scene: median {np.median(new) * 1e3:.0f} ms, max {max(new) * 1e3:.0f} ms (budget 500 ms)")
+    gc.collect()
+    gc.freeze()
+    marks = {}
+    for k in range(args.resets):
+        scene = scenes[(k // 10) % len(scenes)]  # a new scene every 10 resets
+        env.reset(options={"episode_index": by_scene[scene][k % len(by_scene[scene])]})
+        if k + 1 in (100, args.resets // 2, args.resets):
+            marks[k + 1] = rss_mb()
+    print("resident memory over resets (a new scene every 10): " + ", ".join(f"{k}: {v:.0f} MB" for k, v in marks.items()))
+    env.close()
+
+
+if __name__ == "__main__":
+    main()
