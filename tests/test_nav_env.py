@@ -190,3 +190,27 @@ def test_rl_variant_and_conformance(dataset):
     gym_check(w, skip_render_check=True)
     sb3_check(w, warn=True)
     e.close()
+
+
+def test_user_variant_example_registers_and_runs(dataset):
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "tasks" / "examples" / "facing_variant.py"
+    spec = importlib.util.spec_from_file_location("facing_variant", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    e = gym.make("MyLab-OpFaceFacing-v0", dataset=str(dataset), split="ms_val", obs_mode="none", **CPU)
+    e.reset(options={"episode_index": 2})
+    u = e.unwrapped
+    g = np.asarray(u.current_episode["goals"][0]["position"][:2])
+    target = u.scene_spec.get(u.current_episode["object_id"])
+    away = math.atan2(g[1] - target.position[1], g[0] - target.position[0])  # facing away from the instrument
+    u.agent.reset(torch.tensor([[g[0], g[1], away]]))
+    _, _, term, _, info = e.step(0)
+    assert bool(term) and not bool(info["success"]) and not bool(info["facing_instrument"])
+    e.reset(options={"episode_index": 2})
+    u.agent.reset(torch.tensor([[g[0], g[1], away + math.pi]]))
+    _, _, _, _, info = e.step(0)
+    assert bool(info["success"]) and bool(info["facing_success"])
+    e.close()
