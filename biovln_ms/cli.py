@@ -97,7 +97,7 @@ def assets_preview(out: Path = typer.Option(Path("asset_sheet.png"), "-o", "--ou
 
 @app.command()
 def demo(out: Path = typer.Option(Path("outputs/demo"), "-o", "--out", help="Folder for the demo's files.")) -> None:
-    """Run the demo: asset sheet, catalog table, scene lab_s150_v0 (spec, SAPIEN view, episode map)."""
+    """Run the demo: asset sheet, catalog, scene lab_s150_v0 (spec, view, episode map), an oracle episode MP4 and metrics."""
     from biovln_ms.demo import run_demo
 
     run_demo(out, typer.echo)

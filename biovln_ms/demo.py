@@ -10,7 +10,8 @@ from biovln_ms.render.asset_preview import contact_sheet
 
 def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
     """Asset contact sheet and catalog table; the held-out scene lab_s150_v0 as spec, SAPIEN view and
-    a map with one episode (start, goal, view points, exact shortest path)."""
+    a map with one episode (start, goal, view points, exact shortest path); the oracle run on MS VAL
+    episode 0 as an MP4 (egocentric view beside the map) with its metrics."""
     from biovln_ms.episodes.benchmark import FOUR_CATEGORIES
     from biovln_ms.episodes.generator import EpisodeSampler
     from biovln_ms.geometry.navigation import scene_navigation
@@ -43,6 +44,14 @@ def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
               "| target | start | goal | geodesic (m) | euclidean (m) | difficulty |", "|---|---|---|---|---|---|",
               f"| {episode['object_id']} | {episode['start_position'][:2]} | {episode['goals'][0]['position'][:2]} | "
               f"{info['geodesic_distance']:.3f} | {info['euclidean_distance']:.3f} | {info['difficulty']} |"]
+    from biovln_ms.record import record_episode
+
+    files["video"] = out_dir / "ms_val_episode0_oracle.mp4"
+    m = record_episode(files["video"], split="ms_val", episode=0, policy="oracle")
+    lines += ["", "# Oracle on MS VAL episode 0 (BioVLN-OpFace-v0, SAPIEN physics, CPU render)", "",
+              "| success | steps | SPL | soft SPL | DTG (m) | MCR (m) | VRT | collisions |", "|---|---|---|---|---|---|---|---|",
+              f"| {m['success']} | {m['steps']} | {m['spl']:.3f} | {m['soft_spl']:.3f} | {m['distance_to_goal']:.3f} | "
+              f"{m['mcr']:.3f} | {m['vrt']:.3f} | {m['collisions']} |"]
     files["table"] = out_dir / "demo.md"
     files["table"].write_text("\n".join(lines) + "\n")
     for k, p in files.items():

@@ -214,3 +214,11 @@ def test_user_variant_example_registers_and_runs(dataset):
     _, _, _, _, info = e.step(0)
     assert bool(info["success"]) and bool(info["facing_success"])
     e.close()
+
+
+def test_pointcloud_obs_mode():
+    e = gym.make("BioVLN-OpFace-v0", obs_mode="pointcloud", camera_width=64, camera_height=48, **CPU)
+    obs, _ = e.reset(seed=0)
+    assert obs["pointcloud"]["xyzw"].shape == (1, 64 * 48, 4)
+    e.step(1)
+    e.close()
