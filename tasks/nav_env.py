@@ -93,9 +93,13 @@ class BioVLNNavEnv(BaseEnv):
                                  "episode bookkeeping and measures are per single env", field="num_envs",
                                  fix="run one env per process (AsyncVectorEnv / SubprocVecEnv), see README")
         self.nav_control_mode = control_mode
-        self.source: EpisodeSource = (DatasetEpisodes(split, dataset) if (split or dataset) and split
-                                      else GeneratedEpisodes(template, scene_seed) if not dataset
-                                      else _missing_split(dataset))
+        if split:
+            self.source: EpisodeSource = DatasetEpisodes(split, dataset)
+        elif dataset:
+            raise EnvConfigError(f"a dataset ({dataset}) was given without a split", field="split",
+                                 fix="pass split=, e.g. split='ms_val'")
+        else:
+            self.source = GeneratedEpisodes(template, scene_seed)
         self.category_names = load_catalog().goal_categories()
         order = np.arange(len(self.source))
         if self.cfg.shuffle_episodes:
@@ -211,7 +215,7 @@ class BioVLNNavEnv(BaseEnv):
         turn = math.radians(c.turn_deg)
         if self.nav_control_mode == "discrete":
             a = np.asarray(action.cpu() if hasattr(action, "cpu") else action)
-            if a.size != 1 or not np.issubdtype(a.dtype, np.integer) and not (np.issubdtype(a.dtype, np.floating) and float(a.ravel()[0]).is_integer()):
+            if a.size != 1 or not np.issubdtype(a.dtype, np.number) or not float(a.ravel()[0]).is_integer():
                 raise EnvConfigError(f"action {action!r} is not one integer", field="action", fix=_action_help())
             k = int(a.ravel()[0])
             if k not in ACTIONS:
@@ -303,7 +307,3 @@ def _batched(info: dict, device) -> dict:
 def _action_help() -> str:
     return "discrete actions are " + ", ".join(f"{k}={v}" for k, v in ACTIONS.items())
 
-
-def _missing_split(dataset):
-    raise EnvConfigError(f"a dataset ({dataset}) was given without a split", field="split",
-                         fix="pass split=, e.g. split='ms_val'")
