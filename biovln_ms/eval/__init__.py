@@ -1,0 +1,1 @@
+"""Evaluation: the harness, aggregate metrics with confidence intervals, McNemar tests, reports."""
