@@ -15,32 +15,47 @@ import numpy as np
 from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, Policy
 
 
-class OraclePolicy(Policy):
-    name = "oracle"
+class PointFollower:
+    """Discrete-action follower of the exact shortest path to a point (shared by the oracles).
 
-    def reset(self, episode_info: dict) -> None:
-        env = episode_info["env"]
-        self.env = env
-        self.nav = env.nav
-        self.goal = np.asarray(env._ctx.goal if env.cfg.goal_mode == "opface" else self.nav.snap(env._ctx.goal), float)
+    ``step()`` returns an action, or STOP when it has arrived: nearer than half a step, or a forward
+    step would not bring the point closer.
+    """
+
+    def __init__(self, env, point) -> None:
+        self.env, self.nav = env, env.nav
+        self.point = np.asarray(point, float)
         self.step_len = env.cfg.forward_step
         self.turn = math.radians(env.cfg.turn_deg)
         self._last = None
 
-    def act(self, obs, info: dict) -> int:
+    def step(self) -> int:
         pose = self.env._planar()
         p, yaw = pose[:2], float(pose[2])
-        d = float(np.linalg.norm(self.goal - p))
+        d = float(np.linalg.norm(self.point - p))
         if d < self.step_len / 2:
             return STOP
         blocked = self._last is not None and self._last[1] == FORWARD and np.linalg.norm(p - self._last[0]) < 0.02
-        path = self.nav.shortest_path(self.nav.snap(p), self.goal)
-        target = next((q for q in path[1:] if np.linalg.norm(q - p) > 0.05), self.goal)
+        path = self.nav.shortest_path(self.nav.snap(p), self.point)
+        target = next((q for q in path[1:] if np.linalg.norm(q - p) > 0.05), self.point)
         err = (math.atan2(target[1] - p[1], target[0] - p[0]) - yaw + math.pi) % (2 * math.pi) - math.pi
         if abs(err) > self.turn / 2 or blocked:
             action = TURN_LEFT if (err > 0) != blocked else TURN_RIGHT
         else:
             ahead = p + self.step_len * np.array([math.cos(yaw), math.sin(yaw)])
-            action = STOP if np.linalg.norm(self.goal - ahead) >= d else FORWARD
+            action = STOP if np.linalg.norm(self.point - ahead) >= d else FORWARD
         self._last = (p.copy(), action)
         return action
+
+
+class OraclePolicy(Policy):
+    name = "oracle"
+    obs_mode = "none"
+
+    def reset(self, episode_info: dict) -> None:
+        env = episode_info["env"]
+        goal = env._ctx.goal if env.cfg.goal_mode == "opface" else env.nav.snap(env._ctx.goal)
+        self.follower = PointFollower(env, goal)
+
+    def act(self, obs, info: dict) -> int:
+        return self.follower.step()

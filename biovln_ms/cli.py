@@ -259,6 +259,23 @@ def record(out: Path = typer.Option(Path("episode.mp4"), "-o", "--out", help="MP
                f"mcr={m['mcr']:.3f} vrt={m['vrt']:.3f}")
 
 
+@app.command("eval")
+def eval_cmd(method: str = typer.Option(..., "--method", "-m", help="Baseline (random, oracle, zone3_oracle, ...)."),
+             split: str = typer.Option("ms_dev", "--split", "-s", help="Dataset split."),
+             out: Path = typer.Option(Path("results"), "--out", "-o", help="Results folder."),
+             dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
+             env_id: str = typer.Option("BioVLN-OpFace-v0", "--env", help="Env variant, e.g. BioVLN-Centroid-v0."),
+             workers: Optional[int] = typer.Option(None, help="Worker processes (default: one per core)."),
+             max_episodes: Optional[int] = typer.Option(None, help="Only the first N episodes.")) -> None:
+    """Evaluate a method on a split: per-episode JSONL (resumable) and summary.json."""
+    from biovln_ms.eval.harness import EvalConfig, evaluate
+
+    cfg = EvalConfig(method, split, str(out), str(dataset) if dataset else None, env_id, workers, max_episodes=max_episodes)
+    o = evaluate(cfg, echo=typer.echo)["overall"]
+    typer.echo(f"{cfg.run_name} on {split}: {o['episodes']} episodes, SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, "
+               f"DTG {o['dtg']:.2f} m, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}% -> {cfg.run_dir}")
+
+
 def main() -> None:
     """Entry point: user-facing errors print as one clear line, not a traceback."""
     try:

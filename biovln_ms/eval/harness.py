@@ -1,0 +1,214 @@
+"""The evaluation harness: run a method on a split, one JSON line per finished episode.
+
+``out/<run>/<split>/episodes.jsonl`` is append-only: each finished episode is written as one line and
+flushed to disk, so a killed run resumes (``evaluate`` again) without losing or repeating an episode;
+a half-written last line from a kill is repaired. Episodes run in worker processes (``workers``,
+default one per core, started with ``spawn``). ``summary.json`` holds the aggregates.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from biovln_ms.errors import BioVLNError
+from biovln_ms.eval.methods import method_spec
+from biovln_ms.eval.metrics import aggregate_all
+from biovln_ms.io_utils import atomic_write_text
+
+DEFAULT_ENV = "BioVLN-OpFace-v0"
+
+
+class ResultsError(BioVLNError):
+    """A corrupt or mismatching results file."""
+
+
+@dataclass
+class EvalConfig:
+    method: str
+    split: str
+    out: str
+    dataset: str | None = None
+    env_id: str = DEFAULT_ENV
+    workers: int | None = None
+    camera: tuple[int, int] = (640, 480)
+    max_episodes: int | None = None
+    method_kwargs: dict = field(default_factory=dict)
+
+    @property
+    def run_name(self) -> str:
+        suffix = "" if self.env_id == DEFAULT_ENV else "@" + self.env_id.removeprefix("BioVLN-").removesuffix("-v0").lower()
+        return self.method + suffix
+
+    @property
+    def run_dir(self) -> Path:
+        return Path(self.out) / self.run_name / self.split
+
+
+def episode_key(ep: dict) -> str:
+    return f"{ep['scene_id']}/{ep['episode_id']}"
+
+
+def load_records(path: Path, repair: bool = True) -> list[dict]:
+    """Records of a JSONL file; a truncated last line (a killed run) is cut off when ``repair``."""
+    if not path.exists():
+        return []
+    data = path.read_bytes()
+    lines = data.split(b"\n")
+    out, good_end = [], 0
+    for i, line in enumerate(lines):
+        if not line.strip():
+            good_end += len(line) + 1
+            continue
+        try:
+            out.append(json.loads(line))
+            good_end += len(line) + 1
+        except json.JSONDecodeError:
+            if i == len(lines) - 1 or all(not x.strip() for x in lines[i + 1:]):
+                if repair:
+                    with open(path, "r+b") as f:
+                        f.truncate(min(good_end, len(data)))
+                break
+            raise ResultsError(f"line {i + 1} is not valid JSON", source=str(path),
+                               fix="delete that line (the episode will be run again) or the file") from None
+    return out
+
+
+# --- workers -------------------------------------------------------------------------------------
+_W: dict = {}
+
+
+def _init_worker(cfg: dict) -> None:
+    import gymnasium as gym
+    import torch
+
+    import biovln_ms  # noqa: F401
+
+    torch.set_num_threads(1)
+    spec = method_spec(cfg["method"])
+    w, h = cfg["camera"]
+    env = gym.make(cfg["env_id"], split=cfg["split"], dataset=cfg["dataset"], obs_mode=spec.obs_mode,
+                   camera_width=w, camera_height=h, sim_backend="physx_cpu", render_backend="cpu")
+    _W.update(env=env, policy=spec.factory(**cfg["method_kwargs"]), cfg=cfg)
+
+
+def _r4(v) -> float:
+    return round(float(v), 4)
+
+
+def _run(index: int) -> dict:
+    env, policy, cfg = _W["env"], _W["policy"], _W["cfg"]
+    u = env.unwrapped
+    t0 = time.perf_counter()
+    ep = None
+    try:
+        obs, info = env.reset(options={"episode_index": index})
+        ep = u.current_episode
+        policy.reset({"env": u, "episode": ep})
+        pose = u._planar()
+        positions, headings = [[_r4(pose[0]), _r4(pose[1])]], [_r4(pose[2])]
+        clearance, zone2, actions = [_r4(info["clearance"])], [bool(info["zone2_violation"])], []
+        while True:
+            a = int(policy.act(obs, info))
+            obs, _, term, trunc, info = env.step(a)
+            pose = u._planar()
+            actions.append(a)
+            positions.append([_r4(pose[0]), _r4(pose[1])])
+            headings.append(_r4(pose[2]))
+            clearance.append(_r4(info["clearance"]))
+            zone2.append(bool(info["zone2_violation"]))
+            if bool(term) or bool(trunc):
+                break
+        rec = {
+            "success": bool(info["success"]), "spl": float(info["spl"]), "soft_spl": float(info["soft_spl"]),
+            "dtg": float(info["distance_to_goal"]), "steps": int(info["steps"]), "mcr": float(info["mcr"]),
+            "vrt": float(info["vrt"]), "collisions": int(info["collisions"]), "path_length": float(info["path_length"]),
+            "stopped": bool(info["stopped"]), "truncated": bool(trunc),
+            "actions": actions, "positions": positions, "headings": headings, "clearance": clearance, "zone2": zone2,
+        }
+    except Exception as e:  # recorded; the run goes on with the next episode
+        rec = {"error": f"{type(e).__name__}: {e}"}
+        ep = ep or u.source.episodes[index]
+    rec.update({"method": cfg["method"], "env_id": cfg["env_id"], "split": cfg["split"], "index": index,
+                "scene_id": ep["scene_id"], "episode_id": ep["episode_id"], "object_category": ep["object_category"],
+                "object_id": ep["object_id"], "difficulty": ep["info"]["difficulty"],
+                "geodesic_distance": ep["info"]["geodesic_distance"], "goal": ep["goals"][0]["position"][:2],
+                "start": ep["start_position"][:2], "wall_time_s": round(time.perf_counter() - t0, 3)})
+    return rec
+
+
+# --- driver --------------------------------------------------------------------------------------
+def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
+    """Run (or resume) a method on a split; returns the summary (also written to summary.json)."""
+    from tqdm import tqdm
+
+    from biovln_ms.episodes.source import DatasetEpisodes
+
+    method_spec(cfg.method)
+    source = DatasetEpisodes(cfg.split, cfg.dataset)
+    episodes = source.episodes[: cfg.max_episodes] if cfg.max_episodes else source.episodes
+    run_dir = cfg.run_dir
+    run_dir.mkdir(parents=True, exist_ok=True)
+    path = run_dir / "episodes.jsonl"
+    done = {episode_key(r) for r in load_records(path) if not r.get("error")}
+    todo = [i for i, e in enumerate(episodes) if episode_key(e) not in done]
+    if done:
+        echo(f"resuming {cfg.run_name} on {cfg.split}: {len(done)} done, {len(todo)} to go")
+    workers = max(1, min(cfg.workers or os.cpu_count() or 1, len(todo) or 1))
+    wcfg = {k: v for k, v in asdict(cfg).items()}
+    bar = tqdm(total=len(episodes), initial=len(done), desc=f"{cfg.run_name} {cfg.split}", disable=not progress)
+    n_ok = sum(1 for r in load_records(path) if r.get("success"))
+    with open(path, "a") as f:
+
+        def write(rec):
+            nonlocal n_ok
+            f.write(json.dumps(rec, separators=(",", ":")) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+            n_ok += bool(rec.get("success"))
+            bar.update(1)
+            bar.set_postfix(SR=f"{100 * n_ok / max(bar.n, 1):.1f}%")
+
+        if workers == 1:
+            _init_worker(wcfg)
+            try:
+                for i in todo:
+                    write(_run(i))
+            finally:
+                _W["env"].close()
+                _W.clear()
+        elif todo:
+            import multiprocessing as mp
+
+            with mp.get_context("spawn").Pool(workers, initializer=_init_worker, initargs=(wcfg,)) as pool:
+                for rec in pool.imap_unordered(_run, todo):
+                    write(rec)
+    bar.close()
+    return write_summary(cfg, len(episodes))
+
+
+def write_summary(cfg: EvalConfig, expected: int) -> dict:
+    records = load_records(cfg.run_dir / "episodes.jsonl")
+    keys = [episode_key(r) for r in records if not r.get("error")]
+    if len(keys) != len(set(keys)):
+        raise ResultsError("an episode appears twice", source=str(cfg.run_dir / "episodes.jsonl"))
+    summary = {"method": cfg.method, "env_id": cfg.env_id, "split": cfg.split, "run": cfg.run_name,
+               "expected_episodes": expected, **aggregate_all(records),
+               "failed_episodes": [{"key": f"{r['scene_id']}/{r['episode_id']}", "error": r["error"]}
+                                   for r in records if r.get("error")]}
+    atomic_write_text(cfg.run_dir / "summary.json", json.dumps(_finite(summary), indent=1, sort_keys=True) + "\n")
+    return summary
+
+
+def _finite(obj):
+    if isinstance(obj, float):
+        return None if not math.isfinite(obj) else round(obj, 6)
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_finite(v) for v in obj]
+    return obj
