@@ -33,10 +33,17 @@ def _zone3(**kw):
     return Zone3OraclePolicy(**kw)
 
 
+def _frontier(**kw):
+    from biovln_ms.agents.frontier import FrontierPolicy
+
+    return FrontierPolicy(**kw)
+
+
 METHODS: dict[str, MethodSpec] = {
     "random": MethodSpec(_random, "none", "uniform forward/left/right, 5 % stop per step"),
     "oracle": MethodSpec(_oracle, "none", "exact geodesic path to the snapped goal"),
     "zone3_oracle": MethodSpec(_zone3, "none", "up to 8 Zone-3 approach points, centroid fallback"),
+    "frontier": MethodSpec(_frontier, "rgbd", "depth-only occupancy grid, nearest-frontier exploration"),
 }
 
 
