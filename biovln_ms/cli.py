@@ -276,6 +276,18 @@ def eval_cmd(method: str = typer.Option(..., "--method", "-m", help="Baseline (r
                f"DTG {o['dtg']:.2f} m, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}% -> {cfg.run_dir}")
 
 
+@app.command()
+def report(results: Path = typer.Argument(Path("results"), help="Results folder of `biovln-ms eval`."),
+           out: Path = typer.Option(Path("report"), "-o", "--out", help="Report folder."),
+           dataset: Optional[Path] = typer.Option(None, help="Dataset the results were made on (default dataset if omitted)."),
+           videos: int = typer.Option(1, help="How many episode MP4s to record."),
+           hard: int = typer.Option(2, help="How many hard-episode figures (re-runs frontier).")) -> None:
+    """Write the report: the paper's tables with its numbers beside ours, McNemar tests, plots, renders, MP4s."""
+    from biovln_ms.eval.report import write_report
+
+    write_report(results, out, str(dataset) if dataset else None, videos, hard, typer.echo)
+
+
 def main() -> None:
     """Entry point: user-facing errors print as one clear line, not a traceback."""
     try:

@@ -7,14 +7,9 @@ from pathlib import Path
 
 
 def make_policy(name: str):
-    from biovln_ms.agents.oracle import OraclePolicy
+    from biovln_ms.eval.methods import method_spec
 
-    policies = {"oracle": OraclePolicy}
-    if name not in policies:
-        from biovln_ms.errors import BioVLNError
-
-        raise BioVLNError(f"unknown policy '{name}'", field="policy", fix=f"use one of: {', '.join(policies)}")
-    return policies[name]()
+    return method_spec(name).factory()
 
 
 def record_episode(out: Path, split: str | None = "ms_val", episode: int = 0, policy: str = "oracle",
@@ -26,7 +21,7 @@ def record_episode(out: Path, split: str | None = "ms_val", episode: int = 0, po
     import biovln_ms  # noqa: F401
     from biovln_ms.render.video import MapCanvas, side_by_side, write_mp4
 
-    env = gym.make(env_id, split=split, dataset=dataset, obs_mode="rgb", camera_width=size[0], camera_height=size[1],
+    env = gym.make(env_id, split=split, dataset=dataset, obs_mode="rgbd", camera_width=size[0], camera_height=size[1],
                    sim_backend="physx_cpu", render_backend="cpu")
     try:
         obs, info = env.reset(options={"episode_index": episode})

@@ -80,3 +80,25 @@ def test_cli_eval_and_unknown_method(dataset, tmp_path):
     assert "zone3_oracle on ms_val: 8 episodes" in r.stdout
     r = subprocess.run([*exe, "--method", "telepathy", "--dataset", dataset, "-o", str(tmp_path)], capture_output=True, text=True)
     assert r.returncode == 2 and "unknown method 'telepathy'" in r.stderr and "random, oracle" in r.stderr
+
+
+def test_report_has_the_paper_tables_figures_and_a_video(dataset, tmp_path):
+    from biovln_ms.eval.report import write_report
+
+    for m in ("oracle", "random", "frontier"):
+        evaluate(EvalConfig(m, "ms_val", str(tmp_path / "res"), dataset, workers=1, max_episodes=4), progress=False)
+    evaluate(EvalConfig("frontier", "ms_val", str(tmp_path / "res"), dataset, workers=1, max_episodes=4,
+                        env_id="BioVLN-Centroid-v0"), progress=False)
+    md = write_report(tmp_path / "res", tmp_path / "rep", dataset=dataset, videos=1, hard_figures=1, echo=lambda *_: None)
+    text = md.read_text()
+    for heading in ("Table 5 layout", "Table 10 layout", "Table 6 layout", "Table 9 layout", "Table 11 layout",
+                    "Pairwise McNemar", "differ from the paper"):
+        assert heading in text, heading
+    assert "| Oracle | – (71.9)" in text  # paper numbers beside ours
+    figs = {p.name for p in (tmp_path / "rep" / "figures").iterdir()}
+    assert {"sr_by_method.png", "safety.png", "trajectories_oracle_ms_val.png"} <= figs
+    assert any(f.startswith("hard_") for f in figs)
+    assert len(list((tmp_path / "rep" / "videos").glob("*.mp4"))) == 1
+    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "report", str(tmp_path / "nothing"), "-o", str(tmp_path / "x")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "no results under" in r.stderr
