@@ -130,6 +130,8 @@ def _run(index: int) -> dict:
             "stopped": bool(info["stopped"]), "truncated": bool(trunc),
             "actions": actions, "positions": positions, "headings": headings, "clearance": clearance, "zone2": zone2,
         }
+        if hasattr(policy, "episode_stats"):
+            rec["policy_stats"] = policy.episode_stats()
     except Exception as e:  # recorded; the run goes on with the next episode
         rec = {"error": f"{type(e).__name__}: {e}"}
         ep = ep or u.source.episodes[index]
@@ -148,7 +150,9 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
 
     from biovln_ms.episodes.source import DatasetEpisodes
 
-    method_spec(cfg.method)
+    spec = method_spec(cfg.method)
+    if spec.preflight:
+        spec.preflight()
     source = DatasetEpisodes(cfg.split, cfg.dataset)
     episodes = source.episodes[: cfg.max_episodes] if cfg.max_episodes else source.episodes
     run_dir = cfg.run_dir

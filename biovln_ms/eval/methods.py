@@ -13,6 +13,13 @@ class MethodSpec:
     factory: Callable
     obs_mode: str  # what the policy reads: "none" for privileged oracles, "rgbd" for mapping methods
     description: str
+    preflight: Callable[[], None] | None = None  # raises a clear error when the method cannot run here
+
+
+def _llm_preflight() -> None:
+    from biovln_ms.llm.client import LLMConfig
+
+    LLMConfig.from_env()
 
 
 def _random(**kw):
@@ -39,11 +46,19 @@ def _frontier(**kw):
     return FrontierPolicy(**kw)
 
 
+def _llm_frontier(**kw):
+    from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
+
+    return LLMFrontierPolicy(**kw)  # raises LLMConfigError without a configured endpoint
+
+
 METHODS: dict[str, MethodSpec] = {
     "random": MethodSpec(_random, "none", "uniform forward/left/right, 5 % stop per step"),
     "oracle": MethodSpec(_oracle, "none", "exact geodesic path to the snapped goal"),
     "zone3_oracle": MethodSpec(_zone3, "none", "up to 8 Zone-3 approach points, centroid fallback"),
     "frontier": MethodSpec(_frontier, "rgbd", "depth-only occupancy grid, nearest-frontier exploration"),
+    "llm_frontier": MethodSpec(_llm_frontier, "rgbd", "frontier + LLM choice among near-equidistant frontiers",
+                               _llm_preflight),
 }
 
 

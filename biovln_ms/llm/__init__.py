@@ -1,0 +1,1 @@
+"""LLM access through any OpenAI-compatible endpoint (DeepSeek by default)."""

@@ -1,0 +1,146 @@
+"""The LLM client and LLM-Frontier against a local OpenAI-compatible server on loopback."""
+
+import json
+import logging
+import subprocess
+import sys
+import threading
+import time
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+import numpy as np
+import pytest
+
+from biovln_ms.llm.client import JSONChatClient, LLMConfig, LLMConfigError
+
+SECRET = "sk-test-secret-123"
+
+
+class FakeOpenAI(BaseHTTPRequestHandler):
+    def do_POST(self):
+        body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
+        self.server.requests.append({"path": self.path, "body": body, "auth": self.headers.get("Authorization")})
+        mode = self.server.mode
+        if mode == "slow":
+            time.sleep(1.5)
+        content = {"choice1": '{"choice": 1}', "garbage": "I would go left", "out_of_range": '{"choice": 7}',
+                   "slow": '{"choice": 0}', "zero": '{"choice": 0}'}[mode]
+        payload = {"id": "x", "object": "chat.completion", "created": 0, "model": body["model"],
+                   "choices": [{"index": 0, "finish_reason": "stop", "message": {"role": "assistant", "content": content}}],
+                   "usage": {"prompt_tokens": 1, "completion_tokens": 1, "total_tokens": 2}}
+        data = json.dumps(payload).encode()
+        self.send_response(200)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(data)))
+        self.end_headers()
+        self.wfile.write(data)
+
+    def log_message(self, *args):
+        pass
+
+
+@pytest.fixture
+def server():
+    srv = ThreadingHTTPServer(("127.0.0.1", 0), FakeOpenAI)
+    srv.requests, srv.mode = [], "choice1"
+    t = threading.Thread(target=srv.serve_forever, daemon=True)
+    t.start()
+    yield srv
+    srv.shutdown()
+
+
+def client_for(srv, **kw):
+    cfg = LLMConfig(f"http://127.0.0.1:{srv.server_address[1]}/v1", "deepseek-chat", SECRET, timeout=1.0, max_retries=0)
+    return JSONChatClient(cfg, **kw)
+
+
+def test_json_answer_temperature_zero_and_cache(server, tmp_path, caplog):
+    caplog.set_level(logging.DEBUG)
+    c = client_for(server, cache_path=tmp_path / "cache.jsonl")
+    ok = lambda o: isinstance(o.get("choice"), int)  # noqa: E731
+    assert c.ask("sys", "which?", ok) == {"choice": 1}
+    req = server.requests[0]
+    assert req["path"] == "/v1/chat/completions" and req["auth"] == f"Bearer {SECRET}"
+    assert req["body"]["temperature"] == 0 and req["body"]["response_format"] == {"type": "json_object"}
+    assert c.ask("sys", "which?", ok) == {"choice": 1} and len(server.requests) == 1  # cached
+    assert c.stats.calls == 1 and c.stats.cache_hits == 1
+    c2 = client_for(server, cache_path=tmp_path / "cache.jsonl")  # the cache persists
+    assert c2.ask("sys", "which?", ok) == {"choice": 1} and len(server.requests) == 1
+    assert SECRET not in repr(c.config) and SECRET not in caplog.text
+
+
+def test_garbage_out_of_range_timeout_and_down_are_counted(server):
+    c = client_for(server)
+    valid = lambda o: isinstance(o.get("choice"), int) and 0 <= o["choice"] < 3  # noqa: E731
+    server.mode = "garbage"
+    assert c.ask("s", "a", valid) is None
+    server.mode = "out_of_range"
+    assert c.ask("s", "b", valid) is None
+    server.mode = "slow"
+    assert c.ask("s", "c", valid) is None
+    assert c.stats.failure_kinds["not_json"] == 1 and c.stats.failure_kinds["invalid_answer"] == 1
+    assert c.stats.failures == 3
+    port = server.server_address[1]
+    server.shutdown()
+    server.server_close()
+    down = JSONChatClient(LLMConfig(f"http://127.0.0.1:{port}/v1", "m", SECRET, timeout=0.5, max_retries=0))
+    assert down.ask("s", "d") is None and down.stats.failures == 1
+
+
+def test_no_endpoint_refuses_clearly(monkeypatch, tmp_path):
+    monkeypatch.delenv("BIOVLN_LLM_API_KEY", raising=False)
+    monkeypatch.delenv("DEEPSEEK_API_KEY", raising=False)
+    with pytest.raises(LLMConfigError, match="no LLM endpoint configured"):
+        LLMConfig.from_env()
+    env = {k: v for k, v in __import__("os").environ.items() if k not in ("BIOVLN_LLM_API_KEY", "DEEPSEEK_API_KEY")}
+    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "eval", "--method", "llm_frontier", "--split", "ms_val",
+                        "-o", str(tmp_path)], capture_output=True, text=True, env=env)
+    assert r.returncode == 2 and "LLM-Frontier numbers are not reported" in r.stderr
+
+
+class _Stub:
+    def __init__(self, answer):
+        self.answer, self.prompts = answer, []
+
+    def ask(self, system, user, validate):
+        self.prompts.append(json.loads(user))
+        return self.answer if self.answer is not None and validate(self.answer) else None
+
+
+def test_choice_among_near_equidistant_frontiers():
+    from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
+
+    cands = [(2.0, np.array([1.0, 1.0]), 20), (2.5, np.array([5.0, 1.0]), 30), (2.9, np.array([1.0, 5.0]), 15),
+             (6.0, np.array([9.0, 9.0]), 40)]
+    pol = LLMFrontierPolicy(client=_Stub({"choice": 2}))
+    pol.category = "refrigerator"
+    assert np.allclose(pol.choose(cands, np.array([0.0, 0.0, 0.0])), [1.0, 5.0])
+    prompt = pol.client.prompts[0]
+    assert prompt["target_instrument"] == "refrigerator" and len(prompt["frontiers"]) == 3  # top-3 within 1 m
+    pol = LLMFrontierPolicy(client=_Stub({"choice": 9}))  # invalid -> nearest, counted
+    pol.category = "cabinet"
+    assert np.allclose(pol.choose(cands, np.zeros(3)), [1.0, 1.0]) and pol.fallbacks == 1
+    pol = LLMFrontierPolicy(client=_Stub({"choice": 0}))
+    pol.category = "cabinet"
+    assert np.allclose(pol.choose(cands[:1] + cands[3:], np.zeros(3)), [1.0, 1.0]) and pol.consulted == 0
+
+
+def test_llm_frontier_runs_an_episode_against_the_local_server(server):
+    import gymnasium as gym
+
+    import biovln_ms  # noqa: F401
+    from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
+
+    server.mode = "zero"
+    env = gym.make("BioVLN-OpFace-v0", obs_mode="rgbd", camera_width=320, camera_height=240, sim_backend="physx_cpu",
+                   render_backend="cpu")
+    pol = LLMFrontierPolicy(client=client_for(server))
+    obs, info = env.reset(seed=3)
+    pol.reset({"env": env.unwrapped, "episode": env.unwrapped.current_episode})
+    for _ in range(500):
+        obs, _, term, trunc, info = env.step(pol.act(obs, info))
+        if bool(term) or bool(trunc):
+            break
+    env.close()
+    assert bool(term) or bool(trunc)
+    assert pol.episode_stats()["llm_consulted"] == len(server.requests) + pol.client.stats.cache_hits
