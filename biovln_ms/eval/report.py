@@ -156,6 +156,12 @@ def differences(runs) -> list[str]:
             "- Our episodes are shorter (MS DEV 75 % easy vs 11.9 %): the start rule (>= 1.0 m from every body and wall) leaves "
             "only the middle of an 8 x 6 m room, close to every goal; see README.",
             "- Success radii and approach distances are our documented choices within the paper's ranges (0.8-1.3 m, 0.5-0.9 m).",
+            "- Random: the paper states a 5 % STOP probability per step, which ends episodes after ~20 steps on average, yet "
+            "its Table 10 reports 382-427 steps for successful random episodes; we follow the stated rule, so our random "
+            "episodes are short and succeed less often.",
+            "- Safety across layouts: our Two-Room rooms are compact (a 3.5 x 3.5 m room holds an incubator, a biosafety "
+            "cabinet and a lab table), so paths pass closer to instruments there than in the single room; the paper found "
+            "the opposite because its corridor kept paths away from instruments.",
             "- MCR/VRT: clearance from the robot's centre to instrument bodies (Zone 1), planar; the paper does not say whether "
             "its MCR subtracts the agent radius."]
     return out
