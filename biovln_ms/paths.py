@@ -9,7 +9,6 @@ import biovln_ms.assets as _assets_pkg
 ASSET_DIR: Path = Path(_assets_pkg.__file__).resolve().parent
 CATALOG_PATH: Path = ASSET_DIR / "catalog.json"
 COLLISION_DIR: Path = ASSET_DIR / "collision"
-MANIFEST_PATH: Path = ASSET_DIR / "manifest.json"
 
 
 def asset_glb(name: str) -> Path:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 from typing import Iterable, Sequence
 
-from shapely import prepared
 from shapely.geometry import MultiPolygon, Point, Polygon, box
 from shapely.ops import unary_union
 
@@ -44,6 +43,3 @@ def island_of(free: MultiPolygon, point: Sequence[float], tol: float = 1e-6) -> 
             return i
     return None
 
-
-def prepared_free(free: MultiPolygon):
-    return prepared.prep(free)

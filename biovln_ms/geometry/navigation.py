@@ -212,9 +212,6 @@ class NavGeometry:
         q = nearest_points(target, pt)[0]
         return np.array([q.x, q.y])
 
-    def largest_island(self) -> int:
-        return int(np.argmax([p.area for p in self.islands]))
-
     def _join(self, p: np.ndarray, isl: int) -> tuple[np.ndarray, np.ndarray]:
         idx = np.flatnonzero(self.vertex_island == isl)
         idx = idx[self._tangent(idx, np.repeat(p[None], len(idx), axis=0))]  # a shortest path bends only there
@@ -276,12 +273,6 @@ class NavGeometry:
             raise UnreachableError(f"no navigable path from {np.round(s, 3).tolist()} to {np.round(g, 3).tolist()} "
                                    f"for a {self.radius} m robot", fix="snap both points onto the same island first")
         return np.asarray(path)
-
-    def distance_field_clearance(self) -> np.ndarray:
-        """Per grid cell, the distance (m) to the nearest non-navigable cell (0 off the area)."""
-        from scipy.ndimage import distance_transform_edt
-
-        return distance_transform_edt(self.grid.free) * self.grid.resolution
 
 
 def scene_navigation(spec, radius: float | None = None, grid_resolution: float = 0.05) -> NavGeometry:
