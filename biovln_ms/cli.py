@@ -266,11 +266,14 @@ def eval_cmd(method: str = typer.Option(..., "--method", "-m", help="Baseline (r
              dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
              env_id: str = typer.Option("BioVLN-OpFace-v0", "--env", help="Env variant, e.g. BioVLN-Centroid-v0."),
              workers: Optional[int] = typer.Option(None, help="Worker processes (default: one per core)."),
-             max_episodes: Optional[int] = typer.Option(None, help="Only the first N episodes.")) -> None:
+             max_episodes: Optional[int] = typer.Option(None, help="Only the first N episodes."),
+             ray_address: Optional[str] = typer.Option(None, help="Run on Ray: 'local' (a local instance), 'auto' or "
+                                                                    "'ray://host:port' (a cluster); --workers actors.")) -> None:
     """Evaluate a method on a split: per-episode JSONL (resumable) and summary.json."""
     from biovln_ms.eval.harness import EvalConfig, evaluate
 
-    cfg = EvalConfig(method, split, str(out), str(dataset) if dataset else None, env_id, workers, max_episodes=max_episodes)
+    cfg = EvalConfig(method, split, str(out), str(dataset) if dataset else None, env_id, workers, max_episodes=max_episodes,
+                     ray_address=ray_address)
     o = evaluate(cfg, echo=typer.echo)["overall"]
     typer.echo(f"{cfg.run_name} on {split}: {o['episodes']} episodes, SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, "
                f"DTG {o['dtg']:.2f} m, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}% -> {cfg.run_dir}")

@@ -102,3 +102,16 @@ def test_report_has_the_paper_tables_figures_and_a_video(dataset, tmp_path):
     r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "report", str(tmp_path / "nothing"), "-o", str(tmp_path / "x")],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "no results under" in r.stderr
+
+
+def test_ray_local_instance_runs_and_resumes(dataset, tmp_path):
+    pytest.importorskip("ray")
+    cfg = EvalConfig("oracle", "ms_val", str(tmp_path), dataset, workers=2, max_episodes=5, ray_address="local")
+    evaluate(cfg, progress=False)
+    cfg.max_episodes = None
+    s = evaluate(cfg, progress=False)
+    recs = load_records(tmp_path / "oracle" / "ms_val" / "episodes.jsonl")
+    keys = [(r["scene_id"], r["episode_id"]) for r in recs]
+    assert len(keys) == len(set(keys)) == 8 and s["overall"]["episodes"] == 8
+    pool = evaluate(EvalConfig("oracle", "ms_val", str(tmp_path / "pool"), dataset, workers=1), progress=False)
+    assert pool["overall"]["sr"] == s["overall"]["sr"] and pool["overall"]["spl"] == pytest.approx(s["overall"]["spl"])

@@ -38,6 +38,7 @@ class EvalConfig:
     camera: tuple[int, int] = (640, 480)
     max_episodes: int | None = None
     method_kwargs: dict = field(default_factory=dict)
+    ray_address: str | None = None  # "local" starts a local Ray instance; "auto" or "ray://host:port" joins one
 
     @property
     def run_name(self) -> str:
@@ -185,6 +186,8 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
             finally:
                 _W["env"].close()
                 _W.clear()
+        elif todo and cfg.ray_address:
+            _run_on_ray(cfg.ray_address, wcfg, todo, workers, write)
         elif todo:
             import multiprocessing as mp
 
@@ -193,6 +196,47 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
                     write(rec)
     bar.close()
     return write_summary(cfg, len(episodes))
+
+
+class EpisodeRunner:
+    """A Ray actor: one env and one policy, running episodes by index (as a pool worker does)."""
+
+    def __init__(self, wcfg: dict) -> None:
+        _init_worker(wcfg)
+
+    def run(self, index: int) -> dict:
+        return _run(index)
+
+
+def _run_on_ray(address: str, wcfg: dict, todo: list[int], workers: int, write) -> None:
+    """Run episodes on Ray actors; results are written as they arrive, so resume works as with a pool."""
+    try:
+        import ray
+    except ImportError:
+        raise BioVLNError("--ray-address needs Ray", field="ray_address", fix="pip install 'biovln-ms[cluster]'") from None
+    started = not ray.is_initialized()
+    if started:
+        if address == "local":
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+        else:
+            ray.init(address=address, log_to_driver=False)
+    try:
+        runner = ray.remote(num_cpus=1)(EpisodeRunner)
+        actors = [runner.remote(wcfg) for _ in range(workers)]
+        queue = list(todo)
+        pending = {}
+        for actor in actors:
+            if queue:
+                pending[actor.run.remote(queue.pop(0))] = actor
+        while pending:
+            (ref,), _ = ray.wait(list(pending), num_returns=1)
+            actor = pending.pop(ref)
+            write(ray.get(ref))
+            if queue:
+                pending[actor.run.remote(queue.pop(0))] = actor
+    finally:
+        if started:
+            ray.shutdown()
 
 
 def write_summary(cfg: EvalConfig, expected: int) -> dict:
