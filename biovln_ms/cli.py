@@ -268,12 +268,14 @@ def eval_cmd(method: str = typer.Option(..., "--method", "-m", help="Baseline (r
              workers: Optional[int] = typer.Option(None, help="Worker processes (default: one per core)."),
              max_episodes: Optional[int] = typer.Option(None, help="Only the first N episodes."),
              ray_address: Optional[str] = typer.Option(None, help="Run on Ray: 'local' (a local instance), 'auto' or "
-                                                                    "'ray://host:port' (a cluster); --workers actors.")) -> None:
+                                                                    "'ray://host:port' (a cluster); --workers actors."),
+             record: Optional[Path] = typer.Option(None, "--record", help="Record trajectories (TrajectoryRecorder) here."),
+             record_mode: str = typer.Option("full", help="full (RGB PNGs + depth) or trace (positions/actions only).")) -> None:
     """Evaluate a method on a split: per-episode JSONL (resumable) and summary.json."""
     from biovln_ms.eval.harness import EvalConfig, evaluate
 
     cfg = EvalConfig(method, split, str(out), str(dataset) if dataset else None, env_id, workers, max_episodes=max_episodes,
-                     ray_address=ray_address)
+                     ray_address=ray_address, record_dir=str(record) if record else None, record_mode=record_mode)
     o = evaluate(cfg, echo=typer.echo)["overall"]
     typer.echo(f"{cfg.run_name} on {split}: {o['episodes']} episodes, SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, "
                f"DTG {o['dtg']:.2f} m, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}% -> {cfg.run_dir}")

@@ -39,6 +39,8 @@ class EvalConfig:
     max_episodes: int | None = None
     method_kwargs: dict = field(default_factory=dict)
     ray_address: str | None = None  # "local" starts a local Ray instance; "auto" or "ray://host:port" joins one
+    record_dir: str | None = None  # TrajectoryRecorder output (learning from the runs)
+    record_mode: str = "full"  # "full" (PNG frames + depth) or "trace" (positions, actions, goals only)
 
     @property
     def run_name(self) -> str:
@@ -92,9 +94,17 @@ def _init_worker(cfg: dict) -> None:
     torch.set_num_threads(1)
     spec = method_spec(cfg["method"])
     w, h = cfg["camera"]
-    env = gym.make(cfg["env_id"], split=cfg["split"], dataset=cfg["dataset"], obs_mode=spec.obs_mode,
+    recorder = None
+    obs_mode = spec.obs_mode
+    if cfg.get("record_dir"):
+        from biovln_ms.learning.recorder import TrajectoryRecorder
+
+        recorder = TrajectoryRecorder(cfg["record_dir"], cfg.get("record_mode", "full"))
+        if recorder.needs_images and obs_mode == "none":
+            obs_mode = "rgbd"
+    env = gym.make(cfg["env_id"], split=cfg["split"], dataset=cfg["dataset"], obs_mode=obs_mode,
                    camera_width=w, camera_height=h, sim_backend="physx_cpu", render_backend="cpu")
-    _W.update(env=env, policy=spec.factory(**cfg["method_kwargs"]), cfg=cfg)
+    _W.update(env=env, policy=spec.factory(**cfg["method_kwargs"]), cfg=cfg, recorder=recorder)
 
 
 def _r4(v) -> float:
@@ -102,7 +112,7 @@ def _r4(v) -> float:
 
 
 def _run(index: int) -> dict:
-    env, policy, cfg = _W["env"], _W["policy"], _W["cfg"]
+    env, policy, cfg, recorder = _W["env"], _W["policy"], _W["cfg"], _W.get("recorder")
     u = env.unwrapped
     t0 = time.perf_counter()
     ep = None
@@ -110,11 +120,15 @@ def _run(index: int) -> dict:
         obs, info = env.reset(options={"episode_index": index})
         ep = u.current_episode
         policy.reset({"env": u, "episode": ep})
+        if recorder is not None:
+            recorder.start(ep, u._ctx.goal)
         pose = u._planar()
         positions, headings = [[_r4(pose[0]), _r4(pose[1])]], [_r4(pose[2])]
         clearance, zone2, actions = [_r4(info["clearance"])], [bool(info["zone2_violation"])], []
         while True:
             a = int(policy.act(obs, info))
+            if recorder is not None:
+                recorder.step(len(actions), a, u._planar(), u._ctx.goal, float(info["distance_to_goal"]), obs)
             obs, _, term, trunc, info = env.step(a)
             pose = u._planar()
             actions.append(a)
@@ -133,6 +147,8 @@ def _run(index: int) -> dict:
         }
         if hasattr(policy, "episode_stats"):
             rec["policy_stats"] = policy.episode_stats()
+        if recorder is not None:
+            recorder.finish(rec["success"])
     except Exception as e:  # recorded; the run goes on with the next episode
         rec = {"error": f"{type(e).__name__}: {e}"}
         ep = ep or u.source.episodes[index]

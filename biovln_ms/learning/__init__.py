@@ -1,0 +1,1 @@
+"""Learning from trajectories: the recorder, the dataset, behavioural cloning and RL helpers."""
