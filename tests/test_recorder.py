@@ -38,7 +38,7 @@ def test_recorder_through_the_harness(dataset, tmp_path, mode):
         assert np.hypot(*s0["obs"]["heading"]) == pytest.approx(1.0, abs=1e-4)
         if mode == "full":
             img = Image.open(rec_dir / s0["obs"]["rgb_path"])
-            assert img.size == (160, 120)
+            assert img.size == (224, 224)
             assert decode_depth(s0["obs"]).shape == (60, 80)
         else:
             assert "rgb_path" not in s0["obs"] and "depth" not in s0["obs"]

@@ -4,7 +4,8 @@ Attached to the evaluation loop, it never changes the policy. Each entry holds t
 metadata and per-step records with the appendix's fields: ``step_idx``, ``action`` (0=STOP 1=FORWARD
 2=LEFT 3=RIGHT), ``obs.position`` [x, y, z], ``obs.heading`` [hx, hy], ``obs.goal_position`` [x, y],
 ``obs.rgb_path`` (full mode), ``obs.depth`` (base64 of a float16 depth array, full mode),
-``dist_to_goal`` and ``success``. Coordinates are this platform's world frame (Z up, metres), stated in
+``dist_to_goal`` and ``success``. Frames are stored at 224 x 224 (the BC input size) unless
+``image_size=None``; PNG by default, JPEG (quality 90) as an option. Coordinates are this platform's world frame (Z up, metres), stated in
 each entry as ``"frame": "z_up"`` (the paper's Habitat recorder was Y-up). Full mode writes RGB PNGs
 to ``images/`` beside the JSONL; trace-only mode writes no images.
 
@@ -29,7 +30,8 @@ MODES = ("full", "trace")
 
 
 class TrajectoryRecorder:
-    def __init__(self, root: str | Path, mode: str = "full", depth_size: tuple[int, int] = (80, 60)) -> None:
+    def __init__(self, root: str | Path, mode: str = "full", depth_size: tuple[int, int] = (80, 60),
+                 image_size: tuple[int, int] | None = (224, 224), image_format: str = "png") -> None:
         if mode not in MODES:
             from biovln_ms.errors import BioVLNError
 
@@ -37,6 +39,8 @@ class TrajectoryRecorder:
         self.root = Path(root)
         self.mode = mode
         self.depth_size = depth_size
+        self.image_size = image_size  # frames are stored at the BC input size by default (None: native)
+        self.image_format = image_format
         self.root.mkdir(parents=True, exist_ok=True)
         if mode == "full":
             (self.root / "images").mkdir(exist_ok=True)
@@ -64,9 +68,14 @@ class TrajectoryRecorder:
                "dist_to_goal": round(float(dist_to_goal), 4)}
         if self.mode == "full" and obs is not None:
             cam = obs["sensor_data"]["head"]
-            rgb = cam["rgb"][0].cpu().numpy()
-            name = f"{self._meta['scene_id']}_{self._meta['episode_id']}_{step_idx:04d}.png"
-            Image.fromarray(rgb).save(self.root / "images" / name, optimize=False, compress_level=6)
+            img = Image.fromarray(cam["rgb"][0].cpu().numpy())
+            if self.image_size is not None:
+                img = img.resize(self.image_size, Image.BILINEAR)
+            name = f"{self._meta['scene_id']}_{self._meta['episode_id']}_{step_idx:04d}.{self.image_format}"
+            if self.image_format == "png":
+                img.save(self.root / "images" / name, compress_level=6)
+            else:
+                img.save(self.root / "images" / name, quality=90)
             rec["obs"]["rgb_path"] = f"images/{name}"
             if "depth" in cam:
                 depth = cam["depth"][0, ..., 0].cpu().numpy().astype(np.float32) / 1000.0
