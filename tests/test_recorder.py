@@ -49,3 +49,15 @@ def test_truncated_last_member_is_skipped(tmp_path):
     p = tmp_path / "t.jsonl.gz"
     p.write_bytes(gzip.compress(b'{"a": 1}\n') + gzip.compress(b'{"b": 2}\n')[:-7])
     assert list(read_recordings(p)) == [{"a": 1}]
+
+
+def test_full_recordings_feed_the_trajectory_dataset(dataset, tmp_path):
+    from biovln_ms.learning.dataset import TrajectoryDataset, Transforms
+
+    rec_dir = tmp_path / "rec"
+    evaluate(EvalConfig("oracle", "ms_val", str(tmp_path / "res"), dataset, workers=1, camera=(160, 120),
+                        record_dir=str(rec_dir), record_mode="full"), progress=False)
+    ds = TrajectoryDataset(rec_dir, Transforms(hflip_p=0.5, brightness=0.05, position_noise=0.02), drop_stop=True)
+    item = ds[0]
+    assert item["image"].shape == (3, 224, 224) and abs(float(item["image"].mean())) < 3
+    assert item["goal"].shape == (4,) and int(item["action"]) in (1, 2, 3)

@@ -1,0 +1,161 @@
+"""TrajectoryDataset: a lazy torch Dataset over TrajectoryRecorder folders (appendix "Dataset
+Construction and Training").
+
+Each item is one recorded step: the RGB frame (full mode), the 4-d agent-centric goal vector
+[v0, v1] = unit direction to the goal in the agent frame (x forward, y left), v2 = distance (m),
+v3 = clip(distance / 5, 0, 1), and the action. Only an index (file, member offset and length, step)
+is kept in memory; a step's episode is decompressed on demand (a small cache keeps the last ones),
+so recordings larger than memory work. Transforms: resize, ImageNet normalisation, horizontal flip
+(which swaps LEFT and RIGHT and mirrors v1), brightness jitter, position noise; STOP steps can be
+dropped.
+"""
+
+from __future__ import annotations
+
+import json
+import zlib
+from collections import OrderedDict
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from PIL import Image
+
+from biovln_ms.agents.policy import TURN_LEFT, TURN_RIGHT
+from biovln_ms.errors import BioVLNError
+from biovln_ms.learning.recorder import RECORDER_VERSION
+
+IMAGENET_MEAN = (0.485, 0.456, 0.406)
+IMAGENET_STD = (0.229, 0.224, 0.225)
+
+
+class TrajectoryDataError(BioVLNError):
+    """Empty, mixed-version or otherwise unusable recordings."""
+
+
+@dataclass(frozen=True)
+class Transforms:
+    size: tuple[int, int] = (224, 224)
+    normalize: bool = True
+    hflip_p: float = 0.0
+    brightness: float = 0.0  # +- fraction, e.g. 0.05
+    position_noise: float = 0.0  # metres (std) added to the agent position before the goal vector
+
+
+def goal_vector(position, heading, goal) -> np.ndarray:
+    """[unit direction in the agent frame (x forward, y left), distance, clip(distance / 5, 0, 1)]."""
+    d = np.asarray(goal[:2], float) - np.asarray(position[:2], float)
+    hx, hy = heading
+    local = np.array([hx * d[0] + hy * d[1], -hy * d[0] + hx * d[1]])
+    dist = float(np.linalg.norm(d))
+    unit = local / dist if dist > 1e-9 else np.zeros(2)
+    return np.array([unit[0], unit[1], dist, min(max(dist / 5.0, 0.0), 1.0)], np.float32)
+
+
+def _members(path: Path):
+    """(offset, length) of each complete gzip member in a recording file."""
+    raw = path.read_bytes()
+    pos = 0
+    while pos < len(raw):
+        d = zlib.decompressobj(zlib.MAX_WBITS | 16)
+        try:
+            d.decompress(raw[pos:])
+        except zlib.error:
+            return
+        if not d.eof:
+            return
+        end = len(raw) - len(d.unused_data)
+        yield pos, end - pos
+        pos = end
+
+
+class TrajectoryDataset(torch.utils.data.Dataset):
+    def __init__(self, roots, transforms: Transforms = Transforms(), drop_stop: bool = False, success_only: bool = True,
+                 require_images: bool = True, seed: int = 0, cache_episodes: int = 8) -> None:
+        roots = [Path(r) for r in ([roots] if isinstance(roots, (str, Path)) else roots)]
+        self.t = transforms
+        self.require_images = require_images
+        self.rng = np.random.default_rng(seed)
+        self._cache: OrderedDict = OrderedDict()
+        self._cache_size = cache_episodes
+        self.index: list[tuple[Path, Path, int, int, int]] = []
+        versions, modes, episodes, successes = set(), set(), 0, 0
+        for root in roots:
+            files = sorted(root.glob("trajectories-*.jsonl.gz"))
+            if not files:
+                raise TrajectoryDataError("no recordings here", source=str(root),
+                                          fix="record some: biovln-ms eval --method frontier --split ms_dev --record DIR")
+            for f in files:
+                for off, length in _members(f):
+                    entry = self._load(f, off, length)
+                    versions.add(entry.get("recorder_version"))
+                    modes.add(entry.get("mode"))
+                    episodes += 1
+                    successes += bool(entry["success"])
+                    if success_only and not entry["success"]:
+                        continue
+                    for k, step in enumerate(entry["steps"]):
+                        if drop_stop and step["action"] == 0:
+                            continue
+                        self.index.append((root, f, off, length, k))
+        if versions != {RECORDER_VERSION}:
+            raise TrajectoryDataError(f"recordings of versions {sorted(map(str, versions))} (this build reads {RECORDER_VERSION})",
+                                      source=", ".join(map(str, roots)), field="recorder_version",
+                                      fix="re-record with this version of biovln-ms, or keep one version per dataset")
+        if require_images and "trace" in modes:
+            raise TrajectoryDataError("trace-only recordings have no images", source=", ".join(map(str, roots)),
+                                      field="mode", fix="record with --record-mode full, or pass require_images=False")
+        if success_only and successes == 0:
+            raise TrajectoryDataError(f"none of the {episodes} recorded episodes succeeded", source=", ".join(map(str, roots)),
+                                      fix="record a stronger policy, or pass success_only=False")
+        if not self.index:
+            raise TrajectoryDataError("no steps left after filtering", source=", ".join(map(str, roots)))
+        self.episodes, self.successful_episodes = episodes, successes
+
+    def _load(self, f: Path, off: int, length: int) -> dict:
+        key = (f, off)
+        if key in self._cache:
+            self._cache.move_to_end(key)
+            return self._cache[key]
+        with open(f, "rb") as fh:
+            fh.seek(off)
+            entry = json.loads(zlib.decompress(fh.read(length), zlib.MAX_WBITS | 16).decode())
+        self._cache[key] = entry
+        if len(self._cache) > self._cache_size:
+            self._cache.popitem(last=False)
+        return entry
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+    def actions(self) -> np.ndarray:
+        return np.array([self._load(f, off, n)["steps"][k]["action"] for _, f, off, n, k in self.index])
+
+    def __getitem__(self, i: int) -> dict:
+        root, f, off, length, k = self.index[i]
+        step = self._load(f, off, length)["steps"][k]
+        obs = step["obs"]
+        pos = np.asarray(obs["position"][:2], float)
+        if self.t.position_noise > 0:
+            pos = pos + self.rng.normal(0, self.t.position_noise, 2)
+        gv = goal_vector(pos, obs["heading"], obs["goal_position"])
+        action = int(step["action"])
+        flip = self.t.hflip_p > 0 and self.rng.random() < self.t.hflip_p
+        if flip:
+            gv[1] = -gv[1]
+            action = {TURN_LEFT: TURN_RIGHT, TURN_RIGHT: TURN_LEFT}.get(action, action)
+        item = {"goal": torch.from_numpy(gv), "action": torch.tensor(action, dtype=torch.long)}
+        if self.require_images:
+            img = Image.open(root / obs["rgb_path"]).convert("RGB")
+            if img.size != self.t.size[::-1]:
+                img = img.resize(self.t.size[::-1], Image.BILINEAR)
+            x = torch.from_numpy(np.asarray(img, np.float32) / 255.0).permute(2, 0, 1)
+            if flip:
+                x = torch.flip(x, dims=[2])
+            if self.t.brightness > 0:
+                x = (x * (1 + self.rng.uniform(-self.t.brightness, self.t.brightness))).clamp(0, 1)
+            if self.t.normalize:
+                x = (x - torch.tensor(IMAGENET_MEAN)[:, None, None]) / torch.tensor(IMAGENET_STD)[:, None, None]
+            item["image"] = x
+        return item
