@@ -199,9 +199,7 @@ class FrontierPolicy(Policy):
         while node >= 0:
             chain.append(node)
             node = pred[node]
-        cells = np.argwhere(idx >= 0)
-        order = np.argsort(idx[idx >= 0])
-        cells = cells[order]
+        cells = np.argwhere(idx >= 0)  # row-major, the order in which _plan_field numbered the nodes
         return [self.map.centre(cells[n] + lo) for n in chain[::-1]]
 
     def choose(self, candidates: list, pose) -> np.ndarray:
@@ -238,11 +236,8 @@ class FrontierPolicy(Policy):
         if blocked:  # contact the map missed (e.g. a low object): mark it and re-plan
             self.map.mark_occupied(p + (0.2 + self.res) * np.array([math.cos(yaw), math.sin(yaw)]))
             self._since_plan = 10 ** 6
-        if self.mode == "goal" and self.target is not None:
-            d = np.linalg.norm(self.target - p)
-            ahead = p + self.step_len * np.array([math.cos(yaw), math.sin(yaw)])
-            if d < self.step_len / 2:
-                return self._remember(p, STOP)
+        if self.mode == "goal" and self.target is not None and np.linalg.norm(self.target - p) < self.step_len / 2:
+            return self._remember(p, STOP)
         if self._since_plan >= self.replan_every or not self.path or (self.mode == "explore" and np.linalg.norm(self.target - p) < 0.3):
             self._replan(pose)
         self._since_plan += 1

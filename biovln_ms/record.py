@@ -24,26 +24,17 @@ def record_episode(out: Path, split: str | None = "ms_val", episode: int = 0, po
     env = gym.make(env_id, split=split, dataset=dataset, obs_mode="rgbd", camera_width=size[0], camera_height=size[1],
                    sim_backend="physx_cpu", render_backend="cpu")
     try:
-        obs, info = env.reset(options={"episode_index": episode})
+        from biovln_ms.eval.rollout import rollout
+
         u = env.unwrapped
-        pol = make_policy(policy)
-        pol.reset({"env": u, "episode": u.current_episode})
-        canvas = MapCanvas(u.scene_spec, size[1], goal=u._ctx.goal)
-        trail = [u._planar()[:2].copy()]
-        frames = []
-
-        def frame(o):
-            ego = o["sensor_data"]["head"]["rgb"][0].cpu().numpy()
-            return side_by_side(ego, canvas.frame(trail, u._planar()))
-
-        frames.append(frame(obs))
-        for _ in range(max_steps):
-            a = pol.act(obs, info)
-            obs, _, term, trunc, info = env.step(a)
+        frames, trail, canvas = [], [], None
+        for st in rollout(env, make_policy(policy), episode, max_steps):
+            if canvas is None:
+                canvas = MapCanvas(u.scene_spec, size[1], goal=u._ctx.goal)
             trail.append(u._planar()[:2].copy())
-            frames.append(frame(obs))
-            if bool(term) or bool(trunc):
-                break
+            ego = st.obs["sensor_data"]["head"]["rgb"][0].cpu().numpy()
+            frames.append(side_by_side(ego, canvas.frame(trail, u._planar())))
+            info = st.info
         write_mp4(frames, out, fps=fps)
         return {k: (v.item() if hasattr(v, "item") else v) for k, v in info.items() if k != "reconfigure"}
     finally:

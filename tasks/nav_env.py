@@ -252,11 +252,15 @@ class BioVLNNavEnv(BaseEnv):
         d = goal - pose[:2]
         rho = float(np.linalg.norm(d))
         phi = (math.atan2(d[1], d[0]) - pose[2] + math.pi) % (2 * math.pi) - math.pi
-        onehot = np.zeros(len(self.category_names), np.float32)
-        onehot[self.category_names.index(self._episode["object_category"])] = 1.0
         return dict(agent_pose=torch.tensor(pose[None], dtype=torch.float32, device=self.device),
                     goal_gps_compass=torch.tensor([[rho, phi]], dtype=torch.float32, device=self.device),
-                    target_category=torch.tensor(onehot[None], device=self.device))
+                    target_category=self._target_onehot())
+
+    def _target_onehot(self) -> torch.Tensor:
+        """(1, n_categories) one-hot of the episode's target category."""
+        onehot = np.zeros((1, len(self.category_names)), np.float32)
+        onehot[0, self.category_names.index(self._episode["object_category"])] = 1.0
+        return torch.from_numpy(onehot).to(self.device)
 
     # --- rewards (Eq. 5) -----------------------------------------------------------------------
     def _safety_penalty(self, clearance: float) -> float:

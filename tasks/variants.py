@@ -42,5 +42,4 @@ class OpFaceRLEnv(BioVLNNavEnv):
         local = np.array([c * d[0] + sn * d[1], -sn * d[0] + c * d[1]])
         clearance = float(info["clearance"][0]) if "clearance" in info else 0.0
         vec = np.concatenate([pose[:2] / s, [c, sn], goal / s, local / s, [min(clearance, 2.0) / 2.0]]).astype(np.float32)
-        onehot = super()._get_obs_extra(info)["target_category"]
-        return dict(state=torch.tensor(vec[None], device=self.device), target_category=onehot)
+        return dict(state=torch.tensor(vec[None], device=self.device), target_category=self._target_onehot())

@@ -60,7 +60,7 @@ class EpisodeSampler:
         self.nav = nav or scene_navigation(spec)
         self.min_start_clearance = min_start_clearance
         goals = {o.id: self.nav.island_of(self.nav.snap(o.goal)) for o in spec.goal_objects()}
-        self.island = self.nav.island_of(self.nav.snap(spec.goal_objects()[0].goal))
+        self.island = next(iter(goals.values()))
         obstacles = [o.placed().zone1() for o in spec.objects()]
         self._floor = floor_polygon(spec)
         self._obstacles = unary_union(obstacles)

@@ -18,6 +18,7 @@ from pathlib import Path
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import method_spec
 from biovln_ms.eval.metrics import aggregate_all
+from biovln_ms.eval.rollout import rollout
 from biovln_ms.io_utils import atomic_write_text
 
 DEFAULT_ENV = "BioVLN-OpFace-v0"
@@ -117,27 +118,24 @@ def _run(index: int) -> dict:
     t0 = time.perf_counter()
     ep = None
     try:
-        obs, info = env.reset(options={"episode_index": index})
-        ep = u.current_episode
-        policy.reset({"env": u, "episode": ep})
-        if recorder is not None:
-            recorder.start(ep, u._ctx.goal)
-        pose = u._planar()
-        positions, headings = [[_r4(pose[0]), _r4(pose[1])]], [_r4(pose[2])]
-        clearance, zone2, actions = [_r4(info["clearance"])], [bool(info["zone2_violation"])], []
-        while True:
-            a = int(policy.act(obs, info))
-            if recorder is not None:
-                recorder.step(len(actions), a, u._planar(), u._ctx.goal, float(info["distance_to_goal"]), obs)
-            obs, _, term, trunc, info = env.step(a)
-            pose = u._planar()
-            actions.append(a)
+        positions, headings, clearance, zone2, actions = [], [], [], [], []
+        pose = None
+        for st in rollout(env, policy, index):
+            before, pose = pose, u._planar()
+            if st.action is None:
+                ep = u.current_episode
+                if recorder is not None:
+                    recorder.start(ep, u._ctx.goal)
+            else:
+                if recorder is not None:  # the pose, distance and frame the policy acted on
+                    recorder.step(len(actions), st.action, before, u._ctx.goal, float(st.info_before["distance_to_goal"]),
+                                  st.obs_before)
+                actions.append(st.action)
             positions.append([_r4(pose[0]), _r4(pose[1])])
             headings.append(_r4(pose[2]))
-            clearance.append(_r4(info["clearance"]))
-            zone2.append(bool(info["zone2_violation"]))
-            if bool(term) or bool(trunc):
-                break
+            clearance.append(_r4(st.info["clearance"]))
+            zone2.append(bool(st.info["zone2_violation"]))
+            info, trunc = st.info, st.truncated
         rec = {
             "success": bool(info["success"]), "spl": float(info["spl"]), "soft_spl": float(info["soft_spl"]),
             "dtg": float(info["distance_to_goal"]), "steps": int(info["steps"]), "mcr": float(info["mcr"]),
@@ -175,14 +173,15 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
     run_dir = cfg.run_dir
     run_dir.mkdir(parents=True, exist_ok=True)
     path = run_dir / "episodes.jsonl"
-    done = {episode_key(r) for r in load_records(path) if not r.get("error")}
+    previous = load_records(path)
+    done = {episode_key(r) for r in previous if not r.get("error")}
     todo = [i for i, e in enumerate(episodes) if episode_key(e) not in done]
     if done:
         echo(f"resuming {cfg.run_name} on {cfg.split}: {len(done)} done, {len(todo)} to go")
     workers = max(1, min(cfg.workers or os.cpu_count() or 1, len(todo) or 1))
     wcfg = {k: v for k, v in asdict(cfg).items()}
     bar = tqdm(total=len(episodes), initial=len(done), desc=f"{cfg.run_name} {cfg.split}", disable=not progress)
-    n_ok = sum(1 for r in load_records(path) if r.get("success"))
+    n_ok = sum(1 for r in previous if r.get("success"))
     with open(path, "a") as f:
 
         def write(rec):

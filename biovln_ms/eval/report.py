@@ -16,6 +16,7 @@ import numpy as np  # noqa: E402
 from biovln_ms.eval import paper  # noqa: E402
 from biovln_ms.eval.harness import episode_key, load_records  # noqa: E402
 from biovln_ms.eval.metrics import aggregate, aggregate_all  # noqa: E402
+from biovln_ms.eval.rollout import rollout  # noqa: E402
 from biovln_ms.eval.stats import mcnemar  # noqa: E402
 
 SPLITS = ["ms_dev", "ms_val", "ms_test", "two_room", "lsat_target"]
@@ -234,16 +235,12 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
     env = gym.make("BioVLN-OpFace-v0", split=rec["split"], dataset=dataset, obs_mode="rgbd", sim_backend="physx_cpu",
                    render_backend="cpu")
     try:
-        obs, info = env.reset(options={"episode_index": rec["index"]})
         u = env.unwrapped
         pol = FrontierPolicy()
-        pol.reset({"env": u, "episode": u.current_episode})
-        traj = [u._planar()[:2].copy()]
-        for _ in range(500):
-            obs, _, term, trunc, info = env.step(pol.act(obs, info))
+        traj = []
+        for st in rollout(env, pol, rec["index"]):
             traj.append(u._planar()[:2].copy())
-            if bool(term) or bool(trunc):
-                break
+            info = st.info
         spec, nav = u.scene_spec, u.nav
         fig, ax = plt.subplots(figsize=(9, 7))
         draw_map(spec, ax, show_free=False)
