@@ -18,6 +18,7 @@ no frontier left and the goal never seen, it goes to the known free cell nearest
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
@@ -28,6 +29,22 @@ from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, Policy
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 _NEIGHBOURS = [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)]
+
+
+class Scan(NamedTuple):
+    """One depth frame as a laser scan: camera ground position, per-column unit direction, free length."""
+
+    cam: np.ndarray
+    direction: np.ndarray
+    free_len: np.ndarray
+
+
+def backproject(z: np.ndarray, u: np.ndarray, v: np.ndarray, intrinsic: np.ndarray, extrinsic: np.ndarray):
+    """World points (..., 3) of pixels (u, v) at depth z (OpenCV camera conventions), and the camera centre."""
+    fx, fy, cx, cy = intrinsic[0, 0], intrinsic[1, 1], intrinsic[0, 2], intrinsic[1, 2]
+    pc = np.stack([(u - cx) * z / fx, (v - cy) * z / fy, z], axis=-1)
+    R, t = extrinsic[:3, :3], extrinsic[:3, 3]
+    return (pc - t) @ R, -R.T @ t  # world = R^T (p - t)
 
 
 class OccupancyMap:
@@ -54,22 +71,18 @@ class OccupancyMap:
             self.hi = np.maximum(self.hi, rc.max(0) + 1)
 
     def integrate(self, depth_m: np.ndarray, intrinsic: np.ndarray, extrinsic: np.ndarray, stride: int = 8,
-                  clip: float = 10.0, floor_z: float = 0.05, top_z: float = 1.0, column_stride: int | None = None) -> None:
+                  clip: float = 10.0, floor_z: float = 0.05, top_z: float = 1.0, column_stride: int | None = None) -> Scan:
         """Add one depth frame. The camera is level, so every image column maps to one ground
         azimuth: per column the cells up to the nearest obstacle point are free (a laser scan from
         depth); every sampled pixel between ``floor_z`` and ``top_z`` marks an obstacle. Columns are
-        sampled densely enough (about 320 across the image) that rays 5 m away are ~2 cm apart."""
+        sampled densely enough (about 320 across the image) that rays 5 m away are ~2 cm apart.
+        Returns the scan (camera position, per-column ground direction and free length)."""
         h, w = depth_m.shape
         column_stride = column_stride or max(1, w // 320)
         v, u = np.mgrid[stride // 2:h:stride, column_stride // 2:w:column_stride]
         z = depth_m[v, u]
         hit = (z > 0) & (z <= clip)
-        zc = np.where(hit, z, clip)
-        fx, fy, cx, cy = intrinsic[0, 0], intrinsic[1, 1], intrinsic[0, 2], intrinsic[1, 2]
-        pc = np.stack([(u - cx) * zc / fx, (v - cy) * zc / fy, zc], axis=-1)
-        R, t = extrinsic[:3, :3], extrinsic[:3, 3]
-        pw = (pc - t) @ R  # world = R^T (p - t); shape (rows, cols, 3)
-        cam = -R.T @ t
+        pw, cam = backproject(np.where(hit, z, clip), u, v, intrinsic, extrinsic)
         d2 = np.linalg.norm(pw[..., :2] - cam[:2], axis=-1)
         obstacle = hit & (pw[..., 2] > floor_z) & (pw[..., 2] < top_z)
         nearest = np.where(obstacle, d2, np.inf).min(axis=0)
@@ -78,17 +91,25 @@ class OccupancyMap:
         # ground direction of each column (from its farthest point)
         direction = pw[-1, :, :2] - cam[:2]
         direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-9)
-        steps = np.maximum(1, (free_len / (self.res * 0.7)).astype(int))
-        owner = np.repeat(np.arange(len(steps)), steps)
-        frac = (np.arange(owner.size) - np.repeat(np.cumsum(steps) - steps, steps)) / np.repeat(steps, steps)
-        pts = cam[:2] + direction[owner] * (free_len[owner] * frac)[:, None]
-        rc = self._inside(self.cell(pts))
+        scan = Scan(cam[:2], direction, free_len)
+        rc, _ = self.ray_cells(scan)
         keep = self.grid[rc[:, 0], rc[:, 1]] != OCCUPIED
         self.grid[rc[keep, 0], rc[keep, 1]] = FREE
         orc = self._inside(self.cell(pw[obstacle][:, :2]))
         self.grid[orc[:, 0], orc[:, 1]] = OCCUPIED
         self._grow_bbox(rc)
         self._grow_bbox(orc)
+        return scan
+
+    def ray_cells(self, scan: Scan) -> tuple[np.ndarray, np.ndarray]:
+        """Grid cells (row, col) along each column's free ray, sampled at 0.7 cell, and the column of each."""
+        steps = np.maximum(1, (scan.free_len / (self.res * 0.7)).astype(int))
+        owner = np.repeat(np.arange(len(steps)), steps)
+        frac = (np.arange(owner.size) - np.repeat(np.cumsum(steps) - steps, steps)) / np.repeat(steps, steps)
+        pts = scan.cam + scan.direction[owner] * (scan.free_len[owner] * frac)[:, None]
+        rc = self.cell(pts)
+        ok = (rc[:, 0] >= 0) & (rc[:, 1] >= 0) & (rc[:, 0] < self.n) & (rc[:, 1] < self.n)
+        return rc[ok], owner[ok]
 
     def _inside(self, rc: np.ndarray) -> np.ndarray:
         return rc[(rc[:, 0] >= 0) & (rc[:, 1] >= 0) & (rc[:, 0] < self.n) & (rc[:, 1] < self.n)]
@@ -130,10 +151,10 @@ class FrontierPolicy(Policy):
         self.llm_calls = 0
 
     # --- map ---------------------------------------------------------------------------------
-    def _integrate(self, obs) -> None:
+    def _integrate(self, obs) -> Scan:
         depth = obs["sensor_data"]["head"]["depth"][0, ..., 0].cpu().numpy().astype(np.float32) / 1000.0
         params = obs["sensor_param"]["head"]
-        self.map.integrate(depth, params["intrinsic_cv"][0].cpu().numpy(), params["extrinsic_cv"][0].cpu().numpy(),
+        return self.map.integrate(depth, params["intrinsic_cv"][0].cpu().numpy(), params["extrinsic_cv"][0].cpu().numpy(),
                            self.stride, self.clip)
 
     def _crop(self):
@@ -206,24 +227,32 @@ class FrontierPolicy(Policy):
         """Nearest frontier by path length (LLM-Frontier overrides this)."""
         return min(candidates, key=lambda c: c[0])[1]
 
+    def _known_target(self, lo, g, trav, idx, dist) -> np.ndarray | None:
+        """Where to go instead of exploring: the goal, once its cell is known free and reachable."""
+        gc = self.map.cell(self.goal) - lo
+        if (0 <= gc).all() and (gc < np.array(g.shape)).all() and trav[gc[0], gc[1]] and np.isfinite(dist[idx[gc[0], gc[1]]]):
+            return self.goal
+        return None
+
+    def _exhausted(self, lo, trav, idx, dist, pose) -> np.ndarray:
+        """Nothing left to explore and the goal never seen: the reachable known free cell nearest the goal."""
+        cells = np.argwhere(trav & np.isfinite(np.where(idx >= 0, dist[np.maximum(idx, 0)], np.inf)))
+        if len(cells) == 0:
+            return pose[:2]
+        world = self.map.centre(cells + lo)
+        return world[np.argmin(np.linalg.norm(world - self.goal, axis=1))]
+
     def _replan(self, pose) -> None:
         lo, g, trav, idx, dist, pred = self._plan_field(pose[:2])
-        gc = self.map.cell(self.goal) - lo
-        goal_known = (0 <= gc).all() and (gc < np.array(g.shape)).all() and trav[gc[0], gc[1]] \
-            and np.isfinite(dist[idx[gc[0], gc[1]]])
-        if goal_known:
-            self.mode, self.target = "goal", self.goal
+        known = self._known_target(lo, g, trav, idx, dist)
+        if known is not None:
+            self.mode, self.target = "goal", known
         else:
             cands = self._frontier_targets(lo, g, trav, idx, dist)
             if cands:
                 self.mode, self.target = "explore", self.choose(cands, pose)
-            else:  # nothing left to explore: the known free cell nearest the goal
-                cells = np.argwhere(trav & np.isfinite(np.where(idx >= 0, dist[np.maximum(idx, 0)], np.inf)))
-                if len(cells) == 0:
-                    self.mode, self.target = "goal", pose[:2]
-                else:
-                    world = self.map.centre(cells + lo)
-                    self.mode, self.target = "goal", world[np.argmin(np.linalg.norm(world - self.goal, axis=1))]
+            else:
+                self.mode, self.target = "goal", self._exhausted(lo, trav, idx, dist, pose)
         self.path = self._path_to(lo, idx, pred, self.target)
         self._since_plan = 0
 

@@ -20,6 +20,15 @@ scene_app = typer.Typer(help="Generate, validate, map, render and export lab sce
 app.add_typer(scene_app, name="scene")
 dataset_app = typer.Typer(help="Build and inspect the episode datasets (paper Tables 3, 4, 12, 13).", no_args_is_help=True)
 app.add_typer(dataset_app, name="dataset")
+lsat_app = typer.Typer(help="Designer-authored scenes (LSAT): import a GLB with target_* markers, export goals / "
+                            "LSAT format / USD.", no_args_is_help=True)
+app.add_typer(lsat_app, name="lsat")
+layout_app = typer.Typer(help="LLM-assisted layout design: a description (or a structured request) -> a valid scene spec.",
+                         no_args_is_help=True)
+app.add_typer(layout_app, name="layout")
+train_app = typer.Typer(help="Train learned policies: behavioural cloning (bc) and RL with Stable-Baselines3 "
+                             "(ppo, a2c, sac).", no_args_is_help=True)
+app.add_typer(train_app, name="train")
 console = Console(stderr=True)
 
 
@@ -264,18 +273,29 @@ def eval_cmd(method: str = typer.Option(..., "--method", "-m", help="Baseline (r
              split: str = typer.Option("ms_dev", "--split", "-s", help="Dataset split."),
              out: Path = typer.Option(Path("results"), "--out", "-o", help="Results folder."),
              dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
-             env_id: str = typer.Option("BioVLN-OpFace-v0", "--env", help="Env variant, e.g. BioVLN-Centroid-v0."),
+             env_id: Optional[str] = typer.Option(None, "--env", help="Env variant, e.g. BioVLN-Centroid-v0 (default: "
+                                                                      "BioVLN-OpFace-v0; the RL variant for ppo/a2c/sac)."),
              workers: Optional[int] = typer.Option(None, help="Worker processes (default: one per core)."),
              max_episodes: Optional[int] = typer.Option(None, help="Only the first N episodes."),
              ray_address: Optional[str] = typer.Option(None, help="Run on Ray: 'local' (a local instance), 'auto' or "
                                                                     "'ray://host:port' (a cluster); --workers actors."),
              record: Optional[Path] = typer.Option(None, "--record", help="Record trajectories (TrajectoryRecorder) here."),
-             record_mode: str = typer.Option("full", help="full (RGB PNGs + depth) or trace (positions/actions only).")) -> None:
+             record_mode: str = typer.Option("full", help="full (RGB PNGs + depth) or trace (positions/actions only)."),
+             checkpoint: Optional[Path] = typer.Option(None, help="Checkpoint of a learned method (bc: bc.pt; ppo: a "
+                                                                  "Stable-Baselines3 .zip)."),
+             detector: Optional[str] = typer.Option(None, help="vlfm: 'gt' (default, simulator segmentation) or "
+                                                                "'owlvit:/local/dir'."),
+             scorer: Optional[str] = typer.Option(None, help="vlfm: 'default' (packaged EfficientNet-Lite0 + MiniLM) or "
+                                                             "'clip:/local/dir'."),
+             name: Optional[str] = typer.Option(None, help="Results folder name (default: the method).")) -> None:
     """Evaluate a method on a split: per-episode JSONL (resumable) and summary.json."""
     from biovln_ms.eval.harness import EvalConfig, evaluate
 
+    given = {"checkpoint": str(checkpoint) if checkpoint else None, "detector": detector, "scorer": scorer}
+    kwargs = {k: v for k, v in given.items() if v is not None}
     cfg = EvalConfig(method, split, str(out), str(dataset) if dataset else None, env_id, workers, max_episodes=max_episodes,
-                     ray_address=ray_address, record_dir=str(record) if record else None, record_mode=record_mode)
+                     ray_address=ray_address, record_dir=str(record) if record else None, record_mode=record_mode,
+                     method_kwargs=kwargs, name=name)
     o = evaluate(cfg, echo=typer.echo)["overall"]
     typer.echo(f"{cfg.run_name} on {split}: {o['episodes']} episodes, SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, "
                f"DTG {o['dtg']:.2f} m, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}% -> {cfg.run_dir}")
@@ -291,6 +311,162 @@ def report(results: Path = typer.Argument(Path("results"), help="Results folder 
     from biovln_ms.eval.report import write_report
 
     write_report(results, out, str(dataset) if dataset else None, videos, hard, typer.echo)
+
+
+@lsat_app.command("import")
+def lsat_import(glb: Path = typer.Argument(..., help="Designer GLB (Blender export, +Y up)."),
+                out: Path = typer.Option(..., "-o", "--out", help="Scene spec JSON to write."),
+                report: Optional[Path] = typer.Option(None, help="Coverage report (Markdown); default beside --out."),
+                name: Optional[str] = typer.Option(None, help="Scene name (default: the GLB's file name)."),
+                allow_external: bool = typer.Option(False, help="Read buffers/images referenced beside the GLB "
+                                                                "(never outside its folder).")) -> None:
+    """Import a designer-authored GLB (paper P1): markers (strategy 1), geometry + Eq. 1 (strategy 2)."""
+    from biovln_ms.io_utils import atomic_write_text
+    from biovln_ms.lsat.importer import import_glb
+
+    spec, rep = import_glb(glb, name=name, allow_external=allow_external)
+    atomic_write_text(out, spec.to_json())
+    rpath = report or out.with_suffix(".report.md")
+    atomic_write_text(rpath, rep.to_markdown())
+    c = rep.coverage()
+    typer.echo(f"wrote {out}: {c['instruments_found']} instruments, goals from markers {c['goals_strategy1']}, "
+               f"from Eq. 1 {c['goals_strategy2']}, missing {len(c['missing'])}, {len(rep.warnings)} warning(s) -> {rpath}")
+
+
+@lsat_app.command("export")
+def lsat_export(spec_path: Path = typer.Argument(..., help="Scene spec JSON (imported or procedural)."),
+                goals: Optional[Path] = typer.Option(None, help="BioVLN goal JSON to write."),
+                lsat: Optional[Path] = typer.Option(None, help="LSAT intermediate-format JSON to write."),
+                usd: Optional[Path] = typer.Option(None, help="USD stage to write (.usda text, .usd/.usdc binary).")) -> None:
+    """Export a scene's goals (BioVLN JSON), the LSAT intermediate format and/or a USD stage for Isaac Sim."""
+    from biovln_ms.lsat.exporters import goal_json, lsat_json, write_json, write_usd
+    from biovln_ms.scene.spec import load_spec
+
+    if not (goals or lsat or usd):
+        raise BioVLNError("nothing to export", field="--goals/--lsat/--usd", fix="name at least one output file")
+    spec = load_spec(spec_path)
+    for path, write in ((goals, lambda p: write_json(goal_json(spec), p)), (lsat, lambda p: write_json(lsat_json(spec), p)),
+                        (usd, lambda p: write_usd(spec, p))):
+        if path:
+            typer.echo(f"wrote {write(path)}")
+
+
+@lsat_app.command("blender-addon")
+def lsat_blender_addon(out: Path = typer.Option(Path("biovln_lsat.zip"), "-o", "--out", help="Zip to write.")) -> None:
+    """Package the Blender add-on (Edit > Preferences > Add-ons > Install from Disk)."""
+    import io
+    import zipfile
+
+    from biovln_ms.io_utils import atomic_write_bytes
+
+    src = Path(__file__).parent / "lsat" / "blender_addon" / "biovln_lsat"
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
+        for f in sorted(src.glob("*.py")):
+            z.writestr(zipfile.ZipInfo(f"biovln_lsat/{f.name}", (1980, 1, 1, 0, 0, 0)), f.read_bytes())
+    typer.echo(f"wrote {atomic_write_bytes(out, buf.getvalue())} (install it from Blender's add-on preferences)")
+
+
+@lsat_app.command("build-target")
+def lsat_build_target(out: Path = typer.Option(None, "-o", "--out", help="GLB to write (default: the shipped one).")) -> None:
+    """Regenerate the LSAT Target scene GLB (the designer's layout; deterministic bytes)."""
+    from biovln_ms.lsat.designer_scene import target_glb_path, write_target_glb
+
+    typer.echo(f"wrote {write_target_glb(out or target_glb_path())}")
+
+
+def _write_layout(spec, notes, out: Path, map_png: Optional[Path]) -> None:
+    from biovln_ms.io_utils import atomic_write_text
+
+    atomic_write_text(out, spec.to_json())
+    for n in notes:
+        typer.echo(f"note: {n}")
+    if map_png:
+        from biovln_ms.scene.topdown import save_map
+
+        save_map(spec, map_png)
+    typer.echo(f"wrote {out}: {len(spec.instruments)} instruments, {len(spec.furniture)} furniture; passes every generator rule")
+
+
+@layout_app.command("solve")
+def layout_solve(request: Path = typer.Argument(..., help="Layout request (YAML or JSON; schema: biovln_ms/lsat/layout.py)."),
+                 out: Path = typer.Option(..., "-o", "--out", help="Scene spec JSON to write."),
+                 map_png: Optional[Path] = typer.Option(None, "--map", help="Also write its top-down map.")) -> None:
+    """Offline: lay out a structured request with our placement solver."""
+    from biovln_ms.lsat.layout import load_request, solve_layout
+
+    spec, notes = solve_layout(load_request(request))
+    _write_layout(spec, notes, out, map_png)
+
+
+@layout_app.command("suggest")
+def layout_suggest(description: str = typer.Argument(..., help='e.g. "a cell-culture room with two incubators and a BSC"'),
+                   out: Path = typer.Option(..., "-o", "--out", help="Scene spec JSON to write."),
+                   request_out: Optional[Path] = typer.Option(None, help="Also keep the LLM's request (JSON) to edit and re-solve."),
+                   map_png: Optional[Path] = typer.Option(None, "--map", help="Also write its top-down map.")) -> None:
+    """Ask the LLM (BIOVLN_LLM_* endpoint) for a layout request, validate it, and solve it."""
+    from biovln_ms.io_utils import atomic_write_text
+    from biovln_ms.lsat.layout import request_json, solve_layout, suggest_request
+
+    req = suggest_request(description)
+    if request_out:
+        atomic_write_text(request_out, request_json(req))
+    spec, notes = solve_layout(req)
+    _write_layout(spec, notes, out, map_png)
+
+
+@train_app.command("bc")
+def train_bc_cmd(data: list[Path] = typer.Option(..., "--data", help="Recording folder(s) of `eval --record` (repeatable)."),
+                 out: Path = typer.Option(Path("ckpt/bc"), "--out", "-o", help="Folder for bc.pt, loss.png, history.json."),
+                 epochs: int = typer.Option(500, help="Maximum epochs (the paper: 500)."),
+                 patience: int = typer.Option(50, help="Early-stopping patience in epochs (the paper: 50)."),
+                 batch_size: int = typer.Option(32, help="Batch size (the paper: 32)."),
+                 lr: float = typer.Option(1e-4, help="Adam learning rate (the paper: 1e-4)."),
+                 image_size: int = typer.Option(224, help="Input size in pixels (the paper: 224)."),
+                 max_minutes: Optional[float] = typer.Option(None, help="Wall-clock budget; stops after the epoch past it."),
+                 pretrained: Optional[Path] = typer.Option(None, help="torchvision-layout ResNet-18 state dict to start from."),
+                 seed: int = typer.Option(0, help="Seed of the split, the shuffling and the initial weights.")) -> None:
+    """Behavioural cloning on recorded trajectories (appendix, Table 17)."""
+    from biovln_ms.learning.bc import BCConfig, train_bc
+
+    cfg = BCConfig(lr=lr, batch_size=batch_size, max_epochs=epochs, patience=patience, image_size=image_size,
+                   max_minutes=max_minutes, pretrained=str(pretrained) if pretrained else None, seed=seed)
+    r = train_bc(data, out, cfg, echo=typer.echo)
+    typer.echo(f"best epoch {r.best_epoch} (val loss {r.best_val_loss:.4f}) of {r.epochs}, {r.stopped_by}, "
+               f"{r.minutes:.1f} min -> {r.checkpoint}")
+
+
+def _train_rl(algo: str, timesteps: int, out: Optional[Path], n_envs: int, split: str, eval_split: str,
+              eval_episodes: Optional[int], seed: int, ray_address: Optional[str], dataset: Optional[Path]) -> None:
+    from biovln_ms.learning.rl import RLConfig, train_rl
+
+    cfg = RLConfig(algo=algo, timesteps=timesteps, n_envs=n_envs, split=split, seed=seed, ray_address=ray_address,
+                   eval_split=eval_split or None, eval_episodes=eval_episodes, dataset=str(dataset) if dataset else None)
+    r = train_rl(cfg, out or Path(f"runs/{algo}"), echo=typer.echo)
+    if r.eval_summary:
+        o = r.eval_summary["overall"]
+        typer.echo(f"{algo} on {eval_split}: SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}%")
+
+
+def _rl_command(algo: str):
+    def command(timesteps: int = typer.Option(200_000, "--timesteps", "-t", help="Environment steps to train for."),
+                out: Optional[Path] = typer.Option(None, "--out", "-o", help=f"Run folder (default runs/{algo})."),
+                n_envs: int = typer.Option(2, help="Parallel envs (one process or Ray actor each)."),
+                split: str = typer.Option("train", help="Training split."),
+                eval_split: str = typer.Option("ms_val", help="Split evaluated through the harness afterwards ('' skips)."),
+                eval_episodes: Optional[int] = typer.Option(None, help="Only the first N evaluation episodes."),
+                seed: int = typer.Option(0, help="Seed."),
+                ray_address: Optional[str] = typer.Option(None, help="Envs on Ray actors: 'local', 'auto' or 'ray://host:port'."),
+                dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use).")) -> None:
+        _train_rl(algo, timesteps, out, n_envs, split, eval_split, eval_episodes, seed, ray_address, dataset)
+
+    command.__doc__ = (f"{algo.upper()} (Stable-Baselines3) on BioVLN-OpFace-RL-v0: TensorBoard logs, checkpoints, "
+                       "learning curve, then evaluation through the harness.")
+    return command
+
+
+for _algo in ("ppo", "a2c", "sac"):
+    train_app.command(_algo)(_rl_command(_algo))
 
 
 def main() -> None:

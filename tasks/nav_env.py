@@ -56,7 +56,7 @@ class NavTaskConfig:
     step_penalty: float = 0.01
     safety_penalty: float = 0.05
     proportional_safety: bool = False  # RL variant: penalty * (1 - clearance / 0.5)
-    shuffle_episodes: bool = False  # RL variant: shuffle once, then cycle
+    shuffle_episodes: bool = False  # RL variant: shuffle once (scene order, and episodes within a scene), then cycle
     position_scale: float = 4.0  # RL variant observation normalisation (m)
 
     @property
@@ -101,10 +101,7 @@ class BioVLNNavEnv(BaseEnv):
         else:
             self.source = GeneratedEpisodes(template, scene_seed)
         self.category_names = load_catalog().goal_categories()
-        order = np.arange(len(self.source))
-        if self.cfg.shuffle_episodes:
-            order = np.random.default_rng(0).permutation(order)
-        self._order = order.tolist()
+        self._order = self._episode_order()
         self._cursor = -1
         self._episode = self.source.episodes[self._order[0]]
         self._scene_name = None
@@ -116,6 +113,20 @@ class BioVLNNavEnv(BaseEnv):
         space = spaces.Discrete(4) if control_mode == "discrete" else spaces.Box(-1.0, 1.0, (3,), np.float32)
         self.single_action_space = space
         self.action_space = space
+
+    def _episode_order(self) -> list[int]:
+        """Dataset order, or (``shuffle_episodes``) a fixed shuffle that keeps each scene's episodes together,
+        as Habitat's episode iterator groups by scene: the scene is rebuilt once per scene, not per episode."""
+        n = len(self.source)
+        if not self.cfg.shuffle_episodes:
+            return list(range(n))
+        rng = np.random.default_rng(0)
+        by_scene: dict[str, list[int]] = {}
+        for i, ep in enumerate(self.source.episodes):
+            by_scene.setdefault(ep["scene_id"], []).append(i)
+        scenes = sorted(by_scene)
+        return [by_scene[s][j] for k in rng.permutation(len(scenes)) for s in [scenes[k]]
+                for j in rng.permutation(len(by_scene[s]))]
 
     # --- configuration -------------------------------------------------------------------------
     @property

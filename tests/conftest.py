@@ -4,9 +4,12 @@ may download anything at run time, and a test that tries fails loudly."""
 from __future__ import annotations
 
 import ipaddress
+import json
 import os
 import socket
 import tempfile
+import threading
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import pytest
 from hypothesis import settings
@@ -46,3 +49,58 @@ def catalog():
     from biovln_ms.catalog import load_catalog
 
     return load_catalog()
+
+
+@pytest.fixture(scope="session")
+def held_out_dataset(tmp_path_factory):
+    """Factory: a dataset of the held-out scene of seed 154 (the four MS categories) with the given
+    episodes per split, e.g. ``held_out_dataset(ms_val=3)``; built once per combination."""
+    from biovln_ms.episodes.benchmark import FOUR_CATEGORIES
+    from biovln_ms.episodes.dataset import SplitPlan, write_dataset
+    from biovln_ms.scene.generator import generate_scene
+
+    built: dict = {}
+
+    def make(**episodes_per_split: int) -> str:
+        key = tuple(sorted(episodes_per_split.items()))
+        if key not in built:
+            root = tmp_path_factory.mktemp("data") / "ds"
+            scene = generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES)
+            write_dataset(root, [SplitPlan(s, [(scene, n, False)]) for s, n in key], progress=False)
+            built[key] = str(root)
+        return built[key]
+
+    return make
+
+
+class FakeOpenAIHandler(BaseHTTPRequestHandler):
+    """A local OpenAI-compatible chat endpoint: records each request; the test's
+    ``server.reply(body) -> str`` gives the assistant's content."""
+
+    def do_POST(self):
+        body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
+        self.server.requests.append({"path": self.path, "body": body, "auth": self.headers.get("Authorization")})
+        content = self.server.reply(body)
+        payload = {"id": "x", "object": "chat.completion", "created": 0, "model": body["model"],
+                   "choices": [{"index": 0, "finish_reason": "stop", "message": {"role": "assistant", "content": content}}],
+                   "usage": {"prompt_tokens": 1, "completion_tokens": 1, "total_tokens": 2}}
+        data = json.dumps(payload).encode()
+        self.send_response(200)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(data)))
+        self.end_headers()
+        self.wfile.write(data)
+
+    def log_message(self, *args):
+        pass
+
+
+@pytest.fixture
+def openai_server():
+    """A local OpenAI-compatible server on loopback (set ``.reply``; ``.requests`` records the calls)."""
+    srv = ThreadingHTTPServer(("127.0.0.1", 0), FakeOpenAIHandler)
+    srv.requests, srv.reply = [], lambda body: "{}"
+    threading.Thread(target=srv.serve_forever, daemon=True).start()
+    yield srv
+    srv.shutdown()
+    srv.server_close()

@@ -152,9 +152,10 @@ def test_paper_splits_are_disjoint_and_counted():
     for i, a in enumerate(bench + ["train"]):
         for b in (bench + ["train"])[i + 1:]:
             assert not names[a] & names[b], (a, b)
-    assert [sum(n for _, n, _ in splits[b].scenes) for b in ("ms_dev", "ms_val", "ms_test", "two_room")] == [160, 50, 120, 50]
+    assert [sum(n for _, n, _ in splits[b].scenes) for b in bench] == [160, 50, 120, 50, 40]
     assert names["ms_dev"] == {f"lab_s{s}_v0" for s in (150, 151, 152, 153)}
-    assert splits["lsat_target"].missing
+    (lsat, n, _), = splits["lsat_target"].scenes
+    assert lsat.template == "lsat" and n == 40 and len(lsat.goal_objects()) == 8  # 5 episodes per category
 
 
 def test_cli_dataset_build_stats_show_and_map_overlay(tmp_path):

@@ -4,9 +4,7 @@ import json
 import logging
 import subprocess
 import sys
-import threading
 import time
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import numpy as np
 import pytest
@@ -16,37 +14,22 @@ from biovln_ms.llm.client import JSONChatClient, LLMConfig, LLMConfigError
 SECRET = "sk-test-secret-123"
 
 
-class FakeOpenAI(BaseHTTPRequestHandler):
-    def do_POST(self):
-        body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
-        self.server.requests.append({"path": self.path, "body": body, "auth": self.headers.get("Authorization")})
-        mode = self.server.mode
-        if mode == "slow":
-            time.sleep(1.5)
-        content = {"choice1": '{"choice": 1}', "garbage": "I would go left", "out_of_range": '{"choice": 7}',
-                   "slow": '{"choice": 0}', "zero": '{"choice": 0}'}[mode]
-        payload = {"id": "x", "object": "chat.completion", "created": 0, "model": body["model"],
-                   "choices": [{"index": 0, "finish_reason": "stop", "message": {"role": "assistant", "content": content}}],
-                   "usage": {"prompt_tokens": 1, "completion_tokens": 1, "total_tokens": 2}}
-        data = json.dumps(payload).encode()
-        self.send_response(200)
-        self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(data)))
-        self.end_headers()
-        self.wfile.write(data)
-
-    def log_message(self, *args):
-        pass
+CONTENT = {"choice1": '{"choice": 1}', "garbage": "I would go left", "out_of_range": '{"choice": 7}',
+           "slow": '{"choice": 0}', "zero": '{"choice": 0}'}
 
 
 @pytest.fixture
-def server():
-    srv = ThreadingHTTPServer(("127.0.0.1", 0), FakeOpenAI)
-    srv.requests, srv.mode = [], "choice1"
-    t = threading.Thread(target=srv.serve_forever, daemon=True)
-    t.start()
-    yield srv
-    srv.shutdown()
+def server(openai_server):
+    """The shared loopback endpoint, answering by ``server.mode``."""
+    openai_server.mode = "choice1"
+
+    def reply(body):
+        if openai_server.mode == "slow":
+            time.sleep(1.5)
+        return CONTENT[openai_server.mode]
+
+    openai_server.reply = reply
+    return openai_server
 
 
 def client_for(srv, **kw):

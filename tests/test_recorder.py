@@ -4,19 +4,13 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from biovln_ms.episodes.benchmark import FOUR_CATEGORIES
-from biovln_ms.episodes.dataset import SplitPlan, write_dataset
 from biovln_ms.eval.harness import EvalConfig, evaluate, load_records
 from biovln_ms.learning.recorder import decode_depth, read_recordings
-from biovln_ms.scene.generator import generate_scene
 
 
 @pytest.fixture(scope="module")
-def dataset(tmp_path_factory):
-    root = tmp_path_factory.mktemp("data") / "ds"
-    write_dataset(root, [SplitPlan("ms_val", [(generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES), 3, False)])],
-                  progress=False)
-    return str(root)
+def dataset(held_out_dataset):
+    return held_out_dataset(ms_val=3)
 
 
 @pytest.mark.parametrize("mode", ["full", "trace"])

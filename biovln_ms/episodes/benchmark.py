@@ -10,7 +10,8 @@
 * Benchmark splits (Table 4, pairwise disjoint): ``ms_dev`` seeds 150-153 x 40, ``ms_val`` 154 x 50,
   ``ms_test`` 155-156 x 60 (all holding cabinet, centrifuge, refrigerator and waste bin, Table 12:
   the generator's ``required_categories`` option), ``two_room`` (seed 200, 50 cross-room episodes)
-  and ``lsat_target`` (the designer-authored scene; not built yet, reported missing).
+  and ``lsat_target`` (the designer-authored scene ``assets/scenes/lsat_target.glb`` through the LSAT
+  import, 40 episodes cycling over its 8 goal categories: 5 each, as Table 6's 20 % steps imply).
 """
 
 from __future__ import annotations
@@ -22,10 +23,19 @@ FOUR_CATEGORIES = ("cabinet", "centrifuge", "refrigerator", "waste_bin")
 HELD_OUT = {"ms_dev": ((150, 151, 152, 153), 40), "ms_val": ((154,), 50), "ms_test": ((155, 156), 60)}
 TWO_ROOM_SEEDS = tuple(range(200, 208))
 TWO_ROOM_BENCH = (200, 50)
+LSAT_EPISODES = 40
 EPISODES_BY_ACTIVE = {2: 35, 3: 30, 4: 40, 5: 40}
 SCENES_PER_BUCKET = 13
 PAPER_MS_DEV_DIFFICULTY = {"easy": 11.9, "medium": 28.1, "hard": 60.0}
 PAPER_TOTALS = {"scenes": 47, "episodes": 1667, "single_room_episodes": 1363, "two_room_episodes": 304}
+
+
+def lsat_target_scene():
+    """The shipped designer-authored GLB, imported (markers: strategy 1; the rest: strategy 2)."""
+    from biovln_ms.lsat.designer_scene import target_glb_path
+    from biovln_ms.lsat.importer import import_glb
+
+    return import_glb(target_glb_path(), name="lsat_target")[0]
 
 
 def _bucket(n_active: int) -> str:
@@ -57,6 +67,6 @@ def paper_splits() -> list[SplitPlan]:
     for name, (seeds, n) in HELD_OUT.items():
         out.append(SplitPlan(name, [(held[s], n, False) for s in seeds], description=f"Table 4: seeds {list(seeds)}, {n} per scene"))
     out.append(SplitPlan("two_room", [(two_bench, TWO_ROOM_BENCH[1], True)], description="Table 4: cross-room episodes"))
-    out.append(SplitPlan("lsat_target", [], missing="the designer-authored LSAT scene is built by the LSAT import (issue 8)",
-                         description="Table 4: human-annotated scene, 40 episodes, 8 categories"))
+    out.append(SplitPlan("lsat_target", [(lsat_target_scene(), LSAT_EPISODES, False)],
+                         description="Table 4: designer-authored scene (LSAT import), 40 episodes, 8 categories"))
     return out

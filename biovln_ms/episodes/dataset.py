@@ -29,7 +29,7 @@ from biovln_ms.constants import ROBOT_RADIUS, SCENE_GENERATOR_VERSION
 from biovln_ms.errors import BioVLNError
 from biovln_ms.scene.spec import SceneSpec, load_spec
 
-DATASET_FORMAT_VERSION = 1
+DATASET_FORMAT_VERSION = 2  # 2: the lsat_target split and marker goals (goal_source)
 EPISODE_GENERATOR_VERSION = 1
 
 

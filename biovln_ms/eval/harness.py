@@ -34,7 +34,7 @@ class EvalConfig:
     split: str
     out: str
     dataset: str | None = None
-    env_id: str = DEFAULT_ENV
+    env_id: str | None = None  # None: the method's env (the RL variant for ppo/a2c/sac), else BioVLN-OpFace-v0
     workers: int | None = None
     camera: tuple[int, int] = (640, 480)
     max_episodes: int | None = None
@@ -42,9 +42,16 @@ class EvalConfig:
     ray_address: str | None = None  # "local" starts a local Ray instance; "auto" or "ray://host:port" joins one
     record_dir: str | None = None  # TrajectoryRecorder output (learning from the runs)
     record_mode: str = "full"  # "full" (PNG frames + depth) or "trace" (positions, actions, goals only)
+    name: str | None = None  # results folder name (default: the method, plus the variant when not OpFace)
+
+    def __post_init__(self) -> None:
+        if self.env_id is None:
+            self.env_id = method_spec(self.method).env_id or DEFAULT_ENV
 
     @property
     def run_name(self) -> str:
+        if self.name:
+            return self.name
         suffix = "" if self.env_id == DEFAULT_ENV else "@" + self.env_id.removeprefix("BioVLN-").removesuffix("-v0").lower()
         return self.method + suffix
 
@@ -104,7 +111,7 @@ def _init_worker(cfg: dict) -> None:
         if recorder.needs_images and obs_mode == "none":
             obs_mode = "rgbd"
     env = gym.make(cfg["env_id"], split=cfg["split"], dataset=cfg["dataset"], obs_mode=obs_mode,
-                   camera_width=w, camera_height=h, sim_backend="physx_cpu", render_backend="cpu")
+                   camera_width=w, camera_height=h, sim_backend="physx_cpu", render_backend="cpu", **spec.env_kwargs)
     _W.update(env=env, policy=spec.factory(**cfg["method_kwargs"]), cfg=cfg, recorder=recorder)
 
 
@@ -130,7 +137,7 @@ def _run(index: int) -> dict:
                 if recorder is not None:  # the pose, distance and frame the policy acted on
                     recorder.step(len(actions), st.action, before, u._ctx.goal, float(st.info_before["distance_to_goal"]),
                                   st.obs_before)
-                actions.append(st.action)
+                actions.append(st.action if isinstance(st.action, int) else [_r4(v) for v in st.action])
             positions.append([_r4(pose[0]), _r4(pose[1])])
             headings.append(_r4(pose[2]))
             clearance.append(_r4(st.info["clearance"]))
@@ -165,9 +172,15 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
 
     from biovln_ms.episodes.source import DatasetEpisodes
 
-    spec = method_spec(cfg.method)
+    spec = method_spec(cfg.method, cfg.method_kwargs)
     if spec.preflight:
-        spec.preflight()
+        spec.preflight(**cfg.method_kwargs)
+    if cfg.record_dir and spec.env_kwargs.get("control_mode") == "continuous":
+        raise BioVLNError(f"the recorder stores the discrete actions of the appendix; '{cfg.method}' acts continuously",
+                          field="record_dir", fix="record a discrete-action method (ppo, a2c, frontier, ...)")
+    if cfg.record_dir and cfg.record_mode == "full" and spec.obs_mode == "state":
+        raise BioVLNError(f"'{cfg.method}' runs on state observations: there are no frames to record", field="record_mode",
+                          fix="use --record-mode trace")
     source = DatasetEpisodes(cfg.split, cfg.dataset)
     episodes = source.episodes[: cfg.max_episodes] if cfg.max_episodes else source.episodes
     run_dir = cfg.run_dir

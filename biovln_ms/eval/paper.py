@@ -2,7 +2,8 @@
 
 SPLIT_LABELS = {"ms_dev": "MS DEV", "ms_val": "MS VAL", "ms_test": "MS TEST", "two_room": "Two-Room", "lsat_target": "LSAT"}
 METHOD_LABELS = {"random": "Random", "oracle": "Oracle", "frontier": "Frontier", "llm_frontier": "LLM-Frontier",
-                 "zone3_oracle": "3-Zone Oracle", "vlfm": "VLFM", "bc": "BC"}
+                 "zone3_oracle": "3-Zone Oracle", "vlfm": "VLFM (GT detector)", "bc": "BC", "ppo": "PPO",
+                 "a2c": "A2C", "sac": "SAC"}
 
 # Table 5: method -> split -> metric -> value (SR %, SPL, MCR m, VRT %)
 TABLE5 = {
@@ -49,3 +50,7 @@ TABLE11 = {"frontier": {"ms_dev": {"easy": 89.5, "medium": 84.4, "hard": 66.7}, 
 # Table 16: (A, B, split) -> (n01, n10, p)
 TABLE16 = {("frontier", "oracle", "ms_dev"): (20, 16, 0.619), ("frontier", "oracle", "ms_val"): (8, 6, 0.791),
            ("frontier", "oracle", "ms_test"): (16, 12, 0.572), ("frontier", "oracle", "two_room"): (5, 3, 0.727)}
+
+# Table 17 (appendix): MS VAL SR by category, BC vs Frontier (episodes, BC %, Frontier %)
+TABLE17 = {"cabinet": (12, 33.3, 80.0), "centrifuge": (12, 50.0, 80.0), "refrigerator": (14, 42.9, 80.0),
+           "waste_bin": (12, 40.0, 80.0), "overall": (50, 41.9, 80.0)}

@@ -85,6 +85,23 @@ def table6(runs) -> list[str]:
     return ["## Frontier SR by category (Table 6 layout): ours (paper)", "", *rows]
 
 
+def table17(runs) -> list[str]:
+    """BC vs Frontier on MS VAL by category (appendix Table 17): ours (paper)."""
+    if ("bc", "ms_val") not in runs or ("frontier", "ms_val") not in runs:
+        return []
+    agg = {m: aggregate_all(runs[(m, "ms_val")]) for m in ("bc", "frontier")}
+    rows = ["| Category | Eps. | BC | Frontier | Δ |", "|---|---|---|---|---|"]
+    cats = sorted(agg["frontier"]["per_category"]) + ["overall"]
+    for c in cats:
+        got = {m: (agg[m]["overall"] if c == "overall" else agg[m]["per_category"].get(c, {})) for m in agg}
+        n, bc_p, fr_p = paper.TABLE17.get(c, (None, None, None))
+        bc, fr = got["bc"].get("sr"), got["frontier"].get("sr")
+        delta = None if bc is None or fr is None else bc - fr
+        rows.append(f"| {c} | {got['frontier'].get('episodes', '-')} ({_fmt(n, 0)}) | {_cell(bc, bc_p, 1)} | {_cell(fr, fr_p, 1)} | "
+                    f"{_cell(delta, None if bc_p is None else bc_p - fr_p, 1)} |")
+    return ["## BC vs Frontier on MS VAL by category (Table 17 layout): ours (paper)", "", *rows]
+
+
 def _paired(a: list[dict], b: list[dict]):
     ka = {episode_key(r): r["success"] for r in a}
     kb = {episode_key(r): r["success"] for r in b}
@@ -283,7 +300,8 @@ def write_report(results: Path, out: Path, dataset: str | None = None, videos: i
     ds = EpisodeDataset(dataset or ensure_default_dataset(echo))
     lines = ["# BioVLN-MS evaluation report", "", f"Results: `{results}`. Runs: " +
              ", ".join(f"{m} on {s} ({len(r)} episodes)" for (m, s), r in sorted(runs.items())), ""]
-    for block in (table5(runs), table10(runs), table6(runs), table9(runs), table11(runs), mcnemar_table(runs), differences(runs)):
+    for block in (table5(runs), table10(runs), table6(runs), table9(runs), table11(runs), table17(runs), mcnemar_table(runs),
+                  differences(runs)):
         lines += block + [""]
     figs = [plot_sr(runs, out / "figures" / "sr_by_method.png"), plot_safety(runs, out / "figures" / "safety.png")]
     for (m, s), recs in sorted(runs.items()):

@@ -5,13 +5,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Iterator
 
+import numpy as np
+
 
 @dataclass
 class Step:
     """``action`` is None for the start. ``obs_before``/``info_before`` are what the policy acted on;
     ``obs``/``info`` come after the action; ``done`` ends the episode (terminated or truncated)."""
 
-    action: int | None
+    action: int | np.ndarray | None
     obs_before: Any
     info_before: dict | None
     obs: Any
@@ -27,7 +29,8 @@ def rollout(env, policy, episode_index: int, max_steps: int = 500) -> Iterator[S
     policy.reset({"env": u, "episode": u.current_episode})
     yield Step(None, None, None, obs, info)
     for _ in range(max_steps):
-        a = int(policy.act(obs, info))
+        a = policy.act(obs, info)  # an int (Discrete(4)), or an array in continuous control
+        a = int(a) if np.ndim(a) == 0 else np.asarray(a, np.float32)
         before, before_info = obs, info
         obs, _, term, trunc, info = env.step(a)
         done = bool(term) or bool(trunc)

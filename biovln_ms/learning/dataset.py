@@ -53,6 +53,22 @@ def goal_vector(position, heading, goal) -> np.ndarray:
     return np.array([unit[0], unit[1], dist, min(max(dist / 5.0, 0.0), 1.0)], np.float32)
 
 
+def image_tensor(img: Image.Image, size: tuple[int, int], normalize: bool = True, flip: bool = False,
+                 gain: float = 1.0) -> torch.Tensor:
+    """A PIL RGB image -> (3, H, W) float tensor: bilinear resize to ``size`` (H, W), optional mirror,
+    brightness gain and ImageNet normalisation. Training and the BC policy's inference share it."""
+    if img.size != size[::-1]:
+        img = img.resize(size[::-1], Image.BILINEAR)
+    x = torch.from_numpy(np.asarray(img, np.float32) / 255.0).permute(2, 0, 1)
+    if flip:
+        x = torch.flip(x, dims=[2])
+    if gain != 1.0:
+        x = (x * gain).clamp(0, 1)
+    if normalize:
+        x = (x - torch.tensor(IMAGENET_MEAN)[:, None, None]) / torch.tensor(IMAGENET_STD)[:, None, None]
+    return x
+
+
 def _members(path: Path):
     """(offset, length) of each complete gzip member in a recording file."""
     raw = path.read_bytes()
@@ -147,15 +163,7 @@ class TrajectoryDataset(torch.utils.data.Dataset):
             action = {TURN_LEFT: TURN_RIGHT, TURN_RIGHT: TURN_LEFT}.get(action, action)
         item = {"goal": torch.from_numpy(gv), "action": torch.tensor(action, dtype=torch.long)}
         if self.require_images:
-            img = Image.open(root / obs["rgb_path"]).convert("RGB")
-            if img.size != self.t.size[::-1]:
-                img = img.resize(self.t.size[::-1], Image.BILINEAR)
-            x = torch.from_numpy(np.asarray(img, np.float32) / 255.0).permute(2, 0, 1)
-            if flip:
-                x = torch.flip(x, dims=[2])
-            if self.t.brightness > 0:
-                x = (x * (1 + self.rng.uniform(-self.t.brightness, self.t.brightness))).clamp(0, 1)
-            if self.t.normalize:
-                x = (x - torch.tensor(IMAGENET_MEAN)[:, None, None]) / torch.tensor(IMAGENET_STD)[:, None, None]
-            item["image"] = x
+            gain = 1 + self.rng.uniform(-self.t.brightness, self.t.brightness) if self.t.brightness > 0 else 1.0
+            item["image"] = image_tensor(Image.open(root / obs["rgb_path"]).convert("RGB"), self.t.size,
+                                         self.t.normalize, flip, gain)
         return item

@@ -40,8 +40,14 @@ def _rect_polygon(rect: Sequence[float]) -> list[tuple[float, float]]:
 
 def build_rooms(t: Template) -> tuple[list[RoomSpec], list[WallSpec], list[OpeningSpec]]:
     """Floor regions, the walls along the boundary of their union, and openings where they touch."""
-    rooms = [RoomSpec(id=r.id, kind=r.kind, polygon=_rect_polygon(r.rect), height=t.wall_height) for r in t.rooms]
-    floor = unary_union([box(*r.rect) for r in t.rooms]).simplify(0)
+    return rooms_from_rects([(r.id, r.kind, r.rect) for r in t.rooms], t.wall_height)
+
+
+def rooms_from_rects(rects: Sequence[tuple[str, str, Sequence[float]]], wall_height: float,
+                     ) -> tuple[list[RoomSpec], list[WallSpec], list[OpeningSpec]]:
+    """Rooms of axis-aligned rectangles (id, kind, (x0, y0, x1, y1)), walls along their union, openings."""
+    rooms = [RoomSpec(id=rid, kind=kind, polygon=_rect_polygon(rect), height=wall_height) for rid, kind, rect in rects]
+    floor = unary_union([box(*rect) for _, _, rect in rects]).simplify(0)
     polys = list(getattr(floor, "geoms", [floor]))
     walls = []
     for poly in polys:
@@ -56,15 +62,15 @@ def build_rooms(t: Template) -> tuple[list[RoomSpec], list[WallSpec], list[Openi
                     continue
                 interior = (-dy / n, dx / n) if floor_on_left else (dy / n, -dx / n)
                 walls.append(WallSpec(id=f"wall_{len(walls)}", start=a, end=b, interior=interior,
-                                      thickness=WALL_THICKNESS, height=t.wall_height))
+                                      thickness=WALL_THICKNESS, height=wall_height))
     openings = []
-    for i, ra in enumerate(t.rooms):
-        for rb in t.rooms[i + 1:]:
-            shared = box(*ra.rect).intersection(box(*rb.rect))
+    for i, (ida, _, ra) in enumerate(rects):
+        for idb, _, rb in rects[i + 1:]:
+            shared = box(*ra).intersection(box(*rb))
             if shared.length > 0 and shared.area < 1e-9 and isinstance(shared, LineString):
                 (x0, y0), (x1, y1) = shared.coords[0], shared.coords[-1]
                 normal = (0.0, 1.0) if abs(y1 - y0) < 1e-9 else (1.0, 0.0)
-                openings.append(OpeningSpec(id=f"opening_{len(openings)}", rooms=(ra.id, rb.id),
+                openings.append(OpeningSpec(id=f"opening_{len(openings)}", rooms=(ida, idb),
                                             center=((x0 + x1) / 2, (y0 + y1) / 2), width=shared.length, normal=normal))
     return rooms, walls, openings
 
@@ -73,7 +79,7 @@ def _world_extent(size: Sequence[float], yaw: float) -> np.ndarray:
     return np.abs(rot2(yaw)) @ np.asarray(size[:2], float)
 
 
-def _make_object(cat: Catalog, obj_id: str, category: str, xy: Sequence[float], z: float, yaw: float, placement: str,
+def make_object(cat: Catalog, obj_id: str, category: str, xy: Sequence[float], z: float, yaw: float, placement: str,
                  room: str, support: str | None, slot: str | None, is_goal: bool) -> ObjectSpec:
     a = cat.get(category)
     yaw = wrap_angle(yaw)
@@ -201,7 +207,7 @@ def _attempt(t: Template, seed: int, attempt: int, cat: Catalog, required: Seque
     for f in t.furniture:
         a = cat.get(f.category)
         yaw = yaw_facing(a.face_vector, f.face) if a.face_vector is not None else 0.0
-        furniture[f.id] = _make_object(cat, f.id, f.category, f.center, a.dimensions[2] / 2, yaw, "furniture", f.room,
+        furniture[f.id] = make_object(cat, f.id, f.category, f.center, a.dimensions[2] / 2, yaw, "furniture", f.room,
                                        None, None, f.goal)
     instruments = []
     counts: Counter = Counter()
@@ -217,7 +223,7 @@ def _attempt(t: Template, seed: int, attempt: int, cat: Catalog, required: Seque
             room, support = slot.room, None
         obj_id = f"{category}_{counts[category]}"
         counts[category] += 1
-        instruments.append(_make_object(cat, obj_id, category, xy, z, yaw, slot.placement, room, support, slot.id, True))
+        instruments.append(make_object(cat, obj_id, category, xy, z, yaw, slot.placement, room, support, slot.id, True))
     spec = SceneSpec(schema_version=1, name=t.scene_name(seed), template=t.name, seed=seed,
                      generator_version=SCENE_GENERATOR_VERSION, robot_radius=radius, catalog_sha256=cat.sha256,
                      rooms=rooms, walls=walls, openings=openings, furniture=list(furniture.values()), instruments=instruments)

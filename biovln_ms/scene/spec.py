@@ -24,6 +24,9 @@ Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
 
 
+DESIGNER_TEMPLATE = "lsat"  # the ``template`` of designer-authored scenes imported from GLB
+
+
 class SceneSpecError(BioVLNError):
     """A malformed or invalid scene spec."""
 
@@ -87,6 +90,7 @@ class ObjectSpec(_Strict):
     approach_distance: float | None = None
     success_radius: float | None = None
     goal: Vec2 | None = None
+    goal_source: Literal["marker"] | None = None  # None: Eq. 1; "marker": a designer's target_* marker (LSAT)
 
     _check = field_validator("position", "size")(lambda cls, v: _finite(v))
 
@@ -158,7 +162,12 @@ class SceneSpec(_Strict):
 
     def to_json(self) -> str:
         """Canonical JSON: sorted keys, fixed float formatting (byte-identical for the same spec)."""
-        return json.dumps(_round(self.model_dump(mode="json")), indent=1, sort_keys=True) + "\n"
+        data = _round(self.model_dump(mode="json"))
+        for key in ("furniture", "instruments"):
+            for o in data[key]:
+                if o.get("goal_source") is None:
+                    o.pop("goal_source", None)  # absent for Eq. 1 goals: procedural specs keep their bytes
+        return json.dumps(data, indent=1, sort_keys=True) + "\n"
 
 
 def _round(obj, nd: int = 6):
@@ -186,9 +195,11 @@ def parse_spec(obj: dict, source: str = "<scene spec>", check_rules: bool = True
         field, msg = describe_validation_error(e)
         raise SceneSpecError(msg, source=source, field=field) from None
     if check_rules:
-        from biovln_ms.scene.rules import check_consistency, check_layout
+        from biovln_ms.scene.rules import DESIGNER_RULES, check_consistency, check_layout
 
         for problems in (check_consistency(spec), check_layout(spec)):
+            if spec.template == DESIGNER_TEMPLATE:  # designer-authored (LSAT): only the rules it must keep
+                problems = [p for p in problems if p.rule in DESIGNER_RULES]
             if problems:
                 p = problems[0]
                 more = f" (+{len(problems) - 1} more)" if len(problems) > 1 else ""

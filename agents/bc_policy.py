@@ -1,0 +1,45 @@
+"""Behavioural-cloning policy (appendix Table 17): the trained BC network acting on the live frame.
+
+Each step it reads the head camera's RGB frame and the env's GPS+compass goal sensor
+(``extra.goal_gps_compass`` = distance rho, bearing phi in the agent frame), forms the same 4-d goal
+vector as the training data ([cos phi, sin phi, rho, clip(rho / 5, 0, 1)]) and takes the arg-max
+action (``sample=True`` samples the softmax instead, seeded per episode).
+"""
+
+from __future__ import annotations
+
+import zlib
+
+import numpy as np
+import torch
+
+from biovln_ms.agents.policy import Policy
+
+
+class BCPolicy(Policy):
+    name = "bc"
+    obs_mode = "rgb"
+
+    def __init__(self, checkpoint: str, sample: bool = False, seed: int = 0) -> None:
+        from biovln_ms.learning.bc import load_bc
+
+        self.model, self.cfg, self.meta = load_bc(checkpoint)
+        self.sample = sample
+        self.seed = seed
+
+    def reset(self, episode_info: dict) -> None:
+        ep = episode_info["episode"]
+        self.rng = np.random.default_rng(zlib.crc32(f"{self.seed}/{ep['scene_id']}/{ep['episode_id']}".encode()))
+
+    def act(self, obs, info: dict) -> int:
+        from biovln_ms.learning.bc import preprocess
+
+        rgb = obs["sensor_data"]["head"]["rgb"][0].cpu().numpy()
+        rho, phi = (float(v) for v in obs["extra"]["goal_gps_compass"][0])
+        goal = torch.tensor([[np.cos(phi), np.sin(phi), rho, min(max(rho / 5.0, 0.0), 1.0)]], dtype=torch.float32)
+        with torch.inference_mode():
+            logits = self.model(preprocess(rgb, self.meta["frame_size"], self.cfg.image_size), goal)[0]
+        if self.sample:
+            p = torch.softmax(logits, 0).numpy().astype(float)
+            return int(self.rng.choice(len(p), p=p / p.sum()))
+        return int(logits.argmax())

@@ -1,0 +1,202 @@
+"""RL with Stable-Baselines3 on ``BioVLN-OpFace-RL-v0`` (appendix "Gym Environment for RL Training").
+
+One env per process (``SubprocVecEnv``, spawn) or, beyond one machine, one env per Ray actor
+(``RayVecEnv``); ``VecMonitor`` records each episode's return, length and ``success``. The run folder
+holds TensorBoard logs (``tb/``), atomic checkpoints (``checkpoints/``), ``model.zip``, the episode log
+``episodes.csv`` and ``learning_curve.png``; the trained policy is then evaluated through the harness
+(``eval/``), exactly like the baselines.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from functools import partial
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+from stable_baselines3.common.callbacks import BaseCallback
+
+from biovln_ms.errors import BioVLNError
+from biovln_ms.io_utils import atomic_write_bytes, atomic_write_text, save_figure
+
+ALGOS = ("ppo", "a2c", "sac")
+RL_ENV = "BioVLN-OpFace-RL-v0"
+
+
+def algo_class(name: str):
+    """The Stable-Baselines3 class of ``name``."""
+    from stable_baselines3 import A2C, PPO, SAC
+
+    classes = {"ppo": PPO, "a2c": A2C, "sac": SAC}
+    if name not in classes:
+        raise BioVLNError(f"unknown algorithm '{name}'", field="algo", fix=f"use one of: {', '.join(ALGOS)}")
+    return classes[name]
+
+
+def control_mode_for(algo: str) -> str:
+    """SAC needs a continuous action space ([forward, turn, stop] in [-1, 1]); PPO and A2C use Discrete(4)."""
+    return "continuous" if algo == "sac" else "discrete"
+
+
+@dataclass
+class RLConfig:
+    algo: str = "ppo"
+    timesteps: int = 200_000
+    env_id: str = RL_ENV
+    split: str = "train"
+    dataset: str | None = None
+    n_envs: int = 2
+    seed: int = 0
+    checkpoint_every: int = 50_000  # timesteps
+    eval_split: str | None = "ms_val"  # evaluated through the harness after training (None: skip)
+    eval_episodes: int | None = None
+    ray_address: str | None = None  # run the envs on Ray actors ("local", "auto", "ray://host:port")
+    hyperparams: dict = field(default_factory=dict)  # passed to the SB3 constructor (e.g. n_steps, ent_coef)
+
+    def defaults(self) -> dict:
+        """Our defaults per algorithm (SB3's otherwise); ``hyperparams`` override them."""
+        base = {"ppo": {"n_steps": 1024, "batch_size": 256, "ent_coef": 0.01, "gamma": 0.99},
+                "a2c": {"n_steps": 16, "ent_coef": 0.01},
+                "sac": {"learning_starts": 2000, "buffer_size": 200_000}}[self.algo]
+        return {**base, **self.hyperparams}
+
+
+class EpisodeLog(BaseCallback):
+    """Every finished episode (return, length, success) to a list and TensorBoard
+    (``rollout/success_rate``); an atomic checkpoint every ``every`` timesteps."""
+
+    def __init__(self, out: Path, every: int) -> None:
+        super().__init__()
+        self.out, self.every, self.rows, self.next_ckpt = out, every, [], every
+        self.t0 = time.perf_counter()
+
+    def _on_step(self) -> bool:
+        for info in self.locals["infos"]:
+            ep = info.get("episode")
+            if ep is not None:
+                self.rows.append({"timesteps": self.num_timesteps, "return": float(ep["r"]), "length": int(ep["l"]),
+                                  "success": float(info.get("success", 0.0)),
+                                  "seconds": round(time.perf_counter() - self.t0, 2)})
+        if self.rows:
+            self.logger.record("rollout/success_rate", float(np.mean([r["success"] for r in self.rows[-100:]])))
+        if self.num_timesteps >= self.next_ckpt:
+            name = f"{self.model.__class__.__name__.lower()}_{self.num_timesteps}.zip"
+            save_model(self.model, self.out / "checkpoints" / name)
+            self.next_ckpt += self.every
+        return True
+
+
+def save_model(model, path: Path) -> Path:
+    """``model.save`` to a temporary name in the same folder, then rename (never a half-written zip)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    buf = io.BytesIO()
+    model.save(buf)
+    return atomic_write_bytes(path, buf.getvalue())
+
+
+def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
+    """SubprocVecEnv (spawn) of ``n_envs`` single-env processes, or a RayVecEnv; wrapped in VecMonitor."""
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
+
+    from biovln_ms.wrappers import make_gym_env
+
+    n = n_envs or cfg.n_envs
+    factory = partial(make_gym_env, cfg.env_id, split=cfg.split, dataset=cfg.dataset,
+                      control_mode=control_mode_for(cfg.algo), obs_mode="state")
+    if cfg.ray_address:
+        from biovln_ms.learning.ray_vec_env import RayVecEnv
+
+        venv = RayVecEnv([factory] * n, address=cfg.ray_address)
+    elif n == 1:
+        venv = DummyVecEnv([factory])
+    else:
+        venv = SubprocVecEnv([factory] * n, start_method="spawn")
+    venv.seed(cfg.seed)
+    return VecMonitor(venv, info_keywords=("success",))
+
+
+@dataclass
+class RLResult:
+    model: Path
+    timesteps: int
+    minutes: float
+    steps_per_second: float
+    episodes: int
+    final_success_rate: float
+    eval_summary: dict | None
+
+
+def train_rl(cfg: RLConfig, out: str | Path, echo: Callable[[str], None] = print, progress: bool = True) -> RLResult:
+    """Train, save, plot and (when ``eval_split``) evaluate through the harness."""
+    cls = algo_class(cfg.algo)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    if cfg.timesteps <= 0:
+        raise BioVLNError(f"timesteps must be positive, got {cfg.timesteps}", field="timesteps", fix="e.g. --timesteps 200000")
+    venv = make_vec_env(cfg)
+    try:
+        model = cls("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0, tensorboard_log=str(out / "tb"),
+                    **cfg.defaults())
+        log = EpisodeLog(out, cfg.checkpoint_every)
+        t0 = time.perf_counter()
+        model.learn(total_timesteps=cfg.timesteps, callback=log, progress_bar=progress, tb_log_name=cfg.algo)
+        seconds = time.perf_counter() - t0
+    finally:
+        venv.close()
+    model_path = save_model(model, out / "model.zip")
+    write_episode_log(log.rows, out / "episodes.csv")
+    plot_learning_curve(log.rows, out / "learning_curve.png", f"{cfg.algo.upper()} on {cfg.env_id} ({cfg.split})")
+    sr = float(np.mean([r["success"] for r in log.rows[-100:]])) if log.rows else 0.0
+    atomic_write_text(out / "train.json", json.dumps({"config": asdict(cfg), "timesteps": int(model.num_timesteps),
+                                                       "minutes": round(seconds / 60, 2),
+                                                       "steps_per_second": round(model.num_timesteps / seconds, 1),
+                                                       "episodes": len(log.rows), "final_success_rate": sr}, indent=1))
+    echo(f"{cfg.algo}: {model.num_timesteps} timesteps in {seconds / 60:.1f} min ({model.num_timesteps / seconds:.0f} steps/s), "
+         f"{len(log.rows)} episodes, last-100 success {100 * sr:.0f}% -> {model_path}")
+    summary = None
+    if cfg.eval_split:
+        from biovln_ms.eval.harness import EvalConfig, evaluate
+
+        summary = evaluate(EvalConfig(cfg.algo, cfg.eval_split, str(out / "eval"), cfg.dataset, cfg.env_id,
+                                      workers=cfg.n_envs, max_episodes=cfg.eval_episodes,
+                                      method_kwargs={"checkpoint": str(model_path)}), progress=progress, echo=echo)
+    return RLResult(model_path, int(model.num_timesteps), seconds / 60, model.num_timesteps / seconds, len(log.rows), sr,
+                    summary)
+
+
+def write_episode_log(rows: list[dict], path: Path) -> None:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=["timesteps", "return", "length", "success", "seconds"])
+    w.writeheader()
+    w.writerows(rows)
+    atomic_write_text(path, buf.getvalue())
+
+
+def plot_learning_curve(rows: list[dict], path: Path, title: str, window: int = 50) -> None:
+    """Return and success rate (moving average over ``window`` episodes) against timesteps."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))
+    if rows:
+        t = np.array([r["timesteps"] for r in rows])
+        for a, key, label in ((ax[0], "return", "episode return"), (ax[1], "success", "success rate")):
+            v = np.array([r[key] for r in rows], float)
+            k = min(window, len(v))
+            ma = np.convolve(v, np.ones(k) / k, mode="valid")
+            a.plot(t, v, ".", alpha=0.15, color="grey")
+            a.plot(t[k - 1:], ma, color="C0", label=f"moving mean ({k} episodes)")
+            a.set(xlabel="timesteps", ylabel=label)
+            a.grid(alpha=0.3)
+            a.legend(loc="lower right")
+        ax[1].set_ylim(-0.02, 1.02)
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path)

@@ -1,0 +1,91 @@
+"""Object detectors for VLFM: which pixels of this frame show an instance of the target category?
+
+- ``GTSegmentationDetector`` (the offline default): the simulator's per-instrument segmentation, a
+  perfect detector. Results with it are labelled "VLFM (GT detector)": they bound what a perfect
+  Grounding-DINO + SAM stage would give, not what the paper's VLM stack gives.
+- ``OwlViTDetector``: an open-vocabulary detector (Hugging Face OWL-ViT / OWLv2) from a local directory;
+  its boxes (score >= threshold) become masks over the depth pixels inside them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from biovln_ms.perception.scorers import PerceptionError, load_local_model
+
+
+class Detector(Protocol):
+    name: str
+
+    def detect(self, obs: dict, target: str) -> np.ndarray:
+        """A boolean (H, W) mask of the target's pixels in the head camera frame (all False: not seen)."""
+
+
+def head_camera(obs: dict) -> dict:
+    return obs["sensor_data"]["head"]
+
+
+class GTSegmentationDetector:
+    name = "gt-segmentation"
+
+    def __init__(self, env, min_pixels: int = 150) -> None:
+        """``env``: the BioVLN env (its ``instrument_segmentation()`` maps ids to categories);
+        ``min_pixels`` at 640x480 (scaled with the image area) for a detection to count."""
+        self.env = env
+        self.min_pixels = min_pixels
+        self._ids: dict[str, np.ndarray] = {}
+        self._scene = None
+
+    def detect(self, obs: dict, target: str) -> np.ndarray:
+        cam = head_camera(obs)
+        if "segmentation" not in cam:
+            raise PerceptionError("the GT detector needs the segmentation camera", field="obs_mode",
+                                  fix="make the env with obs_mode='rgb+depth+segmentation'")
+        seg = cam["segmentation"][0, ..., 0].cpu().numpy()
+        if self._scene != self.env.scene_spec.name:  # ids change with the scene
+            self._ids, self._scene = {}, self.env.scene_spec.name
+        if target not in self._ids:
+            self._ids[target] = np.array([sid for sid, (_, cat) in self.env.instrument_segmentation().items()
+                                          if cat == target], np.int64)
+        mask = np.isin(seg, self._ids[target])
+        scaled = self.min_pixels * seg.size / (640 * 480)
+        return mask if mask.sum() >= scaled else np.zeros_like(mask)
+
+
+class OwlViTDetector:
+    """Open-vocabulary boxes from a local OWL-ViT; the mask is the box (VLFM refines it with SAM)."""
+
+    def __init__(self, model_dir: str | Path, threshold: float = 0.2) -> None:
+        model_dir = Path(model_dir)
+        self.model, self.processor = load_local_model(model_dir, "detector", "OWL-ViT",
+                                                      "AutoModelForZeroShotObjectDetection", "AutoProcessor")
+        self.threshold = threshold
+        self.name = f"owlvit:{model_dir.name}"
+
+    def detect(self, obs: dict, target: str) -> np.ndarray:
+        import torch
+
+        rgb = head_camera(obs)["rgb"][0].cpu().numpy()
+        h, w = rgb.shape[:2]
+        inputs = self.processor(text=[[f"a photo of a {target}"]], images=[rgb], return_tensors="pt")
+        with torch.inference_mode():
+            out = self.model(**inputs)
+        res = self.processor.post_process_object_detection(out, threshold=self.threshold,
+                                                           target_sizes=torch.tensor([[h, w]]))[0]
+        mask = np.zeros((h, w), bool)
+        for box in res["boxes"].numpy():
+            x0, y0, x1, y1 = np.clip(np.round(box).astype(int), 0, [w, h, w, h])
+            mask[y0:y1, x0:x1] = True
+        return mask
+
+
+def make_detector(spec: str, env) -> Detector:
+    """``"gt"`` (simulator segmentation) or ``"owlvit:<directory>"``."""
+    if spec == "gt":
+        return GTSegmentationDetector(env)
+    if spec.startswith("owlvit:"):
+        return OwlViTDetector(spec.removeprefix("owlvit:"))
+    raise PerceptionError(f"unknown detector '{spec}'", field="detector", fix="use 'gt' or 'owlvit:/path/to/saved/owlvit'")

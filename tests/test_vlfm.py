@@ -1,0 +1,110 @@
+"""VLFM: value-map fusion, the offline scorer, local-directory models, GT detection, a run through the harness."""
+
+import math
+import string
+
+import numpy as np
+import pytest
+
+from biovln_ms.agents.frontier import OccupancyMap, Scan
+from biovln_ms.eval.harness import EvalConfig, evaluate, load_records
+from biovln_ms.perception.scorers import PerceptionError, make_scorer
+
+
+class ConstantScorer:
+    name = "constant"
+
+    def __init__(self, value: float) -> None:
+        self.value = value
+
+    def score(self, rgb, target):
+        return self.value
+
+
+def _policy(value=0.5):
+    from biovln_ms.agents.vlfm import VLFMPolicy
+
+    p = VLFMPolicy(scorer=ConstantScorer(value))
+    p.map = OccupancyMap((0.0, 0.0), 0.05, 10.0)
+    p.value = np.zeros((p.map.n, p.map.n), np.float32)
+    p.confidence = np.zeros_like(p.value)
+    p.hfov = math.radians(79)
+    return p
+
+
+def test_value_map_fusion_is_confidence_weighted():
+    p = _policy()
+    angles = np.linspace(-math.radians(39.5), math.radians(39.5), 81)
+    scan = Scan(np.zeros(2), np.stack([np.cos(angles), np.sin(angles)], 1), np.full(81, 2.0))
+    p._paint(scan, 0.8)
+    axis = p.map.cell([1.0, 0.0])
+    edge = p.map.cell([1.0 * math.cos(angles[1]), 1.0 * math.sin(angles[1])])
+    assert p.value[axis[0], axis[1]] == pytest.approx(0.8)
+    assert p.confidence[axis[0], axis[1]] == pytest.approx(1.0, abs=1e-3)  # on the optical axis
+    assert p.confidence[edge[0], edge[1]] < 0.05  # near the edge of the view cone
+    p._paint(scan, 0.2)  # same confidence twice: the plain mean; confidence (c^2 + c^2) / 2c = c
+    assert p.value[axis[0], axis[1]] == pytest.approx(0.5)
+    assert p.confidence[axis[0], axis[1]] == pytest.approx(1.0, abs=1e-3)
+    behind = p.map.cell([-1.0, 0.0])
+    assert p.confidence[behind[0], behind[1]] == 0.0
+
+
+def test_frontier_choice_follows_the_value_map():
+    p = _policy()
+    near, far = (1.0, np.array([1.0, 0.0]), 20), (3.0, np.array([0.0, 2.0]), 20)
+    assert np.array_equal(p.choose([near, far], None), near[1])  # equal values: the shorter path
+    rc = p.map.cell(far[1])
+    p.value[rc[0], rc[1]] = 0.9
+    assert np.array_equal(p.choose([near, far], None), far[1])
+
+
+def test_offline_scorer_projects_imagenet_classes_onto_the_target(monkeypatch):
+    s = make_scorer("default")
+    rgb = np.zeros((120, 160, 3), np.uint8)
+    assert 0.0 <= s.score(rgb, "refrigerator") <= 1.0
+    onehot = np.zeros(1000)
+    onehot[760] = 1.0  # ImageNet class 760: refrigerator
+    monkeypatch.setattr(s, "class_probabilities", lambda rgb: onehot)
+    assert s.score(rgb, "refrigerator") > s.score(rgb, "centrifuge") + 0.2
+
+
+def test_clip_scorer_loads_from_a_local_directory(tmp_path):
+    import torch
+    from transformers import CLIPConfig, CLIPImageProcessorPil, CLIPModel, CLIPProcessor, CLIPTokenizer
+
+    vocab = {"<|startoftext|>": 0, "<|endoftext|>": 1}
+    for c in string.ascii_lowercase + ".":
+        vocab[c] = len(vocab)
+        vocab[c + "</w>"] = len(vocab)
+    proc = CLIPProcessor(image_processor=CLIPImageProcessorPil(size={"shortest_edge": 32}, crop_size={"height": 32, "width": 32}),
+                         tokenizer=CLIPTokenizer(vocab=vocab, merges=[]))
+    small = dict(hidden_size=32, intermediate_size=64, num_hidden_layers=1, num_attention_heads=2)
+    cfg = CLIPConfig(text_config=dict(vocab_size=len(vocab), max_position_embeddings=77, bos_token_id=0, eos_token_id=1,
+                                      pad_token_id=1, **small),
+                     vision_config=dict(image_size=32, patch_size=8, **small), projection_dim=16)
+    torch.manual_seed(0)
+    CLIPModel(cfg).save_pretrained(tmp_path)  # a tiny random CLIP: the loading path, not the accuracy
+    proc.save_pretrained(tmp_path)
+    s = make_scorer(f"clip:{tmp_path}")
+    rgb = (np.random.default_rng(0).random((120, 160, 3)) * 255).astype(np.uint8)
+    a, b = s.score(rgb, "refrigerator"), s.score(rgb, "centrifuge")
+    assert 0.0 <= a <= 1.0 and 0.0 <= b <= 1.0 and a != b
+    with pytest.raises(PerceptionError, match="no config.json"):
+        make_scorer(f"clip:{tmp_path / 'missing'}")
+    with pytest.raises(PerceptionError, match="unknown scorer"):
+        make_scorer("blip2")
+
+
+@pytest.fixture(scope="module")
+def dataset(held_out_dataset):
+    return held_out_dataset(ms_val=3)
+
+
+def test_vlfm_with_the_gt_detector_through_the_harness(dataset, tmp_path):
+    summary = evaluate(EvalConfig("vlfm", "ms_val", str(tmp_path), dataset, workers=1, camera=(320, 240)), progress=False)
+    recs = load_records(tmp_path / "vlfm" / "ms_val" / "episodes.jsonl")
+    assert summary["overall"]["episodes"] == 3 and not any(r.get("error") for r in recs)
+    stats = [r["policy_stats"] for r in recs]
+    assert all(s["detector"] == "gt-segmentation" and s["scorer"] == "efficientnet-lite0+minilm" for s in stats)
+    assert any(s["object_seen"] for s in stats)  # the target is found in this small room
+    assert summary["overall"]["sr"] > 0
