@@ -1,9 +1,10 @@
 """Oracle: follows the exact geodesic shortest path to the navmesh-snapped goal and stops there.
 
 With 0.25 m steps and 30 deg turns it cannot always land inside the success radius (paper §4.3), so
-it is an empirical upper bound, not 100 %. Rule: STOP when the goal is nearer than half a step or
-when a forward step would not bring it closer; otherwise turn toward the next path vertex when the
-heading error exceeds half a turn, else move forward. A blocked forward move turns it aside once.
+it is an empirical upper bound, not 100 %. Rule: STOP when the goal is nearer than half a step or,
+once the goal is in sight (the rest of the path is one straight segment), when a forward step would
+not bring it closer; otherwise turn toward the next path vertex when the heading error exceeds half a
+turn, else move forward. A blocked forward move turns it aside once.
 """
 
 from __future__ import annotations
@@ -41,9 +42,11 @@ class PointFollower:
         err = (math.atan2(target[1] - p[1], target[0] - p[0]) - yaw + math.pi) % (2 * math.pi) - math.pi
         if abs(err) > self.turn / 2 or blocked:
             action = TURN_LEFT if (err > 0) != blocked else TURN_RIGHT
-        else:
+        elif len(path) <= 2:  # the point in sight: stop when a step would not bring it closer
             ahead = p + self.step_len * np.array([math.cos(yaw), math.sin(yaw)])
             action = STOP if np.linalg.norm(self.point - ahead) >= d else FORWARD
+        else:  # on a detour (round a bench or through a door) the straight-line distance may grow
+            action = FORWARD
         self._last = (p.copy(), action)
         return action
 

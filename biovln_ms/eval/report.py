@@ -182,6 +182,25 @@ def differences(runs) -> list[str]:
             "the opposite because its corridor kept paths away from instruments.",
             "- MCR/VRT: clearance from the robot's centre to instrument bodies (Zone 1), planar; the paper does not say whether "
             "its MCR subtracts the agent radius."]
+    methods = {m for m, _ in runs}
+    if "vlfm" in methods:
+        out.append("- VLFM here uses the simulator's segmentation as its detector (\"VLFM (GT detector)\": a perfect Grounding-DINO + "
+                   "SAM stage) and a packaged-weights scorer instead of BLIP-2/GPT-4o, so it never misses a visible target; the "
+                   "paper's VLM stack failed on rendered assets (its Table 8). It still fails where the target's visible side is "
+                   "not its operational face (it stops next to the object's point cloud: the bench from behind), and stands "
+                   "closer to instruments than the other methods (lower MCR, higher VRT).")
+    if "bc" in methods:
+        out.append("- BC: trained from scratch on the CPU (no ImageNet ResNet-18 weights ship offline; `--pretrained` takes them "
+                   "when you have them); the paper fine-tuned ImageNet weights at 224 px for up to 500 epochs on a GPU. The "
+                   "budget of a run is in its `history.json` (README: the budget of ours).")
+    if any(s == "lsat_target" for _, s in runs):
+        out.append("- LSAT: our designer scene is an 8 x 6 m room with a bench island and 1 m aisles; the paper's LSAT layout was "
+                   "denser (VRT 55-70 %), so our VRT there is far lower.")
+    if any(m.endswith("@centroid") for m in methods):
+        out.append("- Centroid goals (Table 9): success is judged within the radius r of the floor projection of the body's "
+                   "centre, which lies inside the body; the nearest standing points are half the body depth plus the robot "
+                   "radius away, beyond r for the deep instruments (cabinet, refrigerator) on most sides, and the frontier "
+                   "agent stops at the reachable cell nearest that point, so fewer episodes succeed than with Eq. 1 goals.")
     return out
 
 
