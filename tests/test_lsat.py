@@ -214,3 +214,22 @@ def test_marker_helpers_of_the_blender_addon():
         suggested_marker("Sofa", (0, 0), 0.0)
     rows = check_markers(["target_cabinet", "target_cabbage_xx", "Floor"])
     assert [r["status"] for r in rows] == ["ok", "unmatched"]
+
+
+@pytest.mark.parametrize("template, seed", [("single_room", 150), ("two_room", 200)])
+def test_exported_procedural_scene_imports_back(tmp_path, template, seed):
+    """`scene export` writes Y-up glTF; importing it (strategy 2, names/extras) recovers every pose and goal."""
+    from biovln_ms.scene.export_glb import export_scene_glb
+    from biovln_ms.scene.generator import generate_scene
+
+    spec = generate_scene(template, seed)
+    back, report = import_glb(export_scene_glb(spec, tmp_path / "lab.glb"))
+    assert report.coverage()["goals_strategy2"] == len(spec.goal_objects()) and not report.unmatched
+    got = {o.id: o for o in back.objects()}
+    for o in spec.objects():
+        b = got[o.id]
+        assert b.category == o.category and b.support == o.support
+        assert b.position == pytest.approx(o.position, abs=2e-3), o.id
+        assert abs(math.remainder(b.yaw - o.yaw, 2 * math.pi)) < 2e-3, o.id
+        if o.is_goal:
+            assert b.goal == pytest.approx(o.goal, abs=3e-3), o.id

@@ -37,7 +37,7 @@ def test_export_has_a_node_per_object_with_extras_and_semantic_colours(tmp_path)
             assert tuple(rgba) == colors[owner[mi]]
     scene = trimesh.load(path, force="scene")  # the file re-opens
     lo, hi = scene.bounds
-    assert lo[0] < 0 and hi[0] > 11.5 and hi[2] > 3.0
+    assert lo[0] < 0 and hi[0] > 11.5 and hi[1] > 3.0  # glTF is Y-up: the walls' height is along +Y
 
 
 def test_cli_export(tmp_path):

@@ -5,7 +5,8 @@ What a designer's GLB needs (node names; Blender duplicates such as ``.001`` are
 - ``floor*`` meshes: each is a room; its axis-aligned footprint becomes the room rectangle, and walls
   are derived along the union of the floors (as for procedural scenes);
 - instruments and goal furniture named by category (``Refrigerator``, ``centrifuge.001``, ``Lab Bench``;
-  fuzzy, ``biovln_ms.lsat.names``); their parts may be children;
+  fuzzy, ``biovln_ms.lsat.names``), or carrying ``extras.category`` (our ``scene export`` writes it);
+  their parts may be children;
 - optionally ``target_<category>`` empties: world-space goals (**strategy 1**), each given to the
   nearest instrument of its category.
 
@@ -25,6 +26,7 @@ generator rules are listed as warnings in the coverage report.
 from __future__ import annotations
 
 import math
+import re
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,7 +39,7 @@ from biovln_ms.constants import ROBOT_RADIUS
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import placement_z, rot2, wrap_angle
 from biovln_ms.lsat.gltf import GLTFScene, Node, read_gltf
-from biovln_ms.lsat.names import TARGET_PREFIX, is_target_marker, match_category, normalise
+from biovln_ms.lsat.names import TARGET_PREFIX, Match, is_target_marker, match_category, normalise
 from biovln_ms.scene.spec import DESIGNER_TEMPLATE, SCHEMA_VERSION, ObjectSpec, SceneSpec, SceneSpecError, parse_spec
 
 FACE_PART_WORDS = ("door", "handle", "display", "keypad", "panel", "sash", "screen", "control")
@@ -139,8 +141,22 @@ def _resolve_yaw(scene: GLTFScene, f: _Found, theta: float, a: float, b: float, 
     return candidates[int(np.argmin(diffs))], "node rotation (catalog face)"
 
 
+def _is_floor(name: str) -> bool:
+    """'Floor', 'floor_lab.001', or a floor part under a shell node ('room_shell/shell.floor_lab')."""
+    return re.search(r"(^|_)floor", normalise(re.split(r"[/|]", name)[-1])) is not None
+
+
+def _category(node: Node) -> Match:
+    """The node's catalog category: its ``extras.category`` when that names one (our exporter writes it),
+    else its name, fuzzily."""
+    cat = node.extras.get("category")
+    if isinstance(cat, str) and cat in load_catalog():
+        return Match(node.name, cat, cat, 0)
+    return match_category(node.name)
+
+
 def _rooms(scene: GLTFScene, report: ImportReport) -> tuple[list[tuple[str, str, tuple]], float]:
-    floors = [n for n in scene.nodes if normalise(n.name).startswith("floor")]
+    floors = [n for n in scene.nodes if _is_floor(n.name)]
     rects, tops = [], []
     for k, n in enumerate(floors):
         pts = scene.subtree_points(n)
@@ -185,7 +201,7 @@ def import_glb(path: str | Path, name: str | None = None, allow_external: bool =
         if n.parent in claimed:
             claimed.add(n.index)
             continue
-        if key.startswith(("floor", "wall", "ceiling", "room", "light", "camera")):
+        if key.startswith(("floor", "wall", "ceiling", "room", "light", "camera")) or _is_floor(n.name):
             continue
         if is_target_marker(n.name):
             m = match_category(n.name, TARGET_PREFIX)
@@ -196,7 +212,7 @@ def import_glb(path: str | Path, name: str | None = None, allow_external: bool =
             else:
                 markers.append((n, m.category))
             continue
-        m = match_category(n.name)
+        m = _category(n)
         if m.ambiguous:
             report.ambiguous.append({"node": n.name, "candidates": list(m.candidates)})
             claimed.add(n.index)
@@ -252,9 +268,13 @@ def import_glb(path: str | Path, name: str | None = None, allow_external: bool =
                 report.warnings.append(f"'{f.node.name}': bottom at {bottom:.3f} m, its support's top at {top:.3f} m (snapped, Eq. 4)")
         elif abs(bottom) > SUPPORT_TOLERANCE:
             report.warnings.append(f"'{f.node.name}': bottom at {bottom:.3f} m above the floor (snapped to the floor)")
-        counts[f.category] += 1
-        obj_id = f"{f.category}_{counts[f.category] - 1}"
-        is_goal = a.goal_category
+        obj_id = f.node.extras.get("object_id")  # our exporter's ids survive a round trip
+        if not (isinstance(obj_id, str) and re.fullmatch(r"[A-Za-z0-9_\-]{1,64}", obj_id) and obj_id not in entries):
+            while f"{f.category}_{counts[f.category]}" in entries:
+                counts[f.category] += 1
+            obj_id = f"{f.category}_{counts[f.category]}"
+        flag = f.node.extras.get("is_goal")  # our exporter says which furniture is a goal; else the catalog does
+        is_goal = flag if isinstance(flag, bool) else a.goal_category
         obj = make_object(cat, obj_id, f.category, centre, z, yaw, a.placement, room, support, None, is_goal)
         (furniture if a.placement == "furniture" else instruments).append(obj)
         entries[obj_id] = {"id": obj_id, "node": f.node.name, "category": f.category, "is_goal": is_goal,
