@@ -162,4 +162,4 @@ class VLFMPolicy(FrontierPolicy):
 
     def episode_stats(self) -> dict:
         return {"detections": self.detections, "object_seen": bool(len(self.object_points) >= self.min_object_points),
-                "detector": self._detector.name, "scorer": self.scorer.name}
+                "detector": self._detector.name, "scorer": self.scorer.name, "label": self.label}

@@ -106,5 +106,6 @@ def test_vlfm_with_the_gt_detector_through_the_harness(dataset, tmp_path):
     assert summary["overall"]["episodes"] == 3 and not any(r.get("error") for r in recs)
     stats = [r["policy_stats"] for r in recs]
     assert all(s["detector"] == "gt-segmentation" and s["scorer"] == "efficientnet-lite0+minilm" for s in stats)
+    assert {s["label"] for s in stats} == {"VLFM (GT detector)"}
     assert any(s["object_seen"] for s in stats)  # the target is found in this small room
     assert summary["overall"]["sr"] > 0

@@ -149,7 +149,7 @@ def train_bc(data: list[str | Path], out: str | Path, cfg: BCConfig = BCConfig()
     if cfg.pretrained:
         model.encoder.load_pretrained(cfg.pretrained)
     opt = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
-    frame_size = _frame_size(train_ds)
+    frame_size = train_ds.frame_size()
     echo(f"BC: {train_ds.successful_episodes} successful episodes, {len(tr_idx)} training / {len(va_idx)} "
          f"validation steps, {cfg.image_size}px input")
     out.mkdir(parents=True, exist_ok=True)
@@ -181,15 +181,6 @@ def train_bc(data: list[str | Path], out: str | Path, cfg: BCConfig = BCConfig()
     plot_history(history, out / "loss.png")
     return BCResult(ckpt, best_epoch, best, len(history), stopped_by, len(tr_idx), len(va_idx),
                     (time.perf_counter() - t0) / 60, history)
-
-
-def _frame_size(ds: TrajectoryDataset) -> list[int]:
-    """(width, height) of the recorded frames, so inference resizes live frames the same way."""
-    from PIL import Image
-
-    root, f, off, n, k = ds.index[0]
-    with Image.open(root / ds._load(f, off, n)["steps"][k]["obs"]["rgb_path"]) as im:
-        return list(im.size)
 
 
 def plot_history(history: list[dict], path: Path) -> None:

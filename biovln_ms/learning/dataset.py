@@ -145,6 +145,12 @@ class TrajectoryDataset(torch.utils.data.Dataset):
     def __len__(self) -> int:
         return len(self.index)
 
+    def frame_size(self) -> list[int]:
+        """(width, height) of the recorded frames, so inference can resize live frames the same way."""
+        root, f, off, n, k = self.index[0]
+        with Image.open(root / self._load(f, off, n)["steps"][k]["obs"]["rgb_path"]) as im:
+            return list(im.size)
+
     def actions(self) -> np.ndarray:
         return np.array([self._load(f, off, n)["steps"][k]["action"] for _, f, off, n, k in self.index])
 
