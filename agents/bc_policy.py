@@ -2,7 +2,7 @@
 
 Each step it reads the head camera's RGB frame and the env's GPS+compass goal sensor
 (``extra.goal_gps_compass`` = distance rho, bearing phi in the agent frame), forms the same 4-d goal
-vector as the training data ([cos phi, sin phi, rho, clip(rho / 5, 0, 1)]) and takes the arg-max
+vector as the training data (``goal_features``: [cos phi, sin phi, rho, clip(rho / 5, 0, 1)]) and takes the arg-max
 action (``sample=True`` samples the softmax instead, seeded per episode).
 """
 
@@ -33,10 +33,11 @@ class BCPolicy(Policy):
 
     def act(self, obs, info: dict) -> int:
         from biovln_ms.learning.bc import preprocess
+        from biovln_ms.learning.dataset import goal_features
 
         rgb = obs["sensor_data"]["head"]["rgb"][0].cpu().numpy()
         rho, phi = (float(v) for v in obs["extra"]["goal_gps_compass"][0])
-        goal = torch.tensor([[np.cos(phi), np.sin(phi), rho, min(max(rho / 5.0, 0.0), 1.0)]], dtype=torch.float32)
+        goal = torch.from_numpy(goal_features((np.cos(phi), np.sin(phi)), rho))[None]
         with torch.inference_mode():
             logits = self.model(preprocess(rgb, self.meta["frame_size"], self.cfg.image_size), goal)[0]
         if self.sample:

@@ -95,7 +95,8 @@ class OccupancyMap:
         rc, _ = self.ray_cells(scan)
         keep = self.grid[rc[:, 0], rc[:, 1]] != OCCUPIED
         self.grid[rc[keep, 0], rc[keep, 1]] = FREE
-        orc = self._inside(self.cell(pw[obstacle][:, :2]))
+        orc = self.cell(pw[obstacle][:, :2])
+        orc = orc[self._in_bounds(orc)]
         self.grid[orc[:, 0], orc[:, 1]] = OCCUPIED
         self._grow_bbox(rc)
         self._grow_bbox(orc)
@@ -108,11 +109,12 @@ class OccupancyMap:
         frac = (np.arange(owner.size) - np.repeat(np.cumsum(steps) - steps, steps)) / np.repeat(steps, steps)
         pts = scan.cam + scan.direction[owner] * (scan.free_len[owner] * frac)[:, None]
         rc = self.cell(pts)
-        ok = (rc[:, 0] >= 0) & (rc[:, 1] >= 0) & (rc[:, 0] < self.n) & (rc[:, 1] < self.n)
+        ok = self._in_bounds(rc)
         return rc[ok], owner[ok]
 
-    def _inside(self, rc: np.ndarray) -> np.ndarray:
-        return rc[(rc[:, 0] >= 0) & (rc[:, 1] >= 0) & (rc[:, 0] < self.n) & (rc[:, 1] < self.n)]
+    def _in_bounds(self, rc: np.ndarray) -> np.ndarray:
+        """Mask of the (row, col) cells that lie on the grid."""
+        return (rc[:, 0] >= 0) & (rc[:, 1] >= 0) & (rc[:, 0] < self.n) & (rc[:, 1] < self.n)
 
     def mark_occupied(self, xy) -> None:
         rc = self.cell(xy)
@@ -148,7 +150,6 @@ class FrontierPolicy(Policy):
         self._since_plan = 10 ** 6
         self._last = None
         self._stuck = 0
-        self.llm_calls = 0
 
     # --- map ---------------------------------------------------------------------------------
     def _integrate(self, obs) -> Scan:

@@ -19,8 +19,8 @@ from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, Policy
 class PointFollower:
     """Discrete-action follower of the exact shortest path to a point (shared by the oracles).
 
-    ``step()`` returns an action, or STOP when it has arrived: nearer than half a step, or a forward
-    step would not bring the point closer.
+    ``step()`` returns an action, or STOP when it has arrived: nearer than half a step, or, with the
+    point in sight, a forward step would not bring it closer.
     """
 
     def __init__(self, env, point) -> None:

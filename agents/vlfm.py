@@ -145,8 +145,9 @@ class VLFMPolicy(FrontierPolicy):
 
     def act(self, obs, info: dict) -> int:
         action = super().act(obs, info)
+        p = self.env._planar()[:2]
         free = int(np.count_nonzero(self.map.grid[self.map.lo[0]:self.map.hi[0], self.map.lo[1]:self.map.hi[1]] == FREE))
-        d = float(np.linalg.norm(self.target - self.env._planar()[:2])) if self.target is not None else math.inf
+        d = float(np.linalg.norm(self.target - p)) if self.target is not None else math.inf
         best_free, best_d, target = self._best_progress
         if target is None or self.target is None or not np.array_equal(target, self.target):
             best_d = math.inf  # a new target: distance progress starts over
@@ -157,7 +158,7 @@ class VLFMPolicy(FrontierPolicy):
         self._best_progress = (max(free, best_free), min(d, best_d),
                                None if self.target is None else np.array(self.target))
         if self._no_progress >= self.no_progress_limit:
-            return self._remember(self.env._planar()[:2], STOP)
+            return self._remember(p, STOP)
         return action
 
     def episode_stats(self) -> dict:

@@ -449,6 +449,8 @@ def _train_rl(algo: str, timesteps: int, out: Optional[Path], n_envs: int, split
 
 
 def _rl_command(algo: str):
+    from biovln_ms.eval.methods import RL_ENV
+
     def command(timesteps: int = typer.Option(200_000, "--timesteps", "-t", help="Environment steps to train for."),
                 out: Optional[Path] = typer.Option(None, "--out", "-o", help=f"Run folder (default runs/{algo})."),
                 n_envs: int = typer.Option(2, help="Parallel envs (one process or Ray actor each)."),
@@ -460,13 +462,19 @@ def _rl_command(algo: str):
                 dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use).")) -> None:
         _train_rl(algo, timesteps, out, n_envs, split, eval_split, eval_episodes, seed, ray_address, dataset)
 
-    command.__doc__ = (f"{algo.upper()} (Stable-Baselines3) on BioVLN-OpFace-RL-v0: TensorBoard logs, checkpoints, "
+    command.__doc__ = (f"{algo.upper()} (Stable-Baselines3) on {RL_ENV}: TensorBoard logs, checkpoints, "
                        "learning curve, then evaluation through the harness.")
     return command
 
 
-for _algo in ("ppo", "a2c", "sac"):
-    train_app.command(_algo)(_rl_command(_algo))
+def _register_rl_commands() -> None:
+    from biovln_ms.eval.methods import SB3_CONTROL_MODES
+
+    for algo in SB3_CONTROL_MODES:
+        train_app.command(algo)(_rl_command(algo))
+
+
+_register_rl_commands()
 
 
 def main() -> None:

@@ -125,8 +125,11 @@ class BioVLNNavEnv(BaseEnv):
         for i, ep in enumerate(self.source.episodes):
             by_scene.setdefault(ep["scene_id"], []).append(i)
         scenes = sorted(by_scene)
-        return [by_scene[s][j] for k in rng.permutation(len(scenes)) for s in [scenes[k]]
-                for j in rng.permutation(len(by_scene[s]))]
+        order: list[int] = []
+        for k in rng.permutation(len(scenes)):
+            episodes = by_scene[scenes[k]]
+            order += [episodes[j] for j in rng.permutation(len(episodes))]
+        return order
 
     # --- configuration -------------------------------------------------------------------------
     @property

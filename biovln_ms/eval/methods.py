@@ -7,6 +7,11 @@ from typing import Callable
 
 from biovln_ms.errors import BioVLNError
 
+RL_ENV = "BioVLN-OpFace-RL-v0"  # the variant learned policies train and evaluate on
+# Stable-Baselines3 algorithms and the env control mode each needs: SAC acts in a continuous Box
+# ([forward, turn, stop] in [-1, 1]), PPO and A2C in Discrete(4)
+SB3_CONTROL_MODES = {"ppo": "discrete", "a2c": "discrete", "sac": "continuous"}
+
 
 @dataclass(frozen=True)
 class MethodSpec:
@@ -34,53 +39,14 @@ def _bc_preflight(checkpoint: str | None = None, **_) -> None:
     load_bc(checkpoint)
 
 
-def _random(**kw):
-    from biovln_ms.agents.random_policy import RandomPolicy
+def _lazy(module: str, cls: str, **fixed) -> Callable:
+    """A factory of ``biovln_ms.agents.<module>.<cls>``, imported only when a worker builds the policy
+    (so the driver never loads torch, SB3 or the perception models)."""
 
-    return RandomPolicy(**kw)
-
-
-def _oracle(**kw):
-    from biovln_ms.agents.oracle import OraclePolicy
-
-    return OraclePolicy(**kw)
-
-
-def _zone3(**kw):
-    from biovln_ms.agents.zone3_oracle import Zone3OraclePolicy
-
-    return Zone3OraclePolicy(**kw)
-
-
-def _frontier(**kw):
-    from biovln_ms.agents.frontier import FrontierPolicy
-
-    return FrontierPolicy(**kw)
-
-
-def _llm_frontier(**kw):
-    from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
-
-    return LLMFrontierPolicy(**kw)  # raises LLMConfigError without a configured endpoint
-
-
-def _vlfm(**kw):
-    from biovln_ms.agents.vlfm import VLFMPolicy
-
-    return VLFMPolicy(**kw)
-
-
-def _bc(**kw):
-    from biovln_ms.agents.bc_policy import BCPolicy
-
-    return BCPolicy(**kw)
-
-
-def _sb3(algo: str):
     def factory(**kw):
-        from biovln_ms.agents.sb3_policy import SB3Policy
+        import importlib
 
-        return SB3Policy(algo=algo, **kw)
+        return getattr(importlib.import_module(f"biovln_ms.agents.{module}"), cls)(**fixed, **kw)
 
     return factory
 
@@ -92,26 +58,24 @@ def _sb3_preflight(checkpoint: str | None = None, **_) -> None:
 
 
 def _sb3_spec(algo: str, control_mode: str) -> MethodSpec:
-    return MethodSpec(_sb3(algo), "state", f"Stable-Baselines3 {algo.upper()} on the RL variant (--checkpoint)",
-                      _sb3_preflight, ("checkpoint", "deterministic"), "BioVLN-OpFace-RL-v0",
-                      {"control_mode": control_mode})
+    return MethodSpec(_lazy("sb3_policy", "SB3Policy", algo=algo), "state",
+                      f"Stable-Baselines3 {algo.upper()} on the RL variant (--checkpoint)", _sb3_preflight,
+                      ("checkpoint", "deterministic"), RL_ENV, {"control_mode": control_mode})
 
 
 METHODS: dict[str, MethodSpec] = {
-    "random": MethodSpec(_random, "none", "uniform forward/left/right, 5 % stop per step"),
-    "oracle": MethodSpec(_oracle, "none", "exact geodesic path to the snapped goal"),
-    "zone3_oracle": MethodSpec(_zone3, "none", "up to 8 Zone-3 approach points, centroid fallback"),
-    "frontier": MethodSpec(_frontier, "rgbd", "depth-only occupancy grid, nearest-frontier exploration"),
-    "llm_frontier": MethodSpec(_llm_frontier, "rgbd", "frontier + LLM choice among near-equidistant frontiers",
-                               _llm_preflight),
-    "vlfm": MethodSpec(_vlfm, "rgb+depth+segmentation", "VLFM: frontier + image-text value map + detector "
+    "random": MethodSpec(_lazy("random_policy", "RandomPolicy"), "none", "uniform forward/left/right, 5 % stop per step"),
+    "oracle": MethodSpec(_lazy("oracle", "OraclePolicy"), "none", "exact geodesic path to the snapped goal"),
+    "zone3_oracle": MethodSpec(_lazy("zone3_oracle", "Zone3OraclePolicy"), "none", "up to 8 Zone-3 approach points, centroid fallback"),
+    "frontier": MethodSpec(_lazy("frontier", "FrontierPolicy"), "rgbd", "depth-only occupancy grid, nearest-frontier exploration"),
+    "llm_frontier": MethodSpec(_lazy("llm_frontier", "LLMFrontierPolicy"), "rgbd",
+                               "frontier + LLM choice among near-equidistant frontiers", _llm_preflight),
+    "vlfm": MethodSpec(_lazy("vlfm", "VLFMPolicy"), "rgb+depth+segmentation", "VLFM: frontier + image-text value map + detector "
                        "(default: GT segmentation, 'VLFM (GT detector)')", None,
                        ("detector", "scorer", "detect_every", "score_every")),
-    "bc": MethodSpec(_bc, "rgb", "behavioural cloning: ResNet-18 + 4-d goal vector (--checkpoint)", _bc_preflight,
+    "bc": MethodSpec(_lazy("bc_policy", "BCPolicy"), "rgb", "behavioural cloning: ResNet-18 + 4-d goal vector (--checkpoint)", _bc_preflight,
                      ("checkpoint", "sample", "seed")),
-    "ppo": _sb3_spec("ppo", "discrete"),
-    "a2c": _sb3_spec("a2c", "discrete"),
-    "sac": _sb3_spec("sac", "continuous"),
+    **{algo: _sb3_spec(algo, mode) for algo, mode in SB3_CONTROL_MODES.items()},
 }
 
 

@@ -43,14 +43,19 @@ class Transforms:
     position_noise: float = 0.0  # metres (std) added to the agent position before the goal vector
 
 
+def goal_features(unit, dist: float) -> np.ndarray:
+    """The 4-d goal vector from a unit direction in the agent frame and a distance:
+    [unit x (forward), unit y (left), distance, clip(distance / 5, 0, 1)]."""
+    return np.array([unit[0], unit[1], dist, min(max(dist / 5.0, 0.0), 1.0)], np.float32)
+
+
 def goal_vector(position, heading, goal) -> np.ndarray:
-    """[unit direction in the agent frame (x forward, y left), distance, clip(distance / 5, 0, 1)]."""
+    """``goal_features`` of the goal seen from ``position`` with unit ``heading`` (x forward, y left)."""
     d = np.asarray(goal[:2], float) - np.asarray(position[:2], float)
     hx, hy = heading
     local = np.array([hx * d[0] + hy * d[1], -hy * d[0] + hx * d[1]])
     dist = float(np.linalg.norm(d))
-    unit = local / dist if dist > 1e-9 else np.zeros(2)
-    return np.array([unit[0], unit[1], dist, min(max(dist / 5.0, 0.0), 1.0)], np.float32)
+    return goal_features(local / dist if dist > 1e-9 else np.zeros(2), dist)
 
 
 def image_tensor(img: Image.Image, size: tuple[int, int], normalize: bool = True, flip: bool = False,

@@ -22,10 +22,10 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
 from biovln_ms.errors import BioVLNError
+from biovln_ms.eval.methods import RL_ENV, SB3_CONTROL_MODES
 from biovln_ms.io_utils import atomic_write_bytes, atomic_write_text, save_figure
 
-ALGOS = ("ppo", "a2c", "sac")
-RL_ENV = "BioVLN-OpFace-RL-v0"
+ALGOS = tuple(SB3_CONTROL_MODES)
 
 
 def algo_class(name: str):
@@ -36,11 +36,6 @@ def algo_class(name: str):
     if name not in classes:
         raise BioVLNError(f"unknown algorithm '{name}'", field="algo", fix=f"use one of: {', '.join(ALGOS)}")
     return classes[name]
-
-
-def control_mode_for(algo: str) -> str:
-    """SAC needs a continuous action space ([forward, turn, stop] in [-1, 1]); PPO and A2C use Discrete(4)."""
-    return "continuous" if algo == "sac" else "discrete"
 
 
 @dataclass
@@ -107,7 +102,7 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
 
     n = n_envs or cfg.n_envs
     factory = partial(make_gym_env, cfg.env_id, split=cfg.split, dataset=cfg.dataset,
-                      control_mode=control_mode_for(cfg.algo), obs_mode="state")
+                      control_mode=SB3_CONTROL_MODES[cfg.algo], obs_mode="state")
     if cfg.ray_address:
         from biovln_ms.learning.ray_vec_env import RayVecEnv
 

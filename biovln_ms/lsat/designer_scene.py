@@ -23,7 +23,7 @@ from biovln_ms.assetgen.generate import load_glb
 from biovln_ms.catalog import load_catalog
 from biovln_ms.geometry.zones import rot2
 from biovln_ms.io_utils import atomic_write_bytes
-from biovln_ms.lsat.gltf import Y_UP_TO_Z_UP
+from biovln_ms.lsat.gltf import Z_UP_TO_Y_UP
 from biovln_ms.paths import ASSET_DIR
 
 ROOM = (8.0, 6.0, 3.0)  # x, y, wall height (m)
@@ -42,7 +42,7 @@ LAYOUT = [
 
 
 def _z_up_to_gltf(m: np.ndarray) -> np.ndarray:
-    return np.linalg.inv(Y_UP_TO_Z_UP) @ m
+    return Z_UP_TO_Y_UP @ m
 
 
 def _box(name: str, scene: trimesh.Scene, size, centre) -> None:

@@ -29,6 +29,7 @@ CHUNK_JSON = 0x4E4F534A
 CHUNK_BIN = 0x004E4942
 MAX_COORDINATE = 1e4  # m: anything farther is a units or transform error, not a lab
 Y_UP_TO_Z_UP = np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], float)
+Z_UP_TO_Y_UP = np.linalg.inv(Y_UP_TO_Z_UP)  # what writers of glTF apply to our Z-up data
 
 
 @dataclass(frozen=True)
@@ -65,9 +66,7 @@ class GLTFScene:
     _doc: dict
     _buffers: list[bytes]
     _limits: Limits
-
-    def by_name(self) -> dict[str, Node]:
-        return {n.name: n for n in self.nodes}
+    _points: dict[int, np.ndarray] = field(default_factory=dict)  # mesh_points per node, read once
 
     def subtree(self, node: Node) -> list[Node]:
         out, stack = [], [node.index]
@@ -78,7 +77,13 @@ class GLTFScene:
         return out
 
     def mesh_points(self, node: Node) -> np.ndarray:
-        """World (Z-up) vertices of the node's own mesh, (N, 3); empty for an empty node."""
+        """World (Z-up) vertices of the node's own mesh, (N, 3); empty for an empty node. Each mesh's
+        accessors are decoded once per scene."""
+        if node.index not in self._points:
+            self._points[node.index] = self._read_mesh_points(node)
+        return self._points[node.index]
+
+    def _read_mesh_points(self, node: Node) -> np.ndarray:
         if node.mesh is None:
             return np.zeros((0, 3))
         mesh = _item(self._doc, "meshes", node.mesh, self.path, f"node '{node.name}'")

@@ -108,9 +108,11 @@ def _footprint(points: np.ndarray) -> tuple[np.ndarray, float, float, float]:
 
 
 def _face_parts(scene: GLTFScene, node: Node) -> np.ndarray:
-    pts = [scene.subtree_points(n) for n in scene.subtree(node)[1:]
-           if any(w in normalise(n.name) for w in FACE_PART_WORDS)]
-    pts = [p for p in pts if len(p)]
+    """Vertices of the parts whose names say they are on the operational face, with their own children
+    (a nested part counted once)."""
+    on_face = {m.index for n in scene.subtree(node)[1:] if any(w in normalise(n.name) for w in FACE_PART_WORDS)
+               for m in scene.subtree(n)}
+    pts = [p for p in (scene.mesh_points(scene.nodes[i]) for i in sorted(on_face)) if len(p)]
     return np.concatenate(pts) if pts else np.zeros((0, 3))
 
 
@@ -158,7 +160,7 @@ def _category(node: Node) -> Match:
 def _rooms(scene: GLTFScene, report: ImportReport) -> tuple[list[tuple[str, str, tuple]], float]:
     floors = [n for n in scene.nodes if _is_floor(n.name)]
     rects, tops = [], []
-    for k, n in enumerate(floors):
+    for n in floors:
         pts = scene.subtree_points(n)
         if len(pts) < 3:
             report.warnings.append(f"floor node '{n.name}' has no mesh: ignored")
@@ -176,7 +178,7 @@ def _rooms(scene: GLTFScene, report: ImportReport) -> tuple[list[tuple[str, str,
     if max(tops) - min(tops) > 0.05 or abs(min(tops)) > 0.05:
         report.warnings.append(f"floor tops range {min(tops):.3f}..{max(tops):.3f} m: BioVLN assumes the floor at z = 0")
     walls = [n for n in scene.nodes if normalise(n.name).startswith("wall")]
-    heights = [scene.subtree_points(n)[:, 2].max() for n in walls if len(scene.subtree_points(n))]
+    heights = [pts[:, 2].max() for pts in (scene.subtree_points(n) for n in walls) if len(pts)]
     return rects, float(max(heights)) if heights else DEFAULT_WALL_HEIGHT
 
 

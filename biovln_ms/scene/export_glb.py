@@ -124,9 +124,9 @@ def annotate(glb: bytes, spec: SceneSpec) -> bytes:
 def export_scene_glb(spec: SceneSpec, out: str | Path) -> Path:
     """Write the assembled, annotated scene GLB atomically, in glTF's Y-up frame (Blender, Habitat and
     viewers show it upright; ``biovln-ms lsat import`` reads it back)."""
-    from biovln_ms.lsat.gltf import Y_UP_TO_Z_UP
+    from biovln_ms.lsat.gltf import Z_UP_TO_Y_UP
 
     scene = assemble(spec)
-    scene.apply_transform(np.linalg.inv(Y_UP_TO_Z_UP))
+    scene.apply_transform(Z_UP_TO_Y_UP)
     glb = scene.export(file_type="glb")
     return atomic_write_bytes(out, annotate(glb, spec))
