@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from shapely.geometry import Point, Polygon
 
@@ -53,6 +53,7 @@ def test_eq4_bottom_rests_on_support(top, bb_center, height):
 
 
 @given(coord, coord, angle, size, size, st.sampled_from(sorted(FACE_VECTORS)), st.floats(0.5, 0.9))
+@example(4.0, 0.0, 1.0, 1.0, 1.1446884208557935, "-Y", 0.6117281949532553)  # the GEOS overlay case
 def test_eq1_goal_on_zone3_outer_edge_along_face(x, y, yaw, sx, sy, face, delta):
     i = inst(x, y, yaw, sx, sy, face, delta=delta)
     g = i.goal()
@@ -62,7 +63,11 @@ def test_eq1_goal_on_zone3_outer_edge_along_face(x, y, yaw, sx, sy, face, delta)
     z3 = i.zone3()
     assert z3.area == pytest.approx(i.face_width * delta, rel=1e-6)
     assert z3.exterior.distance(Point(g)) < 1e-7  # the goal sits on Zone 3's outer boundary
-    assert i.zone1().intersection(z3).area < 1e-9  # Zone 3 lies outside the body
+    # Zone 3 lies outside the body. They share the face edge exactly, and GEOS 3.14's overlay can return
+    # the whole of Zone 3 as the intersection of such touching polygons (found by hypothesis), so the
+    # area is only consulted when GEOS's predicates do not already say the two merely touch.
+    z1 = i.zone1()
+    assert z1.touches(z3) or z1.intersection(z3).area < 1e-9
     assert i.clearance(g) == pytest.approx(delta, abs=1e-7)  # d_half equals the half-depth here
 
 
