@@ -22,7 +22,7 @@ def raw_render_rate() -> float:
     import gymnasium as gym
 
     import biovln_ms  # noqa: F401
-    from benchmarks.env_speed import raw_render_rate as rate
+    from biovln_ms.render.sapien_utils import raw_camera_rate as rate
 
     env = gym.make("BioVLN-OpFace-v0", split="ms_val", obs_mode="rgbd", sim_backend="physx_cpu", render_backend="cpu")
     env.reset(seed=0)

@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 import biovln_ms  # noqa: F401
+from biovln_ms.render.sapien_utils import raw_camera_rate
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
 
@@ -31,24 +32,6 @@ def rss_mb() -> float:
             if line.startswith("VmRSS:"):
                 return int(line.split()[1]) / 1024
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-
-
-def raw_render_rate(env, frames: int) -> float:
-    """update_render + take_picture + colour and position/segmentation read-back, SAPIEN only."""
-    u = env.unwrapped
-    cams = u.scene.sensors["head"].camera._render_cameras
-    for _ in range(3):
-        u.scene.update_render()
-        for c in cams:
-            c.take_picture()
-    t = time.perf_counter()
-    for _ in range(frames):
-        u.scene.update_render()
-        for c in cams:
-            c.take_picture()
-            c.get_picture("Color")
-            c.get_picture("PositionSegmentation")
-    return frames / (time.perf_counter() - t)
 
 
 def step_rate(env, steps: int) -> float:
@@ -77,7 +60,7 @@ def main() -> None:
                                   ("state only", "state", 128, 128)):
         env = gym.make("BioVLN-OpFace-v0", split="ms_val", obs_mode=obs_mode, camera_width=w, camera_height=h, **CPU)
         env.reset(seed=0)
-        raw = raw_render_rate(env, max(20, args.steps // 5)) if obs_mode != "state" else None
+        raw = raw_camera_rate(env, max(20, args.steps // 5)) if obs_mode != "state" else None
         rate = step_rate(env, args.steps if obs_mode != "state" else args.steps * 5)
         rows.append((label, rate, raw))
         env.close()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from biovln_ms.errors import RenderError
@@ -66,3 +68,22 @@ def device_kind(device) -> str:
     """
     name = device.name.lower()
     return "CPU" if device.is_cpu() or any(s in name for s in SOFTWARE_RENDERERS) else "GPU"
+
+
+def raw_camera_rate(env, frames: int) -> float:
+    """Frames/s of the env's head camera rendered by SAPIEN alone (update_render + take_picture + colour
+    and position/segmentation read-back): the reference the benchmarks divide by."""
+    u = env.unwrapped
+    cams = u.scene.sensors["head"].camera._render_cameras
+    for _ in range(3):
+        u.scene.update_render()
+        for c in cams:
+            c.take_picture()
+    t = time.perf_counter()
+    for _ in range(frames):
+        u.scene.update_render()
+        for c in cams:
+            c.take_picture()
+            c.get_picture("Color")
+            c.get_picture("PositionSegmentation")
+    return frames / (time.perf_counter() - t)
