@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from biovln_ms.agents.policy import Policy
+from biovln_ms.agents.policy import EpisodeInfo, Policy
 from biovln_ms.errors import BioVLNError
 
 
@@ -18,30 +18,24 @@ class SB3Policy(Policy):
     obs_mode = "state"
 
     def __init__(self, checkpoint: str, algo: str = "ppo", deterministic: bool = True) -> None:
-        from biovln_ms.learning.rl import algo_class
+        from biovln_ms.learning.sb3_safe import load_sb3_model
 
         path = Path(checkpoint)
         if not path.is_file():
             raise BioVLNError("no such checkpoint", source=str(path), field="checkpoint",
                               fix=f"train one: biovln-ms train {algo} --timesteps N --out DIR (it writes DIR/model.zip)")
-        try:
-            self.model = algo_class(algo).load(path, device="cpu")
-        except Exception as e:  # noqa: BLE001 - SB3 raises many types for a foreign zip
-            raise BioVLNError(f"not a Stable-Baselines3 {algo.upper()} model ({type(e).__name__}: {str(e)[:120]})",
-                              source=str(path), field="checkpoint",
-                              fix=f"pass the model.zip written by `biovln-ms train {algo}`, with --method {algo}") from None
+        self.model = load_sb3_model(path, algo)  # never unpickles: a checkpoint is untrusted input
         self.name = algo
         self.deterministic = deterministic
 
-    def reset(self, episode_info: dict) -> None:
-        env = episode_info["env"]
-        expected = self.model.observation_space.shape
-        got = env.single_observation_space.shape
-        if expected != got:
-            raise BioVLNError(f"the model expects observations of shape {expected}, this env gives {got}",
-                              field="env", fix="evaluate on the env it was trained on (--env BioVLN-OpFace-RL-v0)")
+    def reset(self, episode_info: EpisodeInfo) -> None:
+        """Nothing to reset: the network is stateless."""
 
     def act(self, obs, info: dict):
         x = obs.cpu().numpy()[0] if hasattr(obs, "cpu") else np.asarray(obs)[0]
+        expected = self.model.observation_space.shape
+        if x.shape != expected:
+            raise BioVLNError(f"the model expects observations of shape {expected}, this env gives {x.shape}",
+                              field="env", fix="evaluate on the env it was trained on (--env BioVLN-OpFace-RL-v0)")
         action, _ = self.model.predict(x, deterministic=self.deterministic)
         return int(action) if np.ndim(action) == 0 else np.asarray(action, np.float32)
