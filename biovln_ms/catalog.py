@@ -12,7 +12,15 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 from rapidfuzz import process as fuzz_process
 
 from biovln_ms.errors import CatalogError, describe_validation_error
@@ -49,6 +57,7 @@ class AssetSpec(_Strict):
     collision: Literal["box", "coacd"] = "box"
     support_height: float | None = Field(default=None, gt=0)
     rationale: str = ""
+    _zone2_clearance: float | None = PrivateAttr(default=None)  # set by the CatalogFile holding the asset
 
     @field_validator("dimensions")
     @classmethod
@@ -58,7 +67,7 @@ class AssetSpec(_Strict):
         return v
 
     @model_validator(mode="after")
-    def _consistent(self) -> "AssetSpec":
+    def _consistent(self) -> AssetSpec:
         if self.face is None:
             if self.placement != "furniture":
                 raise ValueError(f"face: only furniture may have no operational face (placement={self.placement})")
@@ -92,6 +101,11 @@ class AssetSpec(_Strict):
     def height(self) -> float:
         return self.dimensions[2]
 
+    @property
+    def zone2_clearance(self) -> float:
+        """epsilon_c of Eq. 2 from the catalog this asset came from (the packaged one for a stand-alone asset)."""
+        return load_catalog().zone2_clearance if self._zone2_clearance is None else self._zone2_clearance
+
 
 class RoomShellPiece(_Strict):
     name: str
@@ -114,7 +128,7 @@ class CatalogFile(_Strict):
     room_shell: list[RoomShellPiece] = []
 
     @model_validator(mode="after")
-    def _unique(self) -> "CatalogFile":
+    def _unique(self) -> CatalogFile:
         names = [a.name for a in self.assets] + [p.name for p in self.room_shell]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
@@ -124,6 +138,13 @@ class CatalogFile(_Strict):
                 raise ValueError(f"support_heights: '{furn}' is not an asset")
             if h <= 0:
                 raise ValueError(f"support_heights.{furn}: must be positive")
+        return self
+
+    @model_validator(mode="after")
+    def _stamp_clearance(self) -> CatalogFile:
+        """Each asset carries this catalog's epsilon_c (Eq. 2) into the geometry built from it."""
+        for a in self.assets:
+            a._zone2_clearance = self.zone2_clearance
         return self
 
 
@@ -138,6 +159,7 @@ class Catalog:
 
     @property
     def zone2_clearance(self) -> float:
+        """The Zone-2 safety clearance epsilon_c of Eq. 2, in metres."""
         return self.data.zone2_clearance
 
     @property

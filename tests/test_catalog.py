@@ -88,6 +88,7 @@ def _write(tmp_path, mutate):
     (lambda o: o["assets"][4].pop("placement"), "assets[4].placement"),
     (lambda o: o["assets"].append(dict(o["assets"][0])), "assets"),
     (lambda o: o["assets"][0].update(colour="red"), "assets[0].colour"),
+    (lambda o: o.update(zone2_clearance=0.0), "zone2_clearance"),
 ])
 def test_malformed_catalog_names_file_and_field(tmp_path, mutate, field):
     path = _write(tmp_path, mutate)
@@ -111,3 +112,15 @@ def test_catalog_hash_is_stable(catalog):
     import hashlib
 
     assert catalog.sha256 == hashlib.sha256(CATALOG_PATH.read_bytes()).hexdigest()
+
+
+def test_every_asset_carries_its_catalogs_zone2_clearance(tmp_path, catalog):
+    from biovln_ms.catalog import AssetSpec
+
+    assert {a.zone2_clearance for a in catalog.assets()} == {catalog.zone2_clearance}
+    wide = load_catalog(_write(tmp_path, lambda o: o.update(zone2_clearance=0.4)))
+    assert wide.zone2_clearance == 0.4
+    assert {a.zone2_clearance for a in wide.assets()} == {0.4}
+    assert {a.zone2_clearance for a in catalog.assets()} == {0.25}  # the packaged catalog is untouched
+    raw = json.loads(CATALOG_PATH.read_text())["assets"][0]
+    assert AssetSpec.model_validate(raw).zone2_clearance == 0.25  # a stand-alone asset: the packaged catalog's

@@ -10,7 +10,14 @@ from shapely.geometry import Point, Polygon
 
 from biovln_ms.catalog import FACE_VECTORS
 from biovln_ms.geometry.zones import (
-    EPS_C, PlacedInstrument, eq2_axis_aligned, goal_position, min_clearance, placement_z, rot2, yaw_facing,
+    PlacedInstrument,
+    default_zone2_clearance,
+    eq2_axis_aligned,
+    goal_position,
+    min_clearance,
+    placement_z,
+    rot2,
+    yaw_facing,
     zone2_disjoint,
 )
 
@@ -74,10 +81,12 @@ def test_eq1_goal_on_zone3_outer_edge_along_face(x, y, yaw, sx, sy, face, delta)
 @given(coord, coord, angle, size, size)
 def test_zone2_is_zone1_grown_by_eps(x, y, yaw, sx, sy):
     i = inst(x, y, yaw, sx, sy)
+    eps = default_zone2_clearance()
+    assert i.eps_c == eps  # an instrument without a catalog asset takes the packaged catalog's epsilon_c
     z1, z2 = i.zone1(), i.zone2()
-    assert z2.area == pytest.approx((sx + 2 * EPS_C) * (sy + 2 * EPS_C), rel=1e-9)
+    assert z2.area == pytest.approx((sx + 2 * eps) * (sy + 2 * eps), rel=1e-9)
     assert z2.contains(z1)
-    assert z1.buffer(EPS_C, join_style="mitre").symmetric_difference(z2).area < 1e-6
+    assert z1.buffer(eps, join_style="mitre").symmetric_difference(z2).area < 1e-6
 
 
 @settings(max_examples=300)

@@ -2,24 +2,31 @@
 
 Zone 1 is the oriented footprint of the body, Zone 2 that footprint grown by the safety clearance
 epsilon_c on all four sides, Zone 3 the rectangle of depth delta in front of the operational face.
+epsilon_c is the catalog's ``zone2_clearance``: an instrument takes it from the catalog its
+dimensions came from (``PlacedInstrument.from_asset``), the packaged catalog otherwise.
 Everything here is planar geometry in world coordinates, Z up, metres, yaw in radians (CCW).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Iterable, Sequence
 
 import numpy as np
 from shapely.geometry import Polygon
 
-from biovln_ms.catalog import AssetSpec
+from biovln_ms.catalog import AssetSpec, load_catalog
 
-#: Zone-2 safety clearance epsilon_c (paper §3.2).
-EPS_C = 0.25
 #: Clearance below which a position counts as unsafe for MCR/VRT and the reward (paper §4.2, Eq. 5).
-SAFETY_THRESHOLD = 2 * EPS_C
+#: The paper prints it as a fixed 0.5 m (the gap Eq. 2 guarantees with its epsilon_c = 0.25 m); it is an
+#: evaluation constant, kept apart from a catalog's clearance so that metrics stay comparable.
+SAFETY_THRESHOLD = 0.5
+
+
+def default_zone2_clearance() -> float:
+    """epsilon_c of Eq. 2 in the packaged catalog (loaded once, cached)."""
+    return load_catalog().zone2_clearance
 
 
 def rot2(yaw: float) -> np.ndarray:
@@ -66,20 +73,20 @@ class PlacedInstrument:
     approach_distance: float = 0.0
     name: str = ""
     category: str = ""
-    eps_c: float = EPS_C
+    eps_c: float = field(default_factory=default_zone2_clearance)
     _rot: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "_rot", rot2(self.yaw))
 
     @classmethod
-    def from_asset(cls, asset: AssetSpec, center: Sequence[float], yaw: float, name: str = "",
-                   eps_c: float = EPS_C) -> "PlacedInstrument":
+    def from_asset(cls, asset: AssetSpec, center: Sequence[float], yaw: float, name: str = "") -> PlacedInstrument:
+        """The asset placed at ``center`` and ``yaw``, with the epsilon_c (Eq. 2) of the catalog it came from."""
         face = asset.face_vector
         return cls(center=tuple(float(v) for v in center), yaw=float(yaw), size=tuple(asset.dimensions),
                    model_face=None if face is None else (float(face[0]), float(face[1])),
                    d_half=asset.d_half or 0.0, approach_distance=asset.approach_distance or 0.0,
-                   name=name or asset.name, category=asset.name, eps_c=eps_c)
+                   name=name or asset.name, category=asset.name, eps_c=asset.zone2_clearance)
 
     # --- frames -------------------------------------------------------------------------------
     @property
@@ -116,6 +123,7 @@ class PlacedInstrument:
         return self._rect(self.half_xy)
 
     def zone2_corners(self) -> np.ndarray:
+        """Zone 1 grown by epsilon_c on all four sides (Eq. 2)."""
         return self._rect(self.half_xy + self.eps_c)
 
     def zone3_corners(self) -> np.ndarray:
@@ -194,11 +202,15 @@ def world_extent(inst: PlacedInstrument) -> np.ndarray:
     return np.abs(rot2(inst.yaw)) @ np.array(inst.size[:2], float)
 
 
-def eq2_axis_aligned(a: PlacedInstrument, b: PlacedInstrument, eps_c: float = EPS_C) -> bool:
-    """Eq. 2 as printed: |x_i - x_j| >= (s_x,i + s_x,j)/2 + 2 eps_c or the same in y."""
+def eq2_axis_aligned(a: PlacedInstrument, b: PlacedInstrument) -> bool:
+    """Eq. 2 as printed: |x_i - x_j| >= (s_x,i + s_x,j)/2 + 2 eps_c or the same in y.
+
+    2 eps_c is the sum of the two instruments' own clearances (equal when they share a catalog).
+    """
     sa, sb = world_extent(a), world_extent(b)
     dx, dy = np.abs(a.center_xy - b.center_xy)
-    return bool(dx >= (sa[0] + sb[0]) / 2 + 2 * eps_c - 1e-9 or dy >= (sa[1] + sb[1]) / 2 + 2 * eps_c - 1e-9)
+    two_eps = a.eps_c + b.eps_c
+    return bool(dx >= (sa[0] + sb[0]) / 2 + two_eps - 1e-9 or dy >= (sa[1] + sb[1]) / 2 + two_eps - 1e-9)
 
 
 def min_clearance(points: np.ndarray, instruments: Iterable[PlacedInstrument],
