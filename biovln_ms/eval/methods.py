@@ -1,9 +1,10 @@
-"""The baselines by name, with what each needs from the env."""
+"""The method registry: every baseline and learned policy by name, with what it needs from the env and how
+reports, paper comparisons and the CLI name it."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 from biovln_ms.errors import BioVLNError
 
@@ -15,13 +16,26 @@ SB3_CONTROL_MODES = {"ppo": "discrete", "a2c": "discrete", "sac": "continuous"}
 
 @dataclass(frozen=True)
 class MethodSpec:
+    """One method: how to build and run it, and how reports, paper comparisons and the CLI name it."""
+
     factory: Callable
     obs_mode: str  # what the policy reads: "none" for privileged oracles, "rgbd" for mapping methods
     description: str
-    preflight: Callable[..., None] | None = None  # called with the method kwargs; raises when it cannot run here
+    label: str  # display name in tables, plots and help (e.g. "VLFM (GT detector)")
+    report_order: int  # position of its rows in the report's tables and plots (ascending)
+    paper_key: str | None = None  # its row in the paper's tables (paper.py), None when the paper has none
+    privileged: bool = False  # reads the simulator's ground truth (goal, map), not only observations
+    preflight: Callable[..., None] | None = None  # called with its kwargs; raises when it cannot run here
     options: tuple[str, ...] = ()  # keyword arguments the method accepts (e.g. "checkpoint")
     env_id: str | None = None  # the env variant it must run on (None: the benchmark env)
     env_kwargs: dict = field(default_factory=dict)  # extra gym.make arguments (e.g. a control mode)
+    report_note: str = ""  # why its numbers differ from the paper's, for the report (when it has runs)
+
+    @property
+    def recordable(self) -> bool:
+        """`biovln-ms record` runs it as is: nothing to preflight (checkpoint, API key), the benchmark env,
+        RGB-D at most."""
+        return self.preflight is None and self.env_id is None and self.obs_mode in ("none", "rgbd")
 
 
 def _llm_preflight(**_) -> None:
@@ -57,26 +71,62 @@ def _sb3_preflight(checkpoint: str | None = None, **_) -> None:
                           fix="pass --checkpoint DIR/model.zip (train one with `biovln-ms train ppo`)")
 
 
-def _sb3_spec(algo: str, control_mode: str) -> MethodSpec:
+def _sb3_spec(algo: str, control_mode: str, report_order: int) -> MethodSpec:
     return MethodSpec(_lazy("sb3_policy", "SB3Policy", algo=algo), "state",
-                      f"Stable-Baselines3 {algo.upper()} on the RL variant (--checkpoint)", _sb3_preflight,
-                      ("checkpoint", "deterministic"), RL_ENV, {"control_mode": control_mode})
+                      f"Stable-Baselines3 {algo.upper()} on the RL variant (--checkpoint)",
+                      label=algo.upper(), report_order=report_order, preflight=_sb3_preflight,
+                      options=("checkpoint", "deterministic"), env_id=RL_ENV,
+                      env_kwargs={"control_mode": control_mode})
 
 
+_VLFM_NOTE = ("VLFM here uses the simulator's segmentation as its detector (\"VLFM (GT detector)\": a "
+              "perfect Grounding-DINO + SAM stage) and a packaged-weights scorer instead of "
+              "BLIP-2/GPT-4o, so it never misses a visible target; the paper's VLM stack failed on "
+              "rendered assets (its Table 8). It still fails where the target's visible side is not its "
+              "operational face (it stops next to the object's point cloud: the bench from behind), and "
+              "stands closer to instruments than the other methods (lower MCR, higher VRT).")
+_BC_NOTE = ("BC: trained from scratch on the CPU (no ImageNet ResNet-18 weights ship offline; `--pretrained` "
+            "takes them when you have them); the paper fine-tuned ImageNet weights at 224 px for up to 500 "
+            "epochs on a GPU. The budget of a run is in its `history.json` (README: the budget of ours).")
+
+# The one registry: a new method is its policy file plus one entry here.
 METHODS: dict[str, MethodSpec] = {
-    "random": MethodSpec(_lazy("random_policy", "RandomPolicy"), "none", "uniform forward/left/right, 5 % stop per step"),
-    "oracle": MethodSpec(_lazy("oracle", "OraclePolicy"), "none", "exact geodesic path to the snapped goal"),
-    "zone3_oracle": MethodSpec(_lazy("zone3_oracle", "Zone3OraclePolicy"), "none", "up to 8 Zone-3 approach points, centroid fallback"),
-    "frontier": MethodSpec(_lazy("frontier", "FrontierPolicy"), "rgbd", "depth-only occupancy grid, nearest-frontier exploration"),
+    "random": MethodSpec(_lazy("random_policy", "RandomPolicy"), "none",
+                         "uniform forward/left/right, 5 % stop per step",
+                         label="Random", report_order=10, paper_key="Random"),
+    "oracle": MethodSpec(_lazy("oracle", "OraclePolicy"), "none", "exact geodesic path to the snapped goal",
+                         label="Oracle", report_order=20, paper_key="Oracle", privileged=True),
+    "zone3_oracle": MethodSpec(_lazy("zone3_oracle", "Zone3OraclePolicy"), "none",
+                               "up to 8 Zone-3 approach points, centroid fallback",
+                               label="3-Zone Oracle", report_order=50, paper_key="3-Zone Oracle",
+                               privileged=True),
+    "frontier": MethodSpec(_lazy("frontier", "FrontierPolicy"), "rgbd",
+                           "depth-only occupancy grid, nearest-frontier exploration",
+                           label="Frontier", report_order=30, paper_key="Frontier"),
     "llm_frontier": MethodSpec(_lazy("llm_frontier", "LLMFrontierPolicy"), "rgbd",
-                               "frontier + LLM choice among near-equidistant frontiers", _llm_preflight),
-    "vlfm": MethodSpec(_lazy("vlfm", "VLFMPolicy"), "rgb+depth+segmentation", "VLFM: frontier + image-text value map + detector "
-                       "(default: GT segmentation, 'VLFM (GT detector)')", None,
-                       ("detector", "scorer", "detect_every", "score_every")),
-    "bc": MethodSpec(_lazy("bc_policy", "BCPolicy"), "rgb", "behavioural cloning: ResNet-18 + 4-d goal vector (--checkpoint)", _bc_preflight,
-                     ("checkpoint", "sample", "seed")),
-    **{algo: _sb3_spec(algo, mode) for algo, mode in SB3_CONTROL_MODES.items()},
+                               "frontier + LLM choice among near-equidistant frontiers",
+                               label="LLM-Frontier", report_order=40, paper_key="LLM-Frontier",
+                               preflight=_llm_preflight),
+    "vlfm": MethodSpec(_lazy("vlfm", "VLFMPolicy"), "rgb+depth+segmentation",
+                       "frontier + image-text value map + detector (default: GT segmentation)",
+                       label="VLFM (GT detector)", report_order=60, paper_key="VLFM",
+                       options=("detector", "scorer", "detect_every", "score_every"), report_note=_VLFM_NOTE),
+    "bc": MethodSpec(_lazy("bc_policy", "BCPolicy"), "rgb",
+                     "behavioural cloning: ResNet-18 + 4-d goal vector (--checkpoint)",
+                     label="BC", report_order=70, paper_key="BC", preflight=_bc_preflight,
+                     options=("checkpoint", "sample", "seed"), report_note=_BC_NOTE),
+    **{algo: _sb3_spec(algo, mode, 80 + 10 * i) for i, (algo, mode) in enumerate(SB3_CONTROL_MODES.items())},
 }
+
+
+def report_methods() -> list[str]:
+    """The registered methods in report order."""
+    return sorted(METHODS, key=lambda m: METHODS[m].report_order)
+
+
+def method_of_paper_key(key: str) -> str | None:
+    """The registered method whose row in the paper's tables is ``key`` (None when none is)."""
+    return next((m for m, s in METHODS.items() if s.paper_key == key), None)
 
 
 def method_spec(name: str, kwargs: dict | None = None) -> MethodSpec:
