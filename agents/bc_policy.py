@@ -1,7 +1,7 @@
 """Behavioural-cloning policy (appendix Table 17): the trained BC network acting on the live frame.
 
 Each step it reads the head camera's RGB frame and the env's GPS+compass goal sensor
-(``extra.goal_gps_compass`` = distance rho, bearing phi in the agent frame), forms the same 4-d goal
+(``extra.pointgoal_with_gps_compass`` = distance rho, bearing phi in the agent frame), forms the same 4-d goal
 vector as the training data (``goal_features``: [cos phi, sin phi, rho, clip(rho / 5, 0, 1)]) and takes the arg-max
 action (``sample=True`` samples the softmax instead, seeded per episode).
 """
@@ -13,7 +13,7 @@ import zlib
 import numpy as np
 import torch
 
-from biovln_ms.agents.policy import Policy
+from biovln_ms.agents.policy import EpisodeInfo, Policy
 
 
 class BCPolicy(Policy):
@@ -27,16 +27,16 @@ class BCPolicy(Policy):
         self.sample = sample
         self.seed = seed
 
-    def reset(self, episode_info: dict) -> None:
-        ep = episode_info["episode"]
-        self.rng = np.random.default_rng(zlib.crc32(f"{self.seed}/{ep['scene_id']}/{ep['episode_id']}".encode()))
+    def reset(self, episode_info: EpisodeInfo) -> None:
+        key = f"{self.seed}/{episode_info.scene_id}/{episode_info.episode_id}"
+        self.rng = np.random.default_rng(zlib.crc32(key.encode()))
 
     def act(self, obs, info: dict) -> int:
         from biovln_ms.learning.bc import preprocess
         from biovln_ms.learning.dataset import goal_features
 
         rgb = obs["sensor_data"]["head"]["rgb"][0].cpu().numpy()
-        rho, phi = (float(v) for v in obs["extra"]["goal_gps_compass"][0])
+        rho, phi = (float(v) for v in obs["extra"]["pointgoal_with_gps_compass"][0])
         goal = torch.from_numpy(goal_features((np.cos(phi), np.sin(phi)), rho))[None]
         with torch.inference_mode():
             logits = self.model(preprocess(rgb, self.meta["frame_size"], self.cfg.image_size), goal)[0]

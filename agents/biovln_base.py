@@ -1,23 +1,37 @@
-"""The BioVLN-MS mobile base, registered with ManiSkill as ``biovln_base``.
+"""The BioVLN-MS mobile base, registered with ManiSkill as ``biovln_base``, and its navigation controllers.
 
 Built from ``agents/assets/biovln_base.urdf`` (shipped, nothing downloaded): a 0.20 m-radius,
 0.95 m-tall cylinder on three planar joints (x, y, yaw) driven by a stiff PD position drive, so a
 commanded pose is reached exactly when free and the body is stopped by walls and instruments by
 SAPIEN's contact solver. The head camera sits on ``camera_link`` at 0.88 m (Habitat's ObjectNav
 sensor height), looking along the base's heading.
+
+Control modes (ManiSkill controllers, so ``env.control_mode`` and ``env.step`` are ManiSkill's):
+
+* ``discrete``: ``Discrete(4)`` — 0 STOP, 1 FORWARD ``forward_step``, 2 TURN_LEFT, 3 TURN_RIGHT ``turn_deg``
+  (paper §3.2);
+* ``continuous``: ``Box(-1, 1, (3,))`` — [forward, turn, stop]: forward (a0 + 1) / 2 · step, turn a1 · turn
+  angle, STOP when a2 > 0.
+
+Either sets the planar joints' drive targets to the commanded pose and remembers the command
+(:class:`NavCommand`) for the task's measures.
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import sapien
+import torch
+from gymnasium import spaces
 from mani_skill.agents.base_agent import BaseAgent, Keyframe
-from mani_skill.agents.controllers import PDJointPosControllerConfig
+from mani_skill.agents.controllers import PDJointPosController, PDJointPosControllerConfig
 from mani_skill.agents.registration import register_agent
 
-from biovln_ms.constants import ROBOT_RADIUS
+from biovln_ms.errors import BioVLNError
 
 URDF_PATH = Path(__file__).resolve().parent / "assets" / "biovln_base.urdf"
 BASE_JOINTS = ("root_x_joint", "root_y_joint", "root_yaw_joint")
@@ -26,6 +40,90 @@ CAMERA_HEIGHT = 0.88
 DRIVE_STIFFNESS = 3e6
 DRIVE_DAMPING = 1e4
 DRIVE_FORCE_LIMIT = 1e5
+ACTIONS = {0: "STOP", 1: "FORWARD", 2: "TURN_LEFT", 3: "TURN_RIGHT"}
+CONTROL_MODES = ("discrete", "continuous")
+
+
+class ActionError(BioVLNError):
+    """An action outside the control mode's action space."""
+
+
+@dataclass
+class NavCommand:
+    """The last command, per sub-env: the pose it started from and what was asked."""
+
+    start_pose: torch.Tensor  # (N, 3)
+    stop: torch.Tensor  # (N,) bool
+    forward: torch.Tensor  # (N,) m, float64
+    turn: torch.Tensor  # (N,) rad, float64
+
+
+class NavBaseController(PDJointPosController):
+    """Discrete or continuous navigation commands on the planar joints' stiff PD position drive."""
+
+    config: "NavBaseControllerConfig"
+
+    def _initialize_action_space(self):
+        if self.config.mode == "discrete":
+            self.single_action_space = spaces.Discrete(len(ACTIONS))
+        else:
+            self.single_action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+
+    def set_motion(self, forward_step: float, turn_deg: float) -> None:
+        """The distance of one FORWARD and the angle of one turn (the task's configuration)."""
+        self.forward_step, self.turn = float(forward_step), math.radians(turn_deg)
+
+    def reset(self):
+        super().reset()
+        if not hasattr(self, "forward_step"):
+            self.set_motion(self.config.forward_step, self.config.turn_deg)
+        n = self.scene.num_envs
+        zeros = torch.zeros(n, dtype=torch.float64, device=self.device)
+        self.command = NavCommand(self.qpos.clone(), torch.zeros(n, dtype=torch.bool, device=self.device), zeros, zeros)
+
+    def _decode(self, action: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(stop, forward metres, turn radians) per sub-env, or an ActionError naming the action."""
+        n = self.scene.num_envs
+        if self.config.mode == "discrete":
+            a = action.reshape(-1)
+            if a.numel() != n or a.is_complex() or not torch.equal(a, torch.round(a.double()).to(a.dtype)):
+                raise ActionError(f"action {action.tolist()} is not {n} integer(s)", field="action", fix=action_help())
+            k = a.long()
+            if ((k < 0) | (k >= len(ACTIONS))).any():
+                raise ActionError(f"action {k.tolist()} is outside Discrete(4)", field="action", fix=action_help())
+            f64 = dict(dtype=torch.float64, device=self.device)
+            turn = torch.where(k == 2, torch.tensor(self.turn, **f64),
+                               torch.where(k == 3, torch.tensor(-self.turn, **f64), torch.tensor(0.0, **f64)))
+            return k == 0, (k == 1).double() * self.forward_step, turn
+        a = action.reshape(n, -1).double()
+        if a.shape[1] != 3 or not torch.isfinite(a).all() or a.abs().max() > 1.0 + 1e-6:
+            raise ActionError(f"action {a.tolist()} is outside Box(-1, 1, (3,))", field="action",
+                              fix="continuous actions are [forward, turn, stop] in [-1, 1]: forward (a0+1)/2 * step, "
+                                  "turn a1 * turn angle, stop when a2 > 0")
+        return a[:, 2] > 0, (a[:, 0] + 1) / 2 * self.forward_step, a[:, 1] * self.turn
+
+    def set_action(self, action: torch.Tensor):
+        stop, forward, turn = self._decode(torch.as_tensor(action, device=self.device))
+        pose = self.qpos.clone()
+        forward, turn = forward * ~stop, turn * ~stop  # float64: targets are computed as exactly as the pose allows
+        p = pose.double()
+        delta = torch.stack([forward * torch.cos(p[:, 2]), forward * torch.sin(p[:, 2]), turn], dim=1)
+        target = (p + delta).to(pose.dtype)
+        self.command = NavCommand(pose, stop, forward, turn)
+        self._start_qpos, self._target_qpos = pose, target
+        self.set_drive_targets(target)
+
+
+@dataclass
+class NavBaseControllerConfig(PDJointPosControllerConfig):
+    mode: str = "discrete"
+    forward_step: float = 0.25
+    turn_deg: float = 30.0
+    controller_cls = NavBaseController
+
+
+def action_help() -> str:
+    return "discrete actions are " + ", ".join(f"{k}={v}" for k, v in ACTIONS.items())
 
 
 @register_agent()
@@ -34,7 +132,6 @@ class BioVLNBase(BaseAgent):
     urdf_path = str(URDF_PATH)
     fix_root_link = True
     disable_self_collisions = True
-    radius = ROBOT_RADIUS
     keyframes = dict(rest=Keyframe(pose=sapien.Pose(), qpos=np.zeros(3)))
     # Frictionless body: contact with a wall stops the base (and lets it slide along the wall, as
     # Habitat's agents do) without friction torques twisting its heading.
@@ -43,17 +140,28 @@ class BioVLNBase(BaseAgent):
 
     @property
     def _controller_configs(self):
-        # Absolute joint targets, not normalised: the env turns its discrete or continuous actions
-        # into exact planar targets (see biovln_ms.tasks.nav_env).
-        return dict(pd_base_pos=PDJointPosControllerConfig(
-            list(BASE_JOINTS), lower=None, upper=None, stiffness=DRIVE_STIFFNESS, damping=DRIVE_DAMPING,
-            force_limit=DRIVE_FORCE_LIMIT, normalize_action=False, use_delta=False))
+        return {mode: NavBaseControllerConfig(list(BASE_JOINTS), lower=None, upper=None, stiffness=DRIVE_STIFFNESS,
+                                              damping=DRIVE_DAMPING, force_limit=DRIVE_FORCE_LIMIT,
+                                              normalize_action=False, mode=mode)
+                for mode in CONTROL_MODES}
 
     def _after_init(self):
         self.base_link = self.robot.links_map["base_link"]
         self.camera_link = self.robot.links_map["camera_link"]
 
-    def planar_pose(self) -> np.ndarray:
+    @property
+    def radius(self) -> float:
+        """The body's radius (m), read from its collision cylinder in the URDF."""
+        return urdf_body_radius()
+
+    def planar_pose(self) -> torch.Tensor:
         """(num_envs, 3): x, y, yaw from the joint positions."""
-        q = self.robot.get_qpos()
-        return q.cpu().numpy() if hasattr(q, "cpu") else np.asarray(q)
+        return self.robot.get_qpos()
+
+
+def urdf_body_radius(path: Path = URDF_PATH) -> float:
+    """The radius of the base link's collision cylinder."""
+    import xml.etree.ElementTree as ET
+
+    link = ET.parse(path).getroot().find("link[@name='base_link']")
+    return float(link.find("collision/geometry/cylinder").get("radius"))

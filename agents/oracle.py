@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, Policy
+from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EpisodeInfo, Policy
 
 
 class PointFollower:
@@ -23,21 +23,22 @@ class PointFollower:
     point in sight, a forward step would not bring it closer.
     """
 
-    def __init__(self, env, point) -> None:
-        self.env, self.nav = env, env.nav
+    def __init__(self, view, task, point) -> None:
+        """``view``: the privileged view (pose, geodesics); ``task``: the TaskSpec (step and turn sizes)."""
+        self.view = view
         self.point = np.asarray(point, float)
-        self.step_len = env.cfg.forward_step
-        self.turn = math.radians(env.cfg.turn_deg)
+        self.step_len = task.forward_step
+        self.turn = math.radians(task.turn_deg)
         self._last = None
 
     def step(self) -> int:
-        pose = self.env._planar()
+        pose = self.view.pose()
         p, yaw = pose[:2], float(pose[2])
         d = float(np.linalg.norm(self.point - p))
         if d < self.step_len / 2:
             return STOP
         blocked = self._last is not None and self._last[1] == FORWARD and np.linalg.norm(p - self._last[0]) < 0.02
-        path = self.nav.shortest_path(self.nav.snap(p), self.point)
+        path = self.view.shortest_path(self.view.snap(p), self.point)
         target = next((q for q in path[1:] if np.linalg.norm(q - p) > 0.05), self.point)
         err = (math.atan2(target[1] - p[1], target[0] - p[0]) - yaw + math.pi) % (2 * math.pi) - math.pi
         if abs(err) > self.turn / 2 or blocked:
@@ -52,13 +53,15 @@ class PointFollower:
 
 
 class OraclePolicy(Policy):
+    """Privileged: reads the goal, geodesics and its pose from ``EpisodeInfo.privileged``."""
+
     name = "oracle"
     obs_mode = "none"
 
-    def reset(self, episode_info: dict) -> None:
-        env = episode_info["env"]
-        goal = env._ctx.goal if env.cfg.goal_mode == "opface" else env.nav.snap(env._ctx.goal)
-        self.follower = PointFollower(env, goal)
+    def reset(self, episode_info: EpisodeInfo) -> None:
+        view = episode_info.privileged
+        goal = view.goal if view.goal_mode == "opface" else view.snap(view.goal)
+        self.follower = PointFollower(view, episode_info.task, goal)
 
     def act(self, obs, info: dict) -> int:
         return self.follower.step()

@@ -1,10 +1,54 @@
-"""The policy interface every BioVLN baseline implements (paper §4.3): discrete actions, 500 steps."""
+"""The policy interface every BioVLN baseline implements (paper §4.3), and what a policy may know.
+
+A policy sees the episode's public description (:class:`EpisodeInfo`) at reset and, each step, the
+env's observation dict and info — nothing else (Habitat's convention). The observation carries the
+sensors of :mod:`biovln_ms.tasks.sensors`:
+
+* ``obs["extra"]["gps"]`` (N, 2) and ``["compass"]`` (N, 1): the robot's position and heading in the
+  episode frame (origin at the start position, x along the start heading).
+* ``obs["extra"]["pointgoal_with_gps_compass"]`` (N, 2): distance to the task's goal and its bearing
+  in the robot frame (radians, counter-clockwise positive).
+* ``obs["extra"]["objectgoal"]`` (N, C): one-hot target category, in ``task.goal_categories`` order.
+* ``obs["extra"]["semantic_category"]`` (N, H, W, 1), obs modes with segmentation only: per head-camera
+  pixel, 1 + the index of the goal category of the object seen there, 0 for anything else.
+* ``obs["sensor_data"]["head"]`` (rgb, depth in int16 mm, segmentation) and
+  ``obs["sensor_param"]["head"]`` (``intrinsic_cv``, ``extrinsic_cv``, ``cam2world_gl``), ManiSkill's.
+
+Only the declared oracles also get ``EpisodeInfo.privileged``, a read-only
+:class:`~biovln_ms.tasks.privileged.PrivilegedView` (goal, success radius, zones, geodesics, pose).
+"""
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any
 
 STOP, FORWARD, TURN_LEFT, TURN_RIGHT = 0, 1, 2, 3
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    """What the action space means and what the task asks (public, as a robot's configuration)."""
+
+    forward_step: float  # m per FORWARD
+    turn_deg: float  # degrees per TURN_LEFT / TURN_RIGHT
+    hfov_deg: float  # head camera's horizontal field of view
+    max_episode_steps: int
+    goal_categories: tuple[str, ...]  # the order of the ``objectgoal`` one-hot
+    control_mode: str  # "discrete" or "continuous"
+
+
+@dataclass(frozen=True)
+class EpisodeInfo:
+    """The episode as a policy may know it: ids, the target category, the task, and for oracles only
+    the privileged view."""
+
+    scene_id: str
+    episode_id: Any
+    object_category: str
+    task: TaskSpec
+    privileged: Any = None
 
 
 class Policy(ABC):
@@ -13,8 +57,8 @@ class Policy(ABC):
     name: str = "policy"
 
     @abstractmethod
-    def reset(self, episode_info: dict) -> None:
-        """``episode_info`` holds the episode dict and the env (``env``) for privileged policies."""
+    def reset(self, episode_info: EpisodeInfo) -> None:
+        """Start an episode."""
 
     @abstractmethod
     def act(self, obs, info: dict) -> int:

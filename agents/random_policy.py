@@ -6,7 +6,7 @@ import zlib
 
 import numpy as np
 
-from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, Policy
+from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EpisodeInfo, Policy
 
 
 class RandomPolicy(Policy):
@@ -17,9 +17,8 @@ class RandomPolicy(Policy):
         self.p_stop = stop_probability
         self.seed = seed
 
-    def reset(self, episode_info: dict) -> None:
-        ep = episode_info["episode"]
-        key = f"{self.seed}/{ep['scene_id']}/{ep['episode_id']}"
+    def reset(self, episode_info: EpisodeInfo) -> None:
+        key = f"{self.seed}/{episode_info.scene_id}/{episode_info.episode_id}"
         self.rng = np.random.default_rng(zlib.crc32(key.encode()))  # the same episode draws the same actions
 
     def act(self, obs, info: dict) -> int:

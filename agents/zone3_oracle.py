@@ -11,40 +11,41 @@ import numpy as np
 import shapely
 
 from biovln_ms.agents.oracle import PointFollower
-from biovln_ms.agents.policy import STOP, Policy
+from biovln_ms.agents.policy import STOP, EpisodeInfo, Policy
 
 SPACING = 0.15
 CANDIDATES = 8
 
 
 class Zone3OraclePolicy(Policy):
+    """Privileged: reads the target's Zone 3, the goal and its pose from ``EpisodeInfo.privileged``."""
+
     name = "zone3_oracle"
     obs_mode = "none"
 
-    def reset(self, episode_info: dict) -> None:
-        env = episode_info["env"]
-        self.env = env
-        ctx = env._ctx
-        self.goal, self.radius = np.asarray(ctx.goal, float), ctx.success_radius
-        self.candidates = self.zone3_candidates(env)
+    def reset(self, episode_info: EpisodeInfo) -> None:
+        view = self.view = episode_info.privileged
+        self.task = episode_info.task
+        self.goal, self.radius = view.goal, view.success_radius
+        self.candidates = self.zone3_candidates(view)
         if not self.candidates:
-            self.candidates = [env.nav.snap(ctx.target.centroid_goal())]
+            self.candidates = [view.snap(view.target.centroid_goal())]
         self._k = 0
-        self.follower = PointFollower(env, self.candidates[0])
+        self.follower = PointFollower(view, self.task, self.candidates[0])
 
     @staticmethod
-    def zone3_candidates(env) -> list[np.ndarray]:
-        ctx, nav = env._ctx, env.nav
-        if ctx.target.model_face is None:
+    def zone3_candidates(view) -> list[np.ndarray]:
+        target, goal = view.target, view.goal
+        if target.model_face is None:
             return []
-        z3 = ctx.target.zone3()
+        z3 = target.zone3()
         minx, miny, maxx, maxy = z3.bounds
         xs = np.arange(minx + SPACING / 2, maxx, SPACING)
         ys = np.arange(miny + SPACING / 2, maxy, SPACING)
         gx, gy = (a.ravel() for a in np.meshgrid(xs, ys))
-        inside = shapely.contains_xy(z3, gx, gy) & shapely.contains_xy(nav.free, gx, gy)
+        inside = shapely.contains_xy(z3, gx, gy) & view.contains_free(gx, gy)
         pts = np.stack([gx[inside], gy[inside]], axis=1)
-        order = np.argsort(np.linalg.norm(pts - ctx.goal, axis=1), kind="stable")
+        order = np.argsort(np.linalg.norm(pts - goal, axis=1), kind="stable")
         return [pts[i] for i in order[:CANDIDATES]]
 
     def act(self, obs, info: dict) -> int:
@@ -52,8 +53,8 @@ class Zone3OraclePolicy(Policy):
             a = self.follower.step()
             if a != STOP:
                 return a
-            p = self.env._planar()[:2]
+            p = self.view.pose()[:2]
             if np.linalg.norm(p - self.goal) <= self.radius or self._k + 1 >= len(self.candidates):
                 return STOP
             self._k += 1
-            self.follower = PointFollower(self.env, self.candidates[self._k])
+            self.follower = PointFollower(self.view, self.task, self.candidates[self._k])

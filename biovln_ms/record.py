@@ -4,17 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-
-
-def make_policy(name: str):
-    from biovln_ms.eval.methods import method_spec
-
-    return method_spec(name).factory()
+from biovln_ms.eval.methods import method_spec
 
 
 def record_episode(out: Path, split: str | None = "ms_val", episode: int = 0, policy: str = "oracle",
                    dataset: str | None = None, env_id: str = "BioVLN-OpFace-v0", size: tuple[int, int] = (640, 480),
-                   fps: int = 5, max_steps: int = 500) -> dict:
+                   fps: int = 5) -> dict:
     """Record one episode; returns its final metrics."""
     import gymnasium as gym
 
@@ -26,16 +21,18 @@ def record_episode(out: Path, split: str | None = "ms_val", episode: int = 0, po
     try:
         from biovln_ms.eval.rollout import rollout
 
-        u = env.unwrapped
+        spec = method_spec(policy)
         frames, trail, canvas = [], [], None
-        for st in rollout(env, make_policy(policy), episode, max_steps):
+        for st in rollout(env, spec.factory(), episode, spec.privileged):
+            pose = st.info["agent_pose"][0].cpu().numpy()
             if canvas is None:
-                canvas = MapCanvas(u.scene_spec, size[1], goal=u._ctx.goal)
-            trail.append(u._planar()[:2].copy())
+                canvas = MapCanvas(env.unwrapped.scene_spec, size[1], goal=st.info["goal_position"][0].cpu().numpy())
+            trail.append(pose[:2].copy())
             ego = st.obs["sensor_data"]["head"]["rgb"][0].cpu().numpy()
-            frames.append(side_by_side(ego, canvas.frame(trail, u._planar())))
+            frames.append(side_by_side(ego, canvas.frame(trail, pose)))
             info = st.info
         write_mp4(frames, out, fps=fps)
-        return {k: (v.item() if hasattr(v, "item") else v) for k, v in info.items() if k != "reconfigure"}
+        return {k: (v.item() if hasattr(v, "item") else v) for k, v in info.items()
+                if k != "reconfigure" and getattr(v, "numel", lambda: 1)() == 1}
     finally:
         env.close()

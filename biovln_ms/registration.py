@@ -8,13 +8,10 @@ imports :mod:`biovln_ms.tasks`, whose classes register with ManiSkill through
 
 from __future__ import annotations
 
-#: uid -> max_episode_steps of every env this package provides.
-ENV_IDS: dict[str, int] = {
-    "BioVLN-OpFace-v0": 500,
-    "BioVLN-Centroid-v0": 500,
-    "BioVLN-OpFace-RL-v0": 500,
-    "BioVLN-LabScene-v0": 1,
-}
+from biovln_ms.variants import VARIANTS
+
+#: uid -> max_episode_steps of every env this package provides (the variants' own, and the scene viewer).
+ENV_IDS: dict[str, int] = {**{uid: cfg.max_episode_steps for uid, cfg in VARIANTS.items()}, "BioVLN-LabScene-v0": 1}
 
 
 def register_lazily() -> None:

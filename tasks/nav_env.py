@@ -1,98 +1,70 @@
 """``BioVLN-OpFace-v0``: navigate a mobile base to an instrument's operational-face goal (paper §3.2).
 
-One ``step`` is one action of the paper's space (0=STOP, 1=FORWARD 0.25 m, 2=TURN_LEFT 30 deg,
-3=TURN_RIGHT 30 deg), executed by SAPIEN physics through a stiff PD drive on the base's planar
-joints: exact when free, stopped by walls and instruments. STOP ends the episode; it succeeds when
-the robot is within the goal's success radius. Zone metrics are measures updated in ``evaluate``;
-the dense reward is Eq. 5.
+One ``step`` is one action of the paper's space, executed by the robot's ManiSkill controller
+(``control_mode="discrete"``: 0=STOP, 1=FORWARD 0.25 m, 2=TURN_LEFT 30 deg, 3=TURN_RIGHT 30 deg;
+``"continuous"``: [forward, turn, stop] in [-1, 1]) through SAPIEN physics: exact when free, stopped
+by walls and instruments. STOP ends the episode; it succeeds within the goal's success radius.
+
+Batch-native as ManiSkill's tasks: every sub-env has its own episode and scene build config, all
+per-step state (poses, measures, reward, success) is a tensor with a leading ``num_envs`` dimension,
+and ``_initialize_episode(env_idx)`` resets only the sub-envs named. Measures update once per step
+after the controller ran (``_after_control_step``); ``evaluate()`` only reads them. Policies see the
+sensors of ``NavTaskConfig.sensors`` (see ``biovln_ms.agents.policy``); oracles get a
+:class:`~biovln_ms.tasks.privileged.PrivilegedView` through :meth:`episode_info`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import fields, replace
 
 import numpy as np
 import sapien
 import torch
-from gymnasium import spaces
 from mani_skill.envs.sapien_env import BaseEnv
 from mani_skill.sensors.camera import CameraConfig
+from mani_skill.utils import sapien_utils
 from mani_skill.utils.structs.types import SimConfig
 
-import biovln_ms.agents.biovln_base  # noqa: F401  (registers the robot)
+from biovln_ms.agents.biovln_base import CONTROL_MODES
+from biovln_ms.agents.policy import EpisodeInfo, TaskSpec
 from biovln_ms.catalog import load_catalog
-from biovln_ms.episodes.source import DatasetEpisodes, EpisodeSource, GeneratedEpisodes
+from biovln_ms.episodes.source import DatasetEpisodes, EpisodeCursor, EpisodeSource, GeneratedEpisodes
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.navigation import scene_navigation
-from biovln_ms.geometry.zones import SAFETY_THRESHOLD
-from biovln_ms.metrics.measures import EpisodeContext, MeasureSet, StepState
-from biovln_ms.registration import register_biovln_env
+from biovln_ms.metrics.measures import BatchContext, EpisodeContext, MeasureSet, StepState
 from biovln_ms.scene.maniskill_builder import LabSceneBuilder
-from biovln_ms.tasks.lab_scene_env import overview_pose
+from biovln_ms.task_config import NavTaskConfig
+from biovln_ms.tasks.privileged import PrivilegedView
+from biovln_ms.tasks.sensors import SENSORS, SensorInputs, semantic_category
+from biovln_ms.variants import VARIANTS
 
-ACTIONS = {0: "STOP", 1: "FORWARD", 2: "TURN_LEFT", 3: "TURN_RIGHT"}
-CONTROL_MODES = ("discrete", "continuous")
-OBS_MODES = ("state", "state_dict", "none", "sensor_data", "rgb", "depth", "segmentation", "rgbd", "rgb+depth",
-             "rgb+depth+segmentation", "rgb+segmentation", "depth+segmentation", "pointcloud")
+GOAL_MODES = ("opface", "centroid")
+#: the follow camera of ``render()``: behind and above the robot, looking at a point ahead of it
+FOLLOW_CAMERA_EYE = (-2.2, 0.0, 2.3)
+FOLLOW_CAMERA_TARGET = (1.0, 0.0, 0.3)
 
 
 class EnvConfigError(BioVLNError):
     """Invalid env arguments (split, episode, obs mode, control mode, action)."""
 
 
-@dataclass(frozen=True)
-class NavTaskConfig:
-    """Task parameters (paper §3.2, Eq. 5, appendix "Gym Environment for RL Training")."""
-
-    forward_step: float = 0.25
-    turn_deg: float = 30.0
-    goal_mode: str = "opface"  # "opface" (Eq. 1) or "centroid" (Table 9 ablation)
-    camera_width: int = 640
-    camera_height: int = 480
-    camera_hfov_deg: float = 79.0  # Habitat's horizontal FOV; SAPIEN takes the vertical one
-    camera_far: float = 20.0
-    success_bonus: float = 10.0
-    step_penalty: float = 0.01
-    safety_penalty: float = 0.05
-    proportional_safety: bool = False  # RL variant: penalty * (1 - clearance / 0.5)
-    shuffle_episodes: bool = False  # RL variant: shuffle once (scene order, and episodes within a scene), then cycle
-    position_scale: float = 4.0  # RL variant observation normalisation (m)
-
-    @property
-    def camera_vfov(self) -> float:
-        """Vertical FOV (radians) for SAPIEN from the horizontal one: 2 atan(tan(h/2) H/W)."""
-        return 2 * math.atan(math.tan(math.radians(self.camera_hfov_deg) / 2) * self.camera_height / self.camera_width)
-
-
-@register_biovln_env("BioVLN-OpFace-v0", max_episode_steps=500)
 class BioVLNNavEnv(BaseEnv):
     """Operational-face navigation. Episodes from ``split`` (of ``dataset`` or the default dataset),
-    or sampled in a scene generated from ``template`` / ``scene_seed``."""
+    or sampled in a scene generated from ``template`` / ``scene_seed``. Task parameters
+    (:class:`NavTaskConfig` fields) may be passed as keyword arguments."""
 
     SUPPORTED_ROBOTS = ["biovln_base"]
     SUPPORTED_REWARD_MODES = ("normalized_dense", "dense", "sparse", "none")
-    config = NavTaskConfig()
+    config: NavTaskConfig = VARIANTS["BioVLN-OpFace-v0"]
 
     def __init__(self, *args, split: str | None = None, dataset: str | None = None, template: str = "single_room",
                  scene_seed: int = 0, control_mode: str = "discrete", robot_uids: str = "biovln_base", **kwargs) -> None:
         overrides = {f.name: kwargs.pop(f.name) for f in fields(NavTaskConfig) if f.name in kwargs}
         self.cfg = replace(self.config, **overrides)
-        if control_mode not in CONTROL_MODES:
-            raise EnvConfigError(f"unknown control mode '{control_mode}'", field="control_mode",
-                                 fix=f"use one of: {', '.join(CONTROL_MODES)}")
-        obs_mode = kwargs.get("obs_mode", "state")
-        if obs_mode not in OBS_MODES:
-            raise EnvConfigError(f"unknown obs mode '{obs_mode}'", field="obs_mode", fix=f"use one of: {', '.join(OBS_MODES)}")
-        if kwargs.get("num_envs", 1) > 1:
-            gpu = torch.cuda.is_available() and str(kwargs.get("sim_backend", "")).startswith(("physx_cuda", "gpu"))
-            if not gpu:
-                raise EnvConfigError("num_envs > 1 needs sim_backend='physx_cuda' and a CUDA GPU; on the CPU run one env per "
-                                     "process (gymnasium AsyncVectorEnv or SB3 SubprocVecEnv, see README)", field="num_envs")
-            raise EnvConfigError("batched sub-envs (num_envs > 1 on physx_cuda) are not implemented in this version: the "
-                                 "episode bookkeeping and measures are per single env", field="num_envs",
-                                 fix="run one env per process (AsyncVectorEnv / SubprocVecEnv), see README")
-        self.nav_control_mode = control_mode
+        kwargs.setdefault("obs_mode", self.cfg.default_obs_mode)
+        _check_arguments(self.cfg, control_mode, kwargs)
+        split = split or self.cfg.default_split
         if split:
             self.source: EpisodeSource = DatasetEpisodes(split, dataset)
         elif dataset:
@@ -100,36 +72,13 @@ class BioVLNNavEnv(BaseEnv):
                                  fix="pass split=, e.g. split='ms_val'")
         else:
             self.source = GeneratedEpisodes(template, scene_seed)
+        self.cursor = EpisodeCursor(self.source, self.cfg.shuffle_episodes)
         self.category_names = load_catalog().goal_categories()
-        self._order = self._episode_order()
-        self._cursor = -1
-        self._episode = self.source.episodes[self._order[0]]
-        self._scene_name = None
-        self._set_scene(self._episode["scene_id"])
-        self._pending: dict | None = None
-        self._measures = MeasureSet()
-        self._ctx: EpisodeContext | None = None
-        super().__init__(*args, robot_uids=robot_uids, control_mode="pd_base_pos", **kwargs)
-        space = spaces.Discrete(4) if control_mode == "discrete" else spaces.Box(-1.0, 1.0, (3,), np.float32)
-        self.single_action_space = space
-        self.action_space = space
-
-    def _episode_order(self) -> list[int]:
-        """Dataset order, or (``shuffle_episodes``) a fixed shuffle that keeps each scene's episodes together,
-        as Habitat's episode iterator groups by scene: the scene is rebuilt once per scene, not per episode."""
-        n = len(self.source)
-        if not self.cfg.shuffle_episodes:
-            return list(range(n))
-        rng = np.random.default_rng(0)
-        by_scene: dict[str, list[int]] = {}
-        for i, ep in enumerate(self.source.episodes):
-            by_scene.setdefault(ep["scene_id"], []).append(i)
-        scenes = sorted(by_scene)
-        order: list[int] = []
-        for k in rng.permutation(len(scenes)):
-            episodes = by_scene[scenes[k]]
-            order += [episodes[j] for j in rng.permutation(len(episodes))]
-        return order
+        n = int(kwargs.get("num_envs", 1))
+        self._episodes: list[dict] = [self.source.episodes[self.cursor.first]] * n
+        self._scene_ids: list[str | None] = [None] * n
+        self._set_scenes()
+        super().__init__(*args, robot_uids=robot_uids, control_mode=control_mode, **kwargs)
 
     # --- configuration -------------------------------------------------------------------------
     @property
@@ -138,159 +87,161 @@ class BioVLNNavEnv(BaseEnv):
 
     @property
     def _default_sensor_configs(self):
-        c = self.cfg
+        c, visual = self.cfg, self.obs_mode_struct.visual
+        # ManiSkill's fast "minimal" shader renders rgb, depth and segmentation; normals and albedo need "default"
+        shader = "default" if visual.normal or visual.albedo else "minimal"
         return [CameraConfig("head", sapien.Pose(), c.camera_width, c.camera_height, c.camera_vfov, 0.05, c.camera_far,
-                             mount=self.agent.camera_link)]
+                             mount=self.agent.camera_link, shader_pack=shader)]
 
     @property
     def _default_human_render_camera_configs(self):
-        return CameraConfig("overview", overview_pose(self.scene_spec), 960, 720, math.radians(55), 0.05, 100)
+        """A follow camera inside the room, behind and above the robot (``render()`` hides the ceiling)."""
+        pose = sapien_utils.look_at(FOLLOW_CAMERA_EYE, FOLLOW_CAMERA_TARGET)
+        return CameraConfig("follow", pose, 960, 720, math.radians(60), 0.05, 100, mount=self.agent.base_link)
 
-    def _set_scene(self, scene_id: str) -> None:
-        self.scene_spec = self.source.spec(scene_id)
-        self.nav = scene_navigation(self.scene_spec)
-        self._scene_name = scene_id
+    def _set_scenes(self) -> None:
+        """Scene specs and navigation geometry of every sub-env's current episode."""
+        scene_ids = [ep["scene_id"] for ep in self._episodes]
+        self.scene_specs = [self.source.spec(s) for s in scene_ids]
+        self.navs = [scene_navigation(s) for s in self.scene_specs]
+        self._scene_ids = scene_ids
+
+    @property
+    def scene_spec(self):
+        """The scene of sub-env 0 (the only one on the CPU)."""
+        return self.scene_specs[0]
 
     # --- ManiSkill hooks -----------------------------------------------------------------------
     def _load_agent(self, options: dict):
         super()._load_agent(options, sapien.Pose())
+        for controller in self.agent.controllers.values():
+            controller.set_motion(self.cfg.forward_step, self.cfg.turn_deg)
 
     def _load_scene(self, options: dict):
-        self.scene_builder = LabSceneBuilder(self, [self.scene_spec])
-        self.scene_builder.build(0)
+        scene_ids = list(dict.fromkeys(self._scene_ids))  # one build config per distinct scene
+        self.scene_builder = LabSceneBuilder(self, [self.scene_specs[self._scene_ids.index(s)] for s in scene_ids])
+        self.scene_builder.build([scene_ids.index(s) for s in self._scene_ids])
+        self._build_segmentation_lookup()
 
     def _load_lighting(self, options: dict):
         """Lights come from the scene builder."""
 
+    def _after_reconfigure(self, options: dict):
+        self._ctx = BatchContext(self.num_envs, self.device)
+        self._measures = MeasureSet(self._measure_names(), self.num_envs, self.device, self.cfg)
+        self._start = torch.zeros(self.num_envs, 3, dtype=torch.float64, device=self.device)
+        self._category = torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
+
+    def _measure_names(self) -> tuple[str, ...]:
+        c = self.cfg
+        extra = (c.reward_measure, c.success_measure, c.fail_measure, "stopped", "clearance", "agent_pose", "goal_position")
+        return tuple(dict.fromkeys(c.measures + extra))
+
     def reset(self, seed=None, options=None):
         options = dict(options or {})
-        idx = self._select_episode(seed, options)
-        self._episode = self.source.episodes[idx]
-        if self._episode["scene_id"] != self._scene_name:
-            self._set_scene(self._episode["scene_id"])
+        env_idx = options.get("env_idx")
+        rows = range(self.num_envs) if env_idx is None else [int(i) for i in torch.as_tensor(env_idx).reshape(-1)]
+        cursor_seed = seed
+        for i in rows:
+            self._episodes[i] = self.source.episodes[self.cursor.select(cursor_seed, options)]
+            cursor_seed = None  # a seed positions the cursor once; further sub-envs take the episodes after it
+        if [ep["scene_id"] for ep in self._episodes] != self._scene_ids:
+            if self.num_envs > 1 and env_idx is not None:
+                raise EnvConfigError("a partial reset cannot change a sub-env's scene on the GPU", field="env_idx",
+                                     fix="reset all sub-envs (reconfigure), or keep each sub-env's episodes in its scene")
+            self._set_scenes()
             options["reconfigure"] = True
         return super().reset(seed=seed, options=options)
 
-    def _select_episode(self, seed, options: dict) -> int:
-        if "episode_index" in options:
-            k = options.pop("episode_index")
-            if not (isinstance(k, (int, np.integer)) and 0 <= k < len(self.source)):
-                raise EnvConfigError(f"episode_index {k!r} is out of range", field="episode_index",
-                                     fix=f"use 0 <= episode_index < {len(self.source)}")
-            return int(k)
-        if "episode_id" in options:
-            return self.source.find(options.pop("episode_id"), options.pop("scene_id", None))
-        if seed is not None:  # the same seed gives the same episode, and the same ones after it
-            self._cursor = int(np.ravel(seed)[0]) % len(self._order)
-            return self._order[self._cursor]
-        self._cursor = (self._cursor + 1) % len(self._order)
-        return self._order[self._cursor]
-
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
-        ep = self._episode
-        x, y = ep["start_position"][:2]
-        w, _, _, z = ep["start_rotation"]
-        yaw = 2 * math.atan2(z, w)
-        qpos = torch.tensor([[x, y, yaw]], dtype=torch.float32, device=self.device).repeat(len(env_idx), 1)
-        self.agent.reset(qpos)
-        target = self.scene_spec.get(ep["object_id"]).placed()
+        idx = env_idx.to(self.device)
+        qpos = torch.zeros(len(idx), 3, dtype=torch.float32, device=self.device)
+        for k, i in enumerate(idx.tolist()):
+            ep = self._episodes[i]
+            x, y = ep["start_position"][:2]
+            w, _, _, z = ep["start_rotation"]
+            qpos[k] = torch.tensor([x, y, 2 * math.atan2(z, w)])
+            self._ctx.set(i, self._episode_context(i))
+            self._category[i] = self.category_names.index(ep["object_category"])
+        self.agent.reset(qpos if self.num_envs > 1 else qpos[:1])
+        pose = self._pose()
+        self._start[idx] = pose[idx]
+        self._measures.reset(self._ctx, StepState.at_rest(pose), idx)
+
+    def _episode_context(self, i: int) -> EpisodeContext:
+        ep, spec, nav = self._episodes[i], self.scene_specs[i], self.navs[i]
+        target = spec.get(ep["object_id"]).placed()
         if self.cfg.goal_mode == "centroid":
             goal = target.centroid_goal()
-            goal_nav = self.nav.snap(goal)
+            geodesic = nav.distance_to(nav.snap(goal))
         else:
             goal = np.asarray(ep["goals"][0]["position"][:2], float)
-            goal_nav = goal
-        geodesic = self.nav.distance_to(goal_nav)
-        self._ctx = EpisodeContext(goal=goal, success_radius=float(ep["goals"][0]["radius"]), target=target,
-                                   instruments=[o.placed() for o in self.scene_spec.instruments], geodesic=geodesic,
-                                   start_geodesic=float(geodesic(np.array([x, y]))), hfov=math.radians(self.cfg.camera_hfov_deg))
-        self._measures.reset(self._ctx, StepState(np.array([x, y]), yaw, None, False))
-        self._prev_distance = self._measures["distance_to_goal"]
-        self._pending = None
-        self._stopped = False
+            geodesic = nav.distance_to(goal)
+        start = np.asarray(ep["start_position"][:2], float)
+        return EpisodeContext(goal=goal, success_radius=float(ep["goals"][0]["radius"]), target=target,
+                              instruments=[o.placed() for o in spec.instruments], geodesic=geodesic,
+                              start_geodesic=float(geodesic(start)), hfov=self.cfg.hfov)
 
-    def _planar(self) -> np.ndarray:
-        return self.agent.planar_pose()[0].astype(float)
+    def _pose(self) -> torch.Tensor:
+        """(N, 3) float64 planar poses from the base joints."""
+        return self.agent.planar_pose().to(torch.float64)
 
-    def step(self, action):
-        stop, forward, turn = self._parse_action(action)
-        pose = self._planar()
-        target = pose.copy()
-        if not stop:
-            target[0] += forward * math.cos(pose[2])
-            target[1] += forward * math.sin(pose[2])
-            target[2] += turn
-        self._pending = {"pose": pose, "stop": stop, "forward": forward,
-                         "action": int(action) if self.nav_control_mode == "discrete" else None}
-        return super().step(torch.tensor(target[None], dtype=torch.float32, device=self.device))
+    def _step_action(self, action):
+        """ManiSkill's, after turning what gymnasium users pass for ``Discrete(4)`` — ``2``, ``np.int64(2)``,
+        0-d arrays and tensors, lists — into the (N,)-shaped tensor ManiSkill batches."""
+        if isinstance(action, (int, float, np.generic, list, tuple)) and not isinstance(action, bool):
+            action = torch.as_tensor(np.asarray(action))
+        if isinstance(action, (np.ndarray, torch.Tensor)) and action.ndim == 0:
+            action = action.reshape(1)
+        return super()._step_action(action)
 
-    def _parse_action(self, action) -> tuple[bool, float, float]:
+    def _after_control_step(self):
+        cmd = self.agent.controller.command
+        pose = self._pose()
+        start = cmd.start_pose.to(torch.float64)
+        heading = torch.stack([torch.cos(start[:, 2]), torch.sin(start[:, 2])], dim=1)
+        moved = ((pose[:, :2] - start[:, :2]) * heading).sum(1)
+        state = StepState(pose[:, :2], pose[:, 2], cmd.stop.clone(), cmd.forward.to(torch.float64), moved)
+        self._measures.update(self._ctx, state)
+
+    def evaluate(self) -> dict:
+        """The measures' values (a pure query: it changes nothing)."""
         c = self.cfg
-        turn = math.radians(c.turn_deg)
-        if self.nav_control_mode == "discrete":
-            a = np.asarray(action.cpu() if hasattr(action, "cpu") else action)
-            if a.size != 1 or not np.issubdtype(a.dtype, np.number) or not float(a.ravel()[0]).is_integer():
-                raise EnvConfigError(f"action {action!r} is not one integer", field="action", fix=_action_help())
-            k = int(a.ravel()[0])
-            if k not in ACTIONS:
-                raise EnvConfigError(f"action {k} is outside Discrete(4)", field="action", fix=_action_help())
-            return k == 0, (c.forward_step if k == 1 else 0.0), {2: turn, 3: -turn}.get(k, 0.0)
-        a = np.asarray(action.cpu() if hasattr(action, "cpu") else action, float).ravel()
-        if a.shape != (3,) or not np.isfinite(a).all() or np.abs(a).max() > 1.0 + 1e-6:
-            raise EnvConfigError(f"action {a.tolist()} is outside Box(-1, 1, (3,))", field="action",
-                                 fix="continuous actions are [forward, turn, stop] in [-1, 1]: forward (a0+1)/2 * step, "
-                                     "turn a1 * turn angle, stop when a2 > 0")
-        return bool(a[2] > 0), (a[0] + 1) / 2 * c.forward_step, a[1] * turn
+        info = self._measures.info(tuple(dict.fromkeys(c.measures + ("stopped", "agent_pose", "goal_position"))))
+        info["success"] = self._measures[c.success_measure].clone()
+        info["fail"] = self._measures[c.fail_measure].clone()
+        return info
 
-    def evaluate(self):
-        self._pose = self._planar()  # read once per step; _get_obs_extra reuses it
-        if self._pending is not None and self._ctx is not None:
-            p = self._pending
-            pose = self._pose
-            heading = np.array([math.cos(p["pose"][2]), math.sin(p["pose"][2])])
-            moved = float(np.dot(pose[:2] - p["pose"][:2], heading))
-            self._prev_distance = self._measures["distance_to_goal"]
-            self._stopped = p["stop"]
-            self._measures.update(self._ctx, StepState(pose[:2], float(pose[2]), p["action"], p["stop"], p["forward"], moved))
-            self._pending = None
-        if self._ctx is None:
-            return {}
-        info = self._measures.info()
-        info["fail"] = self._stopped and not info["success"]
-        info["stopped"] = self._stopped
-        return _batched(info, self.device)
+    def _get_obs_agent(self):
+        return super()._get_obs_agent() if self.cfg.agent_obs else {}
 
     def _get_obs_extra(self, info: dict):
-        pose = self._pose
-        goal = self._ctx.goal if self._ctx is not None else np.zeros(2)
-        d = goal - pose[:2]
-        rho = float(np.linalg.norm(d))
-        phi = (math.atan2(d[1], d[0]) - pose[2] + math.pi) % (2 * math.pi) - math.pi
-        return dict(agent_pose=torch.tensor(pose[None], dtype=torch.float32, device=self.device),
-                    goal_gps_compass=torch.tensor([[rho, phi]], dtype=torch.float32, device=self.device),
-                    target_category=self._target_onehot())
+        x = SensorInputs(self._measures["agent_pose"], self._start, self._ctx.goal, self._category,
+                         len(self.category_names), self._measures["clearance"], self.cfg)
+        return {name: SENSORS[name](x) for name in self.cfg.sensors}
 
-    def _target_onehot(self) -> torch.Tensor:
-        """(1, n_categories) one-hot of the episode's target category."""
-        onehot = np.zeros((1, len(self.category_names)), np.float32)
-        onehot[0, self.category_names.index(self._episode["object_category"])] = 1.0
-        return torch.from_numpy(onehot).to(self.device)
+    def _get_obs_with_sensor_data(self, info: dict, apply_texture_transforms: bool = True) -> dict:
+        obs = super()._get_obs_with_sensor_data(info, apply_texture_transforms)
+        head = obs.get("sensor_data", {}).get("head", {})
+        if "segmentation" in head:
+            obs["extra"]["semantic_category"] = semantic_category(head["segmentation"], self._segmentation_lookup)
+        return obs
 
-    # --- rewards (Eq. 5) -----------------------------------------------------------------------
-    def _safety_penalty(self, clearance: float) -> float:
-        c = self.cfg
-        if clearance >= SAFETY_THRESHOLD:
-            return 0.0
-        return c.safety_penalty * ((1.0 - clearance / SAFETY_THRESHOLD) if c.proportional_safety else 1.0)
+    def _build_segmentation_lookup(self) -> None:
+        """Segmentation id -> 1 + goal-category index (0: not a goal-category object), over all sub-scenes."""
+        ids = {}
+        for bci, spec in enumerate(self.scene_builder.build_configs):
+            for sid, oid in self.scene_builder.segmentation_ids(bci).items():
+                cat = spec.get(oid).category
+                ids[sid] = self.category_names.index(cat) + 1 if cat in self.category_names else 0
+        lookup = torch.zeros(max(ids, default=0) + 1, dtype=torch.int16, device=self.device)
+        for sid, v in ids.items():
+            lookup[sid] = v
+        self._segmentation_lookup = lookup
 
+    # --- rewards: measures chosen by the config (Eq. 5) ----------------------------------------
     def compute_dense_reward(self, obs, action, info):
-        c = self.cfg
-        d = float(info["distance_to_goal"][0])
-        # Eq. 5. The success bonus is paid once, at a successful STOP ("a sparse success bonus"):
-        # paying 1[d_t < r] every step, as printed, would reward hovering inside the radius.
-        r = (self._prev_distance - d) - c.step_penalty + c.success_bonus * float(info["success"][0])
-        r -= self._safety_penalty(float(info["clearance"][0]))
-        return torch.tensor([r], dtype=torch.float32, device=self.device)
+        return self._measures[self.cfg.reward_measure].to(torch.float32)
 
     def compute_normalized_dense_reward(self, obs, action, info):
         return self.compute_dense_reward(obs, action, info) / self.cfg.success_bonus
@@ -298,30 +249,86 @@ class BioVLNNavEnv(BaseEnv):
     def compute_sparse_reward(self, obs, action, info):
         return info["success"].to(torch.float32)
 
-    # --- helpers for users ---------------------------------------------------------------------
+    # --- state: the simulator's and the task's -------------------------------------------------
+    def get_state_dict(self):
+        """ManiSkill's simulation and controller state plus the task's: each sub-env's episode, start pose,
+        elapsed steps and every measure's state, so a replay from it gives the same rewards and infos."""
+        state = super().get_state_dict()
+        state["task"] = dict(episode=self._episode_indices(), start=self._start.clone(),
+                             elapsed_steps=torch.as_tensor(self._elapsed_steps).clone(),
+                             measures=self._measures.state_dict())
+        return state
+
+    def set_state_dict(self, state: dict, env_idx: torch.Tensor | None = None):
+        super().set_state_dict(state, env_idx)
+        task = state.get("task")
+        if task is None:
+            return
+        idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx.to(self.device)
+        saved = torch.as_tensor(task["episode"]).to(self.device)
+        if not torch.equal(saved[idx], self._episode_indices()[idx]):
+            raise EnvConfigError("the state belongs to another episode", field="state['task']['episode']",
+                                 fix="reset to that episode first: env.reset(options={'episode_index': k})")
+        self._start[idx] = torch.as_tensor(task["start"], device=self.device)[idx].to(torch.float64)
+        self._elapsed_steps[idx] = torch.as_tensor(task["elapsed_steps"], device=self.device)[idx].to(
+            self._elapsed_steps.dtype)
+        self._measures.load_state_dict(task["measures"], idx)
+
+    def _episode_indices(self) -> torch.Tensor:
+        return torch.tensor([self.source.episodes.index(ep) for ep in self._episodes], device=self.device)
+
+    # --- rendering -----------------------------------------------------------------------------
+    def render_rgb_array(self, camera_name: str | None = None):
+        """The follow camera's view with the ceilings hidden (sensors keep them)."""
+        bodies = [e.find_component_by_type(sapien.render.RenderBodyComponent)
+                  for b in self.scene_builder.built.values() for a in b.shell if a.name.endswith("ceiling") for e in a._objs]
+        for body in bodies:
+            body.visibility = 0.0
+        try:
+            return super().render_rgb_array(camera_name)
+        finally:
+            for body in bodies:
+                body.visibility = 1.0
+
+    # --- what policies and evaluators may know -------------------------------------------------
     @property
     def current_episode(self) -> dict:
-        return self._episode
+        """Sub-env 0's episode record (for evaluators and logs, not for policies)."""
+        return self._episodes[0]
 
-    def instrument_segmentation(self) -> dict[int, tuple[str, str]]:
-        """Segmentation id -> (object id, category) for the current scene."""
-        ids = self.scene_builder.segmentation_ids(0)
-        return {sid: (oid, self.scene_spec.get(oid).category) for sid, oid in ids.items()}
+    def task_spec(self) -> TaskSpec:
+        c = self.cfg
+        return TaskSpec(c.forward_step, c.turn_deg, c.camera_hfov_deg, c.max_episode_steps, tuple(self.category_names),
+                        self.control_mode)
 
-
-def _batched(info: dict, device) -> dict:
-    """Info values as (1,)-shaped tensors, made from three tensors (bool, int, float) in one go."""
-    kinds = {bool: ([], torch.bool), int: ([], torch.int32), float: ([], torch.float32)}
-    for k, v in info.items():
-        kinds[bool if isinstance(v, bool) else int if isinstance(v, int) else float][0].append(k)
-    out = {}
-    for keys, dtype in kinds.values():
-        if keys:
-            t = torch.tensor([info[k] for k in keys], dtype=dtype, device=device)
-            out.update({k: t[i:i + 1] for i, k in enumerate(keys)})
-    return out
+    def episode_info(self, i: int = 0, privileged: bool = False) -> EpisodeInfo:
+        """What a policy may know of sub-env ``i``'s episode; ``privileged`` adds the oracle's read-only view."""
+        ep = self._episodes[i]
+        view = None
+        if privileged:
+            view = PrivilegedView(self._ctx.episode(i), self.navs[i], lambda: self._pose()[i].cpu().numpy(),
+                                  self.cfg.goal_mode)
+        return EpisodeInfo(ep["scene_id"], ep["episode_id"], ep["object_category"], self.task_spec(), view)
 
 
-def _action_help() -> str:
-    return "discrete actions are " + ", ".join(f"{k}={v}" for k, v in ACTIONS.items())
-
+def _check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> None:
+    """One-line errors for arguments ManiSkill would reject with a traceback, or accept silently."""
+    if control_mode not in CONTROL_MODES:
+        raise EnvConfigError(f"unknown control mode '{control_mode}'", field="control_mode",
+                             fix=f"use one of: {', '.join(CONTROL_MODES)}")
+    if cfg.goal_mode not in GOAL_MODES:
+        raise EnvConfigError(f"unknown goal mode '{cfg.goal_mode}'", field="goal_mode", fix=f"use one of: {', '.join(GOAL_MODES)}")
+    for name in ("forward_step", "turn_deg", "camera_width", "camera_height", "camera_hfov_deg", "max_episode_steps"):
+        v = getattr(cfg, name)
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise EnvConfigError(f"{name} must be a positive number, got {v!r}", field=name, fix=f"pass a positive {name}")
+    backend = str(kwargs.get("sim_backend", "auto"))
+    if backend.startswith(("gpu", "physx_cuda", "cuda")) and not torch.cuda.is_available():
+        raise EnvConfigError(f"sim_backend='{backend}' needs a CUDA GPU and none is visible", field="sim_backend",
+                             fix="use sim_backend='physx_cpu' (the default on a machine without a GPU)")
+    n = kwargs.get("num_envs", 1)
+    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
+        raise EnvConfigError(f"num_envs must be a positive integer, got {n!r}", field="num_envs", fix="pass num_envs=1 or more")
+    if n > 1 and not (torch.cuda.is_available() and backend.startswith(("gpu", "physx_cuda", "cuda"))):
+        raise EnvConfigError("num_envs > 1 needs sim_backend='physx_cuda' and a CUDA GPU; on the CPU run one env per "
+                             "process (gymnasium AsyncVectorEnv or SB3 SubprocVecEnv, see README)", field="num_envs")

@@ -18,6 +18,11 @@ from biovln_ms.scene.generator import generate_scene
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
 
 
+def pose(u) -> np.ndarray:
+    """The robot's planar pose from its base joints (tests may look inside the env; policies may not)."""
+    return u.agent.planar_pose()[0].double().numpy()
+
+
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory):
     root = tmp_path_factory.mktemp("data") / "ds"
@@ -52,16 +57,16 @@ def test_actions_are_exact_and_stop_terminates(env):
     u = env.unwrapped
     assert env.action_space == gym.spaces.Discrete(4)
     u.agent.reset(torch.tensor([[4.0, 2.6, 0.3]]))  # open floor in the middle of the room
-    p0 = u._planar()
+    p0 = pose(u)
     env.step(1)
-    p1 = u._planar()
+    p1 = pose(u)
     assert np.linalg.norm(p1[:2] - p0[:2]) == pytest.approx(0.25, abs=0.01)
     assert p1[2] == pytest.approx(p0[2], abs=math.radians(0.5))
     env.step(2)
-    assert math.degrees(u._planar()[2] - p1[2]) == pytest.approx(30.0, abs=0.5)
+    assert math.degrees(pose(u)[2] - p1[2]) == pytest.approx(30.0, abs=0.5)
     env.step(3)
     env.step(3)
-    assert math.degrees(u._planar()[2] - p1[2]) == pytest.approx(-30.0, abs=0.5)
+    assert math.degrees(pose(u)[2] - p1[2]) == pytest.approx(-30.0, abs=0.5)
     _, _, term, trunc, info = env.step(0)
     assert bool(term) and not bool(trunc) and bool(info["stopped"])
 
@@ -74,7 +79,7 @@ def test_walls_and_instruments_block_the_robot(env):
         u.agent.reset(torch.tensor([[4.0, 2.6, heading]]))
         for _ in range(40):
             _, _, _, _, info = env.step(1)
-        p = u._planar()[:2]
+        p = pose(u)[:2]
         assert 0.19 <= p[0] <= 7.81 and 0.19 <= p[1] <= 5.81
         for o in spec.objects():
             assert o.placed().clearance(p) >= 0.19, (heading, o.id)
@@ -133,8 +138,6 @@ def test_info_has_every_metric(env):
 def test_bad_input_is_named(dataset, env):
     with pytest.raises(BioVLNError, match="unknown split 'ms_vall'"):
         gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_vall", **CPU)
-    with pytest.raises(BioVLNError, match="unknown obs mode 'rgbdx'.*rgbd"):
-        gym.make("BioVLN-OpFace-v0", obs_mode="rgbdx", **CPU)
     with pytest.raises(BioVLNError, match="unknown control mode 'teleport'.*discrete, continuous"):
         gym.make("BioVLN-OpFace-v0", control_mode="teleport", **CPU)
     with pytest.raises(BioVLNError, match="no episode '77'"):
@@ -152,12 +155,19 @@ def test_rgbd_and_segmentation_observations(dataset):
     obs, _ = e.reset(options={"episode_index": 0})
     cam = obs["sensor_data"]["head"]
     assert cam["rgb"].shape == (1, 72, 96, 3) and cam["depth"].shape == (1, 72, 96, 1)
-    seg_map = e.unwrapped.instrument_segmentation()
-    spec = e.unwrapped.scene_spec
-    assert {oid for oid, _ in seg_map.values()} == {o.id for o in spec.objects()}
     assert (cam["depth"] > 0).float().mean() > 0.95  # the ceiling closes the room: depth everywhere
     extra = obs["extra"]
-    assert extra["goal_gps_compass"].shape == (1, 2) and extra["target_category"].sum() == 1
+    assert extra["pointgoal_with_gps_compass"].shape == (1, 2) and extra["objectgoal"].sum() == 1
+    assert extra["gps"].abs().max() < 1e-5 and extra["compass"].abs().max() < 1e-5  # the episode frame starts at 0
+    # the semantic sensor: 1 + goal-category index where a goal-category object is seen, 0 elsewhere
+    u = e.unwrapped
+    sem, seg = extra["semantic_category"][0, ..., 0], cam["segmentation"][0, ..., 0]
+    ids = u.scene_builder.segmentation_ids(0)
+    for sid, oid in ids.items():
+        cat = u.scene_spec.get(oid).category
+        want = u.category_names.index(cat) + 1 if cat in u.category_names else 0
+        assert bool((sem[seg == sid] == want).all()), oid
+    assert bool((sem[~torch.isin(seg, torch.tensor(list(ids)))] == 0).all())
     e.close()
 
 
@@ -166,7 +176,8 @@ def test_centroid_variant_targets_the_bbox_centre(dataset):
     e.reset(options={"episode_index": 0})
     u = e.unwrapped
     target = u.scene_spec.get(u.current_episode["object_id"])
-    assert np.allclose(u._ctx.goal, target.position[:2])
+    _, info = e.reset(options={"episode_index": 0})
+    assert np.allclose(info["goal_position"][0].numpy(), target.position[:2])
     e.close()
 
 
@@ -182,11 +193,11 @@ def test_rl_variant_and_conformance(dataset):
     w = GymnasiumEnv(e)
     obs, _ = w.reset(seed=0)
     assert obs.dtype == np.float32 and obs.ndim == 1
-    p = u._planar()
+    p = pose(u)
     assert obs[0] == pytest.approx(p[0] / 4.0, abs=1e-5) and obs[2] ** 2 + obs[3] ** 2 == pytest.approx(1.0, abs=1e-5)
     u.agent.reset(torch.tensor([[4.0, 2.6, 0.0]]))
     w.step(2)
-    assert math.degrees(u._planar()[2]) == pytest.approx(10.0, abs=0.5)
+    assert math.degrees(pose(u)[2]) == pytest.approx(10.0, abs=0.5)
     gym_check(w, skip_render_check=True)
     sb3_check(w, warn=True)
     e.close()
@@ -221,4 +232,108 @@ def test_pointcloud_obs_mode():
     obs, _ = e.reset(seed=0)
     assert obs["pointcloud"]["xyzw"].shape == (1, 64 * 48, 4)
     e.step(1)
+    e.close()
+
+
+def test_control_mode_is_the_robots_controller(dataset):
+    e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="none", control_mode="continuous", **CPU)
+    u = e.unwrapped
+    assert u.control_mode == "continuous" and u.agent.control_mode == "continuous"
+    assert e.action_space == gym.spaces.Box(-1.0, 1.0, (3,), np.float32)
+    e.reset(options={"episode_index": 0})
+    u.agent.reset(torch.tensor([[4.0, 2.6, 0.0]]))
+    p0 = pose(u)
+    e.step(np.array([0.0, 0.5, -1.0], np.float32))  # half a step forward, half a turn left
+    p1 = pose(u)
+    assert np.linalg.norm(p1[:2] - p0[:2]) == pytest.approx(0.125, abs=0.01)
+    assert math.degrees(p1[2] - p0[2]) == pytest.approx(15.0, abs=0.5)
+    with pytest.raises(BioVLNError, match="outside Box"):
+        e.step(np.array([2.0, 0.0, 0.0]))
+    e.close()
+
+
+def test_every_action_form_is_accepted(env):
+    env.reset(options={"episode_index": 0})
+    u = env.unwrapped
+    for a in (2, np.int64(2), np.array(2), np.array([2]), torch.tensor(2), torch.tensor([2]), [2]):
+        before = pose(u)[2]
+        env.step(a)
+        assert math.degrees(pose(u)[2] - before) == pytest.approx(30.0, abs=0.5), repr(a)
+    with pytest.raises(BioVLNError, match="not 1 integer"):
+        env.step(np.array([1.5]))
+
+
+@pytest.mark.parametrize("obs_mode", ["depth+rgb", "rgb+normal", "rgb+depth", "state_dict", "sensor_data"])
+def test_maniskill_obs_modes(dataset, obs_mode):
+    e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode=obs_mode, camera_width=32,
+                 camera_height=24, **CPU)
+    obs, _ = e.reset(options={"episode_index": 0})
+    e.step(1)
+    if "normal" in obs_mode:
+        assert obs["sensor_data"]["head"]["normal"].shape == (1, 24, 32, 3)
+    e.close()
+
+
+def test_evaluate_is_a_pure_query(env):
+    env.reset(options={"episode_index": 0})
+    u = env.unwrapped
+    env.step(1)
+    a, b = u.evaluate(), u.evaluate()
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    obs1, obs2 = u.get_obs(a), u.get_obs(b)
+    assert torch.equal(obs1, obs2)
+    _, _, _, _, info = env.step(1)
+    assert int(info["steps"]) == 2  # the extra evaluate() calls counted nothing
+
+
+def test_state_dict_replay_gives_the_same_rewards_and_infos(env):
+    env.reset(options={"episode_index": 1})
+    u = env.unwrapped
+    actions = [1, 1, 2, 1, 1, 3, 1, 1, 1, 2, 1, 1, 0]
+    for a in actions[:5]:
+        env.step(a)
+    state = u.get_state_dict()
+    first = [env.step(a) for a in actions[5:]]
+    env.reset(options={"episode_index": 1})
+    for a in (2, 2, 1):  # wander off, then restore the mid-episode state
+        env.step(a)
+    u.set_state_dict(state)
+    again = [env.step(a) for a in actions[5:]]
+    for (o1, r1, t1, tr1, i1), (o2, r2, t2, tr2, i2) in zip(first, again):
+        assert torch.equal(r1, r2) and torch.equal(t1, t2) and torch.equal(tr1, tr2) and torch.equal(o1, o2)
+        assert i1.keys() == i2.keys() and all(torch.equal(torch.as_tensor(i1[k]), torch.as_tensor(i2[k])) for k in i1)
+    env.reset(options={"episode_index": 2})
+    with pytest.raises(BioVLNError, match="another episode"):
+        u.set_state_dict(state)
+
+
+def test_normalized_and_sparse_rewards(dataset):
+    rewards = {}
+    for mode in ("dense", "normalized_dense", "sparse"):
+        e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="none", reward_mode=mode, **CPU)
+        e.reset(options={"episode_index": 2})
+        g = np.asarray(e.unwrapped.current_episode["goals"][0]["position"][:2])
+        rewards[mode] = [float(e.step(1)[1])]
+        e.unwrapped.agent.reset(torch.tensor([[g[0], g[1], 0.0]]))
+        rewards[mode].append(float(e.step(0)[1]))
+        e.close()
+    assert rewards["normalized_dense"] == pytest.approx([r / 10.0 for r in rewards["dense"]], abs=1e-6)
+    assert rewards["sparse"] == [0.0, 1.0]
+
+
+def test_gpu_backend_without_cuda_is_one_line(dataset):
+    with pytest.raises(BioVLNError, match="needs a CUDA GPU"):
+        gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", sim_backend="gpu")
+
+
+def test_render_shows_the_room_and_the_robot(dataset):
+    """The follow camera sits inside the room with the ceiling hidden: the frame is the lit floor, walls and
+    robot, not the grey underside of the ceiling box (the bug: one colour over the whole frame)."""
+    e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="none", render_mode="rgb_array",
+                 **CPU)
+    e.reset(options={"episode_index": 0})
+    frame = e.render()[0].cpu().numpy()
+    assert frame.shape == (720, 960, 3)
+    colours = len(np.unique(frame.reshape(-1, 3)[::7], axis=0))
+    assert colours > 2000 and frame.std() > 20, (colours, frame.std())
     e.close()

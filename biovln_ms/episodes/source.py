@@ -5,6 +5,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
+
 from biovln_ms.constants import ROBOT_RADIUS
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
 from biovln_ms.scene.spec import SceneSpec
@@ -54,6 +56,50 @@ class EpisodeSource:
         raise DatasetError(f"no episode '{episode_id}'" + (f" in scene '{scene_id}'" if scene_id else ""), field="episode_id",
                            fix=f"episode ids are '0'..; scenes: {', '.join(scenes)}; or pass options={{'episode_index': k}} "
                                f"with 0 <= k < {len(self.episodes)}")
+
+
+class EpisodeCursor:
+    """Which episode a reset starts (Habitat's episode iterator): dataset order, or (``shuffle``) a fixed
+    shuffle that keeps each scene's episodes together, so a scene is rebuilt once per pass, not per episode."""
+
+    def __init__(self, source: EpisodeSource, shuffle: bool = False) -> None:
+        self.source = source
+        self.order = self._shuffled() if shuffle else list(range(len(source)))
+        self.position = -1
+
+    def _shuffled(self) -> list[int]:
+        rng = np.random.default_rng(0)
+        by_scene: dict[str, list[int]] = {}
+        for i, ep in enumerate(self.source.episodes):
+            by_scene.setdefault(ep["scene_id"], []).append(i)
+        scenes = sorted(by_scene)
+        order: list[int] = []
+        for k in rng.permutation(len(scenes)):
+            episodes = by_scene[scenes[k]]
+            order += [episodes[j] for j in rng.permutation(len(episodes))]
+        return order
+
+    @property
+    def first(self) -> int:
+        return self.order[0]
+
+    def select(self, seed, options: dict) -> int:
+        """The episode index a reset starts: ``options["episode_index"]`` or ``["episode_id"]`` (with an
+        optional ``["scene_id"]``), else the next in order; a ``seed`` jumps to position ``seed mod n``, so the
+        same seed gives the same episode and the same ones after it. Consumes those option keys."""
+        if "episode_index" in options:
+            k = options.pop("episode_index")
+            if not (isinstance(k, (int, np.integer)) and not isinstance(k, bool) and 0 <= k < len(self.source)):
+                raise DatasetError(f"episode_index {k!r} is out of range", field="episode_index",
+                                   fix=f"use 0 <= episode_index < {len(self.source)}")
+            return int(k)
+        if "episode_id" in options:
+            return self.source.find(options.pop("episode_id"), options.pop("scene_id", None))
+        if seed is not None:
+            self.position = int(np.ravel(seed)[0]) % len(self.order)
+        else:
+            self.position = (self.position + 1) % len(self.order)
+        return self.order[self.position]
 
 
 class DatasetEpisodes(EpisodeSource):

@@ -112,7 +112,7 @@ def _init_worker(cfg: dict) -> None:
             obs_mode = "rgbd"
     env = gym.make(cfg["env_id"], split=cfg["split"], dataset=cfg["dataset"], obs_mode=obs_mode,
                    camera_width=w, camera_height=h, sim_backend="physx_cpu", render_backend="cpu", **spec.env_kwargs)
-    _W.update(env=env, policy=spec.factory(**cfg["method_kwargs"]), cfg=cfg, recorder=recorder)
+    _W.update(env=env, policy=spec.factory(**cfg["method_kwargs"]), cfg=cfg, recorder=recorder, privileged=spec.privileged)
 
 
 def _r4(v) -> float:
@@ -126,16 +126,17 @@ def _run(index: int) -> dict:
     ep = None
     try:
         positions, headings, clearance, zone2, actions = [], [], [], [], []
-        pose = None
-        for st in rollout(env, policy, index):
-            before, pose = pose, u._planar()
+        for st in rollout(env, policy, index, _W["privileged"]):
+            pose = st.info["agent_pose"][0].cpu().numpy()
             if st.action is None:
                 ep = u.current_episode
+                goal = st.info["goal_position"][0].cpu().numpy()
                 if recorder is not None:
-                    recorder.start(ep, u._ctx.goal)
+                    recorder.start(ep, goal)
             else:
                 if recorder is not None:  # the pose, distance and frame the policy acted on
-                    recorder.step(len(actions), st.action, before, u._ctx.goal, float(st.info_before["distance_to_goal"]),
+                    before = st.info_before["agent_pose"][0].cpu().numpy()
+                    recorder.step(len(actions), st.action, before, goal, float(st.info_before["distance_to_goal"]),
                                   st.obs_before)
                 actions.append(st.action if isinstance(st.action, int) else [_r4(v) for v in st.action])
             positions.append([_r4(pose[0]), _r4(pose[1])])

@@ -22,13 +22,14 @@ class Step:
     truncated: bool = False
 
 
-def rollout(env, policy, episode_index: int, max_steps: int = 500) -> Iterator[Step]:
-    """Reset ``env`` to an episode, reset ``policy`` with it, and run until STOP or truncation."""
+def rollout(env, policy, episode_index: int, privileged: bool = False) -> Iterator[Step]:
+    """Reset ``env`` to an episode, reset ``policy`` with what it may know (``privileged``: the oracles'
+    read-only view too), and run until STOP or the variant's step limit."""
     obs, info = env.reset(options={"episode_index": episode_index})
-    u = env.unwrapped
-    policy.reset({"env": u, "episode": u.current_episode})
+    episode_info = env.unwrapped.episode_info(0, privileged=privileged)
+    policy.reset(episode_info)
     yield Step(None, None, None, obs, info)
-    for _ in range(max_steps):
+    for _ in range(episode_info.task.max_episode_steps):
         a = policy.act(obs, info)  # an int (Discrete(4)), or an array in continuous control
         a = int(a) if np.ndim(a) == 0 else np.asarray(a, np.float32)
         before, before_info = obs, info

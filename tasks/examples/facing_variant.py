@@ -1,32 +1,43 @@
 """Example of a user task variant (README, "Adding a task variant"): success also needs the robot to
-face the instrument when it calls STOP. Import this module, then ``gym.make("MyLab-OpFaceFacing-v0")``."""
+face the instrument when it calls STOP. One measure plus a configuration; import this module, then
+``gym.make("MyLab-OpFaceFacing-v0")``."""
 
-from biovln_ms.metrics.measures import Measure, MeasureSet, register_measure
-from biovln_ms.metrics.measures import END_INFO, STEP_INFO
+from dataclasses import replace
+
+from biovln_ms.metrics.measures import Measure, register_measure
 from biovln_ms.registration import register_biovln_env
 from biovln_ms.tasks.nav_env import BioVLNNavEnv
+from biovln_ms.variants import VARIANTS
 
 
 @register_measure
 class FacingSuccess(Measure):
-    """STOP within the success radius while the instrument is in view."""
+    """STOP within the success radius while the instrument is in view (a batched boolean per sub-env)."""
 
     uuid = "facing_success"
     dependencies = ("success", "facing_instrument")
+    dtype = bool
 
-    def update(self, ctx, state, m):
-        self.value = bool(m["success"] and m["facing_instrument"])
+    def compute(self, ctx, state, m, idx):
+        return m["success"][idx] & m["facing_instrument"][idx]
 
 
-@register_biovln_env("MyLab-OpFaceFacing-v0", max_episode_steps=500)
+@register_measure
+class FacingFail(Measure):
+    """STOP that is not a facing success ends the episode as a failure."""
+
+    uuid = "facing_fail"
+    dependencies = ("stopped", "facing_success")
+    dtype = bool
+
+    def compute(self, ctx, state, m, idx):
+        return m["stopped"][idx] & ~m["facing_success"][idx]
+
+
+BASE = VARIANTS["BioVLN-OpFace-v0"]
+
+
+@register_biovln_env("MyLab-OpFaceFacing-v0", max_episode_steps=BASE.max_episode_steps)
 class FacingOpFaceEnv(BioVLNNavEnv):
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        self._measures = MeasureSet(names=STEP_INFO + END_INFO + ("facing_success",))
-
-    def evaluate(self):
-        info = super().evaluate()
-        if "facing_success" in info:
-            info["success"] = info["facing_success"]  # the stricter rule decides success
-            info["fail"] = info["stopped"] & ~info["success"]
-        return info
+    config = replace(BASE, measures=BASE.measures + ("facing_success",), success_measure="facing_success",
+                     fail_measure="facing_fail")

@@ -1,0 +1,54 @@
+"""The navigation task's configuration (paper §3.2, Eq. 5, appendix "Gym Environment for RL Training").
+
+Pure data: the env (:mod:`biovln_ms.tasks.nav_env`), its measures and sensors read it; a variant is
+one :class:`NavTaskConfig` in :data:`biovln_ms.variants.VARIANTS`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+#: Per-step info of every variant (paper §4.2) and the episode-end metrics.
+STEP_MEASURES = ("success", "distance_to_goal", "geodesic_distance_to_goal", "clearance", "zone2_violation", "in_zone3",
+                 "facing_instrument", "collisions")
+END_MEASURES = ("spl", "soft_spl", "mcr", "vrt", "steps", "path_length")
+#: The sensors of the benchmark env (Habitat's PointNav/ObjectNav sensors; see ``biovln_ms.agents.policy``).
+NAV_SENSORS = ("gps", "compass", "pointgoal_with_gps_compass", "objectgoal")
+
+
+@dataclass(frozen=True)
+class NavTaskConfig:
+    """Task parameters. ``measures`` are reported in ``info``; reward, success and fail are measures too."""
+
+    forward_step: float = 0.25
+    turn_deg: float = 30.0
+    goal_mode: str = "opface"  # "opface" (Eq. 1) or "centroid" (Table 9 ablation)
+    max_episode_steps: int = 500  # the paper's step limit (§4.2)
+    camera_width: int = 640
+    camera_height: int = 480
+    camera_hfov_deg: float = 79.0  # Habitat's horizontal FOV; SAPIEN takes the vertical one
+    camera_far: float = 20.0
+    success_bonus: float = 10.0
+    step_penalty: float = 0.01
+    safety_penalty: float = 0.05
+    proportional_safety: bool = False  # RL variant: penalty * (1 - clearance / 0.5)
+    shuffle_episodes: bool = False  # RL variant: shuffle once (scene order, and episodes within a scene), then cycle
+    position_scale: float = 4.0  # RL variant observation normalisation (m)
+    measures: tuple[str, ...] = STEP_MEASURES + END_MEASURES
+    reward_measure: str = "nav_reward"
+    success_measure: str = "success"
+    fail_measure: str = "failed_stop"
+    sensors: tuple[str, ...] = NAV_SENSORS
+    agent_obs: bool = True  # ManiSkill's proprioception (base joint qpos/qvel) in state observations
+    default_split: str | None = None  # the split used when none is given (None: a generated scene)
+    default_obs_mode: str = "state"
+
+    @property
+    def camera_vfov(self) -> float:
+        """Vertical FOV (radians) for SAPIEN from the horizontal one: 2 atan(tan(h/2) H/W)."""
+        return 2 * math.atan(math.tan(math.radians(self.camera_hfov_deg) / 2) * self.camera_height / self.camera_width)
+
+    @property
+    def hfov(self) -> float:
+        return math.radians(self.camera_hfov_deg)

@@ -1,0 +1,21 @@
+"""Every navigation env this package registers, declared once: id -> task configuration.
+
+``biovln_ms.registration`` registers them lazily with gymnasium and ``biovln_ms.tasks.variants`` with
+ManiSkill, both from this table. A new variant is one entry (or a new measure, see README).
+"""
+
+from __future__ import annotations
+
+from biovln_ms.task_config import NavTaskConfig
+
+VARIANTS: dict[str, NavTaskConfig] = {
+    # the benchmark (paper §3.2): Eq. 1 goals, 0.25 m / 30 deg actions, 500 steps
+    "BioVLN-OpFace-v0": NavTaskConfig(),
+    # the paper's ablation (Table 9): the goal is the floor projection of the bounding-box centre
+    "BioVLN-Centroid-v0": NavTaskConfig(goal_mode="centroid"),
+    # the paper's Gym variant for RL: 10 deg turns, positions / 4.0 m, heading as a unit vector,
+    # Eq. 5 with the proportional safety penalty, episodes shuffled once and cycled
+    "BioVLN-OpFace-RL-v0": NavTaskConfig(turn_deg=10.0, proportional_safety=True, safety_penalty=1.0,
+                                         shuffle_episodes=True, sensors=("rl_state", "objectgoal"), agent_obs=False,
+                                         default_split="train"),
+}

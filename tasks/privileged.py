@@ -1,0 +1,68 @@
+"""The read-only privileged view the declared oracles get (``EpisodeInfo.privileged``).
+
+Only methods registered as privileged (the oracle and the 3-Zone oracle) receive it: the goal the task
+scores against, its success radius, the target's and all instruments' zones, exact geodesics on the
+scene's navigation geometry, and the robot's true planar pose. Every accessor returns a copy or an
+immutable object, so an oracle can read the episode but cannot change it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from biovln_ms.geometry.navigation import NavGeometry
+from biovln_ms.geometry.zones import PlacedInstrument
+from biovln_ms.metrics.measures import EpisodeContext
+
+
+class PrivilegedView:
+    """One sub-env's episode as an oracle may see it."""
+
+    __slots__ = ("_ctx", "_nav", "_pose", "_goal_mode")
+
+    def __init__(self, ctx: EpisodeContext, nav: NavGeometry, pose: Callable[[], np.ndarray], goal_mode: str) -> None:
+        self._ctx, self._nav, self._pose, self._goal_mode = ctx, nav, pose, goal_mode
+
+    @property
+    def goal(self) -> np.ndarray:
+        """The goal the task scores against (Eq. 1, or the centroid projection in the centroid variant)."""
+        return np.array(self._ctx.goal, float)
+
+    @property
+    def goal_mode(self) -> str:
+        return self._goal_mode
+
+    @property
+    def success_radius(self) -> float:
+        return float(self._ctx.success_radius)
+
+    @property
+    def target(self) -> PlacedInstrument:
+        """The target instrument (a frozen dataclass: Zone 1/2/3 polygons, face, centroid goal)."""
+        return self._ctx.target
+
+    @property
+    def instruments(self) -> tuple[PlacedInstrument, ...]:
+        return tuple(self._ctx.instruments)
+
+    def geodesic_distance(self, a, b) -> float:
+        return float(self._nav.geodesic_distance(np.asarray(a, float), np.asarray(b, float)))
+
+    def shortest_path(self, a, b) -> list[np.ndarray]:
+        return [np.array(p, float) for p in self._nav.shortest_path(np.asarray(a, float), np.asarray(b, float))]
+
+    def snap(self, p) -> np.ndarray:
+        """The nearest navigable point."""
+        return np.array(self._nav.snap(np.asarray(p, float)), float)
+
+    def contains_free(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Which points (x, y) lie in the robot's free space."""
+        import shapely
+
+        return shapely.contains_xy(self._nav.free, x, y)
+
+    def pose(self) -> np.ndarray:
+        """The robot's true planar pose (x, y, yaw) in the world frame, now."""
+        return np.array(self._pose(), float)
