@@ -9,8 +9,10 @@ from typing import Optional
 
 import typer
 from rich.console import Console
+from typer.core import TyperCommand
 
 from biovln_ms.errors import BioVLNError
+from biovln_ms.eval.methods import METHODS, RL_ENV, SB3_CONTROL_MODES, report_methods
 
 app = typer.Typer(help="BioVLN-MS: operational-face navigation to laboratory instruments (SAPIEN / ManiSkill3).",
                   no_args_is_help=True, pretty_exceptions_enable=False)
@@ -27,9 +29,23 @@ layout_app = typer.Typer(help="LLM-assisted layout design: a description (or a s
                          no_args_is_help=True)
 app.add_typer(layout_app, name="layout")
 train_app = typer.Typer(help="Train learned policies: behavioural cloning (bc) and RL with Stable-Baselines3 "
-                             "(ppo, a2c, sac).", no_args_is_help=True)
+                             f"({', '.join(SB3_CONTROL_MODES)}).", no_args_is_help=True)
 app.add_typer(train_app, name="train")
 console = Console(stderr=True)
+
+
+def _methods_help() -> str:
+    """One line per registered method, in report order: name, label, description and what it needs."""
+    def line(name: str) -> str:
+        s = METHODS[name]
+        return (f"{name:<13} {s.label} — {s.description}" + ("; privileged" if s.privileged else "")
+                + (f"; runs on {s.env_id}" if s.env_id else ""))
+
+    return "\n".join(line(m) for m in report_methods())
+
+
+_RECORDABLE = ", ".join(m for m in report_methods() if METHODS[m].recordable)  # what `record` can run as is
+_LEARNED = ", ".join(m for m in report_methods() if "checkpoint" in METHODS[m].options)
 
 
 @app.command()
@@ -122,11 +138,38 @@ def scene_templates() -> None:
         typer.echo(f"{name:<12} {len(t.slots)} slots, {t.active_slots[0]}-{t.active_slots[1]} active: {t.description}")
 
 
-@scene_app.command("generate")
+def _split_categories(values: list[str] | None) -> list[str]:
+    """``--require`` values split on commas and spaces: ``a,b`` and ``"a b"`` both give ``[a, b]``."""
+    return [c for v in values or () for c in v.replace(",", " ").split()]
+
+
+class _GreedyRequireCommand(TyperCommand):
+    """Reads ``--require a b c`` as ``--require a --require b --require c`` (a click option takes one
+    value per flag): every word after ``--require`` up to the next option is a category."""
+
+    def parse_args(self, ctx: typer.Context, args: list[str]) -> list[str]:
+        out: list[str] = []
+        greedy = False
+        for i, tok in enumerate(args):
+            if tok == "--":
+                out += args[i:]
+                break
+            if tok.startswith("-"):
+                greedy = tok == "--require" or tok.startswith("--require=")
+            elif greedy and out[-1] != "--require":
+                out.append("--require")
+            out.append(tok)
+        return super().parse_args(ctx, out)
+
+
+@scene_app.command("generate", cls=_GreedyRequireCommand)
 def scene_generate(template: str = typer.Option("single_room", "--template", "-t", help="Template name (see `scene templates`)."),
                    seed: int = typer.Option(..., "--seed", "-s", help="Scene seed."),
                    out: Optional[Path] = typer.Option(None, "-o", "--out", help="Spec JSON to write (default: NAME.json)."),
-                   require: Optional[list[str]] = typer.Option(None, "--require", help="Categories the scene must hold."),
+                   require: list[str] | None = typer.Option(
+                       None, "--require", metavar="CAT...", callback=_split_categories,
+                       help="Categories the scene must hold: --require a b, --require a,b "
+                            "or --require a --require b."),
                    render: Optional[Path] = typer.Option(None, "--render", help="Also write a SAPIEN view from above at an angle."),
                    map_png: Optional[Path] = typer.Option(None, "--map", help="Also write the top-down map.")) -> None:
     """Generate the scene of a seed deterministically and write its spec JSON."""
@@ -256,7 +299,7 @@ def dataset_show(root: Path = typer.Argument(..., help="Dataset folder."),
 def record(out: Path = typer.Option(Path("episode.mp4"), "-o", "--out", help="MP4 to write."),
            split: str = typer.Option("ms_val", help="Split of the default (or --dataset) dataset."),
            episode: int = typer.Option(0, help="Episode index within the split."),
-           policy: str = typer.Option("oracle", help="Policy to run."),
+           policy: str = typer.Option("oracle", help=f"Policy to run: {_RECORDABLE}."),
            dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
            env_id: str = typer.Option("BioVLN-OpFace-v0", "--env", help="Env id (a registered variant)."),
            fps: int = typer.Option(5, help="Frames per second.")) -> None:
@@ -268,27 +311,29 @@ def record(out: Path = typer.Option(Path("episode.mp4"), "-o", "--out", help="MP
                f"mcr={m['mcr']:.3f} vrt={m['vrt']:.3f}")
 
 
-@app.command("eval")
-def eval_cmd(method: str = typer.Option(..., "--method", "-m", help="Baseline (random, oracle, zone3_oracle, ...)."),
+@app.command("eval", help="Evaluate a method on a split: per-episode JSONL (resumable) and summary.json.\n\n"
+                          "Methods (--method):\n\n" + _methods_help())
+def eval_cmd(method: str = typer.Option(..., "--method", "-m", help=f"Method: {', '.join(report_methods())}.",
+                                        autocompletion=report_methods),
              split: str = typer.Option("ms_dev", "--split", "-s", help="Dataset split."),
              out: Path = typer.Option(Path("results"), "--out", "-o", help="Results folder."),
              dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
-             env_id: Optional[str] = typer.Option(None, "--env", help="Env variant, e.g. BioVLN-Centroid-v0 (default: "
-                                                                      "BioVLN-OpFace-v0; the RL variant for ppo/a2c/sac)."),
+             env_id: Optional[str] = typer.Option(None, "--env", help="Env variant, e.g. BioVLN-Centroid-v0 "
+                                                  "(default: BioVLN-OpFace-v0, or the method's own above)."),
              workers: Optional[int] = typer.Option(None, help="Worker processes (default: one per core)."),
              max_episodes: Optional[int] = typer.Option(None, help="Only the first N episodes."),
              ray_address: Optional[str] = typer.Option(None, help="Run on Ray: 'local' (a local instance), 'auto' or "
                                                                     "'ray://host:port' (a cluster); --workers actors."),
              record: Optional[Path] = typer.Option(None, "--record", help="Record trajectories (TrajectoryRecorder) here."),
              record_mode: str = typer.Option("full", help="full (RGB PNGs + depth) or trace (positions/actions only)."),
-             checkpoint: Optional[Path] = typer.Option(None, help="Checkpoint of a learned method (bc: bc.pt; ppo: a "
-                                                                  "Stable-Baselines3 .zip)."),
+             checkpoint: Optional[Path] = typer.Option(None, help="Checkpoint of a learned method "
+                                                       f"({_LEARNED}): bc.pt for bc, a Stable-Baselines3 "
+                                                       ".zip for RL."),
              detector: Optional[str] = typer.Option(None, help="vlfm: 'gt' (default, simulator segmentation) or "
                                                                 "'owlvit:/local/dir'."),
              scorer: Optional[str] = typer.Option(None, help="vlfm: 'default' (packaged EfficientNet-Lite0 + MiniLM) or "
                                                              "'clip:/local/dir'."),
              name: Optional[str] = typer.Option(None, help="Results folder name (default: the method).")) -> None:
-    """Evaluate a method on a split: per-episode JSONL (resumable) and summary.json."""
     from biovln_ms.eval.harness import EvalConfig, evaluate
 
     given = {"checkpoint": str(checkpoint) if checkpoint else None, "detector": detector, "scorer": scorer}
@@ -449,8 +494,6 @@ def _train_rl(algo: str, timesteps: int, out: Optional[Path], n_envs: int, split
 
 
 def _rl_command(algo: str):
-    from biovln_ms.eval.methods import RL_ENV
-
     def command(timesteps: int = typer.Option(200_000, "--timesteps", "-t", help="Environment steps to train for."),
                 out: Optional[Path] = typer.Option(None, "--out", "-o", help=f"Run folder (default runs/{algo})."),
                 n_envs: int = typer.Option(2, help="Parallel envs (one process or Ray actor each)."),
@@ -468,8 +511,6 @@ def _rl_command(algo: str):
 
 
 def _register_rl_commands() -> None:
-    from biovln_ms.eval.methods import SB3_CONTROL_MODES
-
     for algo in SB3_CONTROL_MODES:
         train_app.command(algo)(_rl_command(algo))
 

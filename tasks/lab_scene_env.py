@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence, Union
 
 import numpy as np
 import torch
 from mani_skill.envs.sapien_env import BaseEnv
 from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
-from biovln_ms.registration import register_biovln_env
 
+from biovln_ms.registration import register_biovln_env
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.maniskill_builder import LabSceneBuilder
 from biovln_ms.scene.spec import SceneSpec
@@ -31,14 +31,19 @@ def overview_pose(spec: SceneSpec):
 class LabSceneEnv(BaseEnv):
     """Builds one or more scene specs (``specs=``), or the scene of ``template``/``seed``."""
 
-    SUPPORTED_REWARD_MODES = ["none"]
-    SUPPORTED_ROBOTS = ["none"]
+    SUPPORTED_REWARD_MODES = ("none",)
+    SUPPORTED_ROBOTS = ("none",)
 
-    def __init__(self, *args, specs: Sequence[Union[SceneSpec, str, Path]] | None = None, template: str = "single_room",
-                 seed: int = 0, ceiling: bool = True, render_size: tuple[int, int] = (960, 720), **kwargs) -> None:
+    def __init__(self, *args, specs: Sequence[SceneSpec | str | Path] | None = None,
+                 template: str = "single_room", seed: int = 0, ceiling: bool = True,
+                 render_size: tuple[int, int] = (960, 720), **kwargs) -> None:
+        if kwargs.get("obs_mode") == "pointcloud":
+            raise NotImplementedError("obs_mode 'pointcloud': BioVLN-LabScene-v0 has no sensor to fuse one "
+                                      "from; use render() (the overview camera) or obs_mode 'none'/'state'")
         self._specs = list(specs) if specs else [generate_scene(template, seed)]
         self._ceiling = ceiling
         self._render_size = render_size
+        # Every other ManiSkill obs mode works; the default, "state", is empty (no robot, no task state).
         kwargs.setdefault("robot_uids", "none")
         kwargs.setdefault("reward_mode", "none")
         super().__init__(*args, **kwargs)
@@ -69,6 +74,11 @@ class LabSceneEnv(BaseEnv):
     def get_state_dict(self):
         """Simulation state only (ManiSkill 3.0.1's version assumes a robot)."""
         return self.scene.get_sim_state()
+
+    def _get_obs_agent(self) -> dict:
+        """No robot, so no proprioception: ManiSkill's default reads ``self.agent`` (None here), which made
+        every obs mode but ``"none"`` crash, including the default ``"state"``."""
+        return {}
 
     def _get_obs_extra(self, info: dict):
         return {}

@@ -8,6 +8,7 @@ with :func:`register_template` (a path or a dict) or by putting JSON files in a 
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 from pathlib import Path
@@ -35,7 +36,7 @@ class RoomRect(_Strict):
     rect: tuple[float, float, float, float] = Field(description="x0, y0, x1, y1 of the inner floor")
 
     @model_validator(mode="after")
-    def _order(self) -> "RoomRect":
+    def _order(self) -> RoomRect:
         x0, y0, x1, y1 = self.rect
         if not (x1 > x0 and y1 > y0):
             raise ValueError("rect: must be [x0, y0, x1, y1] with x1 > x0 and y1 > y0")
@@ -66,7 +67,7 @@ class InstrumentSlot(_Strict):
     fixed: bool = Field(default=False, description="always active (e.g. every slot of two_room)")
 
     @model_validator(mode="after")
-    def _by_placement(self) -> "InstrumentSlot":
+    def _by_placement(self) -> InstrumentSlot:
         need = {"wall": ("room", "wall", "span"), "table_top": ("support", "span"), "floor": ("room", "region")}[self.placement]
         for key in need:
             if getattr(self, key) is None:
@@ -87,7 +88,7 @@ class Template(_Strict):
     max_attempts: int = Field(default=400, ge=1)
 
     @model_validator(mode="after")
-    def _refs(self) -> "Template":
+    def _refs(self) -> Template:
         from biovln_ms.catalog import load_catalog
 
         cat = load_catalog()
@@ -145,12 +146,46 @@ def load_template_file(path: str | Path) -> Template:
     return parse_template(obj, str(path))
 
 
+def _package_tasks_dir() -> Path | None:
+    """The installed ``biovln_ms.tasks`` folder (the repo's ``tasks/``), found without importing it."""
+    spec = importlib.util.find_spec("biovln_ms.tasks")
+    locations = list(spec.submodule_search_locations or []) if spec else []
+    return Path(locations[0]) if locations else None
+
+
+def resolve_template_path(path: str | Path) -> Path:
+    """``path`` if it exists from the current directory; else a relative path is looked up in the
+    installed package: ``tasks/examples/cold_room.json`` under ``biovln_ms/tasks/`` (the repo's
+    ``tasks/``), then ``cold_room.json`` under ``biovln_ms/tasks/examples/``. Raises a one-line
+    :class:`TemplateError` naming the file and the fix when none exists."""
+    path = Path(path)
+    if path.exists() or path.is_absolute():
+        return path
+    tasks_dir = _package_tasks_dir()
+    candidates = []
+    if tasks_dir is not None:
+        if path.parts[:1] == ("tasks",):
+            candidates.append(tasks_dir.joinpath(*path.parts[1:]))
+        candidates.append(tasks_dir / "examples" / path)
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate
+    where = f"{Path.cwd()}" + (f" and the package's {tasks_dir}" if tasks_dir is not None else "")
+    raise TemplateError(f"no such template file (looked in {where})", source=str(path),
+                        fix="give the JSON file's path from the current directory, or an absolute path")
+
+
 def register_template(template: Template | dict | str | Path, override: bool = False) -> Template:
-    """Add a template (object, dict or JSON path) to the registry under its name."""
+    """Add a template (object, dict or JSON path) to the registry under its name.
+
+    A relative path that does not exist from the current directory is resolved against the installed
+    package (:func:`resolve_template_path`), so the documented
+    ``register_template("tasks/examples/cold_room.json")`` works from any working directory.
+    """
     if isinstance(template, dict):
         template = parse_template(template, "<dict>")
     elif not isinstance(template, Template):
-        template = load_template_file(template)
+        template = load_template_file(resolve_template_path(template))
     if template.name in _REGISTRY and not override and _REGISTRY[template.name] != template:
         raise TemplateError(f"a different template named '{template.name}' is already registered",
                             fix="pick another name or pass override=True")
