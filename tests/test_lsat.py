@@ -1,6 +1,7 @@
 """LSAT: names, the defensive GLB reader, import strategies 1 and 2, the shipped LSAT Target scene,
 exporters (goal JSON, LSAT format, USD re-opened with pxr), and a fuzzed importer."""
 
+import hashlib
 import json
 import math
 import os
@@ -42,6 +43,19 @@ def test_shipped_target_glb_is_regenerated_byte_for_byte(tmp_path):
     assert write_target_glb(tmp_path / "t.glb").read_bytes() == target_glb_path().read_bytes()
 
 
+# sha256 of the LSAT Target import: the spec's JSON, and the report with the GLB's path written <glb>.
+# Update only for an intended change of the importer, the catalog or the shipped GLB.
+TARGET_SPEC_SHA256 = "70b74489a609c636dc610a77deffebcb90be3ace98a7d111421aac2e76716636"
+TARGET_REPORT_SHA256 = "39b1470018a9f8f60c2b9e75c666ca6a737d80b3e5ec35c45ce503c7553e613f"
+
+
+def test_target_import_is_byte_for_byte_unchanged(imported):
+    spec, report = imported
+    assert hashlib.sha256(spec.to_json().encode()).hexdigest() == TARGET_SPEC_SHA256
+    md = report.to_markdown().replace(str(target_glb_path()), "<glb>")
+    assert hashlib.sha256(md.encode()).hexdigest() == TARGET_REPORT_SHA256
+
+
 def test_import_recovers_the_designers_layout(imported):
     spec, report = imported
     c = report.coverage()
@@ -62,7 +76,7 @@ def test_import_cli_writes_spec_and_report(tmp_path):
     import sys
 
     r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "lsat", "import", str(target_glb_path()), "-o", str(tmp_path / "lab.json")],
-                       capture_output=True, text=True)
+                       capture_output=True, text=True, check=False)
     assert r.returncode == 0, r.stderr
     assert "from markers 6" in r.stdout and (tmp_path / "lab.report.md").read_text().count("strategy") >= 8
 

@@ -30,6 +30,7 @@ import re
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from shapely.geometry import MultiPoint, Point, Polygon, box
@@ -40,13 +41,32 @@ from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import placement_z, rot2, wrap_angle
 from biovln_ms.lsat.gltf import GLTFScene, Node, read_gltf
 from biovln_ms.lsat.names import TARGET_PREFIX, Match, is_target_marker, match_category, normalise
-from biovln_ms.scene.spec import DESIGNER_TEMPLATE, SCHEMA_VERSION, ObjectSpec, SceneSpec, SceneSpecError, parse_spec
+from biovln_ms.scene.spec import (
+    DESIGNER_TEMPLATE,
+    SCHEMA_VERSION,
+    ObjectSpec,
+    OpeningSpec,
+    RoomSpec,
+    SceneSpec,
+    SceneSpecError,
+    WallSpec,
+    parse_spec,
+)
 
+SHELL_PREFIXES = ("floor", "wall", "ceiling", "room", "light", "camera")  # normalised names of no object
 FACE_PART_WORDS = ("door", "handle", "display", "keypad", "panel", "sash", "screen", "control")
-SIZE_TOLERANCE = 0.05  # m
+OBJECT_ID_PATTERN = r"[A-Za-z0-9_\-]{1,64}"  # an ``extras.object_id`` (our exporter's) kept as the id
+MIN_FLOOR_SIDE = 1.0  # m: smaller floor meshes are ignored
+FLOOR_LEVEL_TOLERANCE = 0.05  # m: floor tops further than this from z = 0 or from each other are reported
+ROOM_DECIMALS = 4  # room rectangle corners are rounded to 0.1 mm
+DEFAULT_WALL_HEIGHT = 3.0  # m, when the GLB has no wall mesh
+FOOTPRINT_DECIMALS = 5  # footprint vertices are rounded to 10 um (and deduplicated) before the min-area rect
+SIZE_TOLERANCE = 0.05  # m: a measured footprint side further than this from the catalog's is reported
 NEAR_SQUARE = 0.1  # m: footprints closer to square than this take their axes from the node's rotation
-SUPPORT_TOLERANCE = 0.03  # m between a table-top instrument's bottom and its support's top
-DEFAULT_WALL_HEIGHT = 3.0
+FACE_PART_MIN_OFFSET = 0.02  # m: face parts centred closer than this to the footprint centre tell no side
+SUPPORT_TOLERANCE = 0.03  # m between a table-top instrument's bottom and its support's top (or the floor)
+
+RoomRect = tuple[str, str, tuple[float, float, float, float]]  # (room id, kind, (x0, y0, x1, y1))
 
 
 class LSATImportError(BioVLNError):
@@ -56,7 +76,8 @@ class LSATImportError(BioVLNError):
 @dataclass
 class ImportReport:
     source: str
-    instruments: list[dict] = field(default_factory=list)  # id, node, category, goal_strategy, face_from
+    # one row per placed object: id, node, category, is_goal, goal_strategy, face_from
+    instruments: list[dict] = field(default_factory=list)
     markers: list[dict] = field(default_factory=list)  # node, category, assigned_to
     unmatched: list[str] = field(default_factory=list)  # node names that matched no category
     ambiguous: list[dict] = field(default_factory=list)
@@ -73,50 +94,105 @@ class ImportReport:
 
     def to_markdown(self) -> str:
         c = self.coverage()
-        lines = [f"# LSAT import of `{self.source}`", "",
-                 f"Instruments found: {c['instruments_found']} ({c['goal_objects']} goal objects); goals from markers "
-                 f"(strategy 1): {c['goals_strategy1']}; from geometry + Eq. 1 (strategy 2): {c['goals_strategy2']}; "
-                 f"missing: {len(c['missing'])}.", "",
+        summary = (f"Instruments found: {c['instruments_found']} ({c['goal_objects']} goal objects); "
+                   f"goals from markers (strategy 1): {c['goals_strategy1']}; from geometry + Eq. 1 "
+                   f"(strategy 2): {c['goals_strategy2']}; missing: {len(c['missing'])}.")
+        lines = [f"# LSAT import of `{self.source}`", "", summary, "",
                  "| id | node | category | goal from | face from |", "|---|---|---|---|---|"]
         for i in self.instruments:
             strat = {1: "marker (strategy 1)", 2: "Eq. 1 (strategy 2)", None: "–"}[i["goal_strategy"]]
             lines.append(f"| {i['id']} | `{i['node']}` | {i['category']} | {strat} | {i['face_from']} |")
-        for title, items in (("Markers without an instrument", [m["node"] for m in self.markers if m.get("assigned_to") is None]),
+        for title, items in (("Markers without an instrument", c["markers_unassigned"]),
                              ("Names matching no category", self.unmatched),
-                             ("Ambiguous names (not guessed)", [f"`{a['node']}`: {', '.join(a['candidates'])}" for a in self.ambiguous]),
+                             ("Ambiguous names (not guessed)",
+                              [f"`{a['node']}`: {', '.join(a['candidates'])}" for a in self.ambiguous]),
                              ("Warnings", self.warnings)):
             if items:
                 lines += ["", f"## {title}", ""] + [f"- {x}" for x in items]
         return "\n".join(lines) + "\n"
 
 
-@dataclass
+@dataclass(frozen=True)
 class _Found:
+    """A node of a catalog category, with the world points of its subtree (its parts)."""
+
     node: Node
     category: str
     points: np.ndarray
 
 
-def _footprint(points: np.ndarray) -> tuple[np.ndarray, float, float, float]:
-    """Centre, orientation angle of the first side, and the two side lengths of the min-area rectangle."""
-    rect = MultiPoint([tuple(p) for p in np.unique(np.round(points[:, :2], 5), axis=0)]).minimum_rotated_rectangle
+class _Marker(NamedTuple):
+    """A ``target_<category>`` node: a designer's world-space goal (strategy 1)."""
+
+    node: Node
+    category: str
+
+
+class _Classified(NamedTuple):
+    """What the non-shell nodes are: objects to place and markers to assign."""
+
+    found: list[_Found]
+    markers: list[_Marker]
+
+
+class _Footprint(NamedTuple):
+    """The minimum-area rectangle around a footprint: centre, direction of its first side, side lengths."""
+
+    centre: np.ndarray
+    theta: float
+    a: float
+    b: float
+
+
+class _Pose(NamedTuple):
+    """Where an object stands: its footprint box's centre (x, y), its yaw, and what told the face."""
+
+    centre: np.ndarray
+    yaw: float
+    face_from: str
+
+
+class _Shell(NamedTuple):
+    """The rooms, the walls along their union and the openings where they meet (``rooms_from_rects``)."""
+
+    rooms: list[RoomSpec]
+    walls: list[WallSpec]
+    openings: list[OpeningSpec]
+
+
+class _Placed(NamedTuple):
+    """Placed objects and their coverage rows (``ImportReport.instruments``), keyed by object id."""
+
+    furniture: list[ObjectSpec]
+    instruments: list[ObjectSpec]
+    rows: dict[str, dict]
+
+    def objects(self) -> list[ObjectSpec]:
+        return [*self.furniture, *self.instruments]
+
+
+def _footprint(points: np.ndarray) -> _Footprint | None:
+    """The min-area rectangle of the points' (x, y); None when it is degenerate (a point or a line)."""
+    xy = np.unique(np.round(points[:, :2], FOOTPRINT_DECIMALS), axis=0)
+    rect = MultiPoint([tuple(p) for p in xy]).minimum_rotated_rectangle
     if not isinstance(rect, Polygon):
-        raise ValueError("degenerate footprint")
+        return None
     c = np.asarray(rect.exterior.coords)[:4]
     e1, e2 = c[1] - c[0], c[2] - c[1]
-    return np.asarray(rect.centroid.coords[0]), math.atan2(e1[1], e1[0]), float(np.linalg.norm(e1)), float(np.linalg.norm(e2))
+    return _Footprint(np.asarray(rect.centroid.coords[0]), math.atan2(e1[1], e1[0]),
+                      float(np.linalg.norm(e1)), float(np.linalg.norm(e2)))
 
 
 def _face_parts(scene: GLTFScene, node: Node) -> np.ndarray:
     """Vertices of the parts whose names say they are on the operational face, with their own children
     (a nested part counted once)."""
-    on_face = {m.index for n in scene.subtree(node)[1:] if any(w in normalise(n.name) for w in FACE_PART_WORDS)
-               for m in scene.subtree(n)}
+    on_face = {m.index for n in scene.subtree(node)[1:]
+               if any(w in normalise(n.name) for w in FACE_PART_WORDS) for m in scene.subtree(n)}
     pts = [p for p in (scene.mesh_points(scene.nodes[i]) for i in sorted(on_face)) if len(p)]
     return np.concatenate(pts) if pts else np.zeros((0, 3))
 
 
-def _resolve_yaw(scene: GLTFScene, f: _Found, theta: float, a: float, b: float, centre) -> tuple[float, str]:
+def _resolve_yaw(scene: GLTFScene, f: _Found, fp: _Footprint) -> tuple[float, str]:
     """The yaw that puts the catalog's model axes on the footprint's sides and its face where it is.
 
     The rectangle's sides give the axes up to 180 deg; for a near-square footprint (a round bin) they
@@ -129,14 +205,15 @@ def _resolve_yaw(scene: GLTFScene, f: _Found, theta: float, a: float, b: float, 
     if abs(w - d) < NEAR_SQUARE:
         candidates = [wrap_angle(node_yaw + k * math.pi / 2) for k in range(4)]
     else:
-        base = theta if abs(a - w) + abs(b - d) <= abs(a - d) + abs(b - w) else theta + math.pi / 2
+        aligned = abs(fp.a - w) + abs(fp.b - d) <= abs(fp.a - d) + abs(fp.b - w)
+        base = fp.theta if aligned else fp.theta + math.pi / 2
         candidates = [wrap_angle(base), wrap_angle(base + math.pi)]
     if cat.face_vector is None:
         return candidates[0], "no face (catalog)"
     parts = _face_parts(scene, f.node)
     if len(parts):
-        offset = parts[:, :2].mean(0) - centre
-        if np.linalg.norm(offset) > 0.02:
+        offset = parts[:, :2].mean(0) - fp.centre
+        if np.linalg.norm(offset) > FACE_PART_MIN_OFFSET:
             scores = [float(np.dot(rot2(y) @ cat.face_vector, offset)) for y in candidates]
             return candidates[int(np.argmax(scores))], "geometry (face parts)"
     diffs = [abs(wrap_angle(y - node_yaw)) for y in candidates]
@@ -157,7 +234,9 @@ def _category(node: Node) -> Match:
     return match_category(node.name)
 
 
-def _rooms(scene: GLTFScene, report: ImportReport) -> tuple[list[tuple[str, str, tuple]], float]:
+def _rooms(scene: GLTFScene, report: ImportReport) -> tuple[list[RoomRect], float]:
+    """The rooms (one per ``floor*`` mesh: its axis-aligned footprint) and the wall height (the highest
+    ``wall*`` mesh, else DEFAULT_WALL_HEIGHT); no usable floor is refused."""
     floors = [n for n in scene.nodes if _is_floor(n.name)]
     rects, tops = [], []
     for n in floors:
@@ -167,52 +246,54 @@ def _rooms(scene: GLTFScene, report: ImportReport) -> tuple[list[tuple[str, str,
             continue
         x0, y0 = pts[:, :2].min(0)
         x1, y1 = pts[:, :2].max(0)
-        if x1 - x0 < 1.0 or y1 - y0 < 1.0:
-            report.warnings.append(f"floor node '{n.name}' is smaller than 1 x 1 m: ignored")
+        if x1 - x0 < MIN_FLOOR_SIDE or y1 - y0 < MIN_FLOOR_SIDE:
+            report.warnings.append(f"floor node '{n.name}' is smaller than "
+                                   f"{MIN_FLOOR_SIDE:g} x {MIN_FLOOR_SIDE:g} m: ignored")
             continue
-        rects.append((f"room_{len(rects)}", "room", tuple(round(float(v), 4) for v in (x0, y0, x1, y1))))
+        corners = tuple(round(float(v), ROOM_DECIMALS) for v in (x0, y0, x1, y1))
+        rects.append((f"room_{len(rects)}", "room", corners))
         tops.append(float(pts[:, 2].max()))
     if not rects:
-        raise LSATImportError("no floor: no mesh node named 'floor...' of at least 1 x 1 m", source=report.source,
-                              field="nodes", fix="name the floor mesh 'floor' (one per room: 'floor_lab', 'floor_corridor')")
-    if max(tops) - min(tops) > 0.05 or abs(min(tops)) > 0.05:
-        report.warnings.append(f"floor tops range {min(tops):.3f}..{max(tops):.3f} m: BioVLN assumes the floor at z = 0")
+        raise LSATImportError("no floor: no mesh node named 'floor...' of at least "
+                              f"{MIN_FLOOR_SIDE:g} x {MIN_FLOOR_SIDE:g} m", source=report.source,
+                              field="nodes",
+                              fix="name the floor mesh 'floor' (one per room: 'floor_lab', 'floor_corridor')")
+    if max(tops) - min(tops) > FLOOR_LEVEL_TOLERANCE or abs(min(tops)) > FLOOR_LEVEL_TOLERANCE:
+        report.warnings.append(f"floor tops range {min(tops):.3f}..{max(tops):.3f} m: "
+                               "BioVLN assumes the floor at z = 0")
     walls = [n for n in scene.nodes if normalise(n.name).startswith("wall")]
     heights = [pts[:, 2].max() for pts in (scene.subtree_points(n) for n in walls) if len(pts)]
     return rects, float(max(heights)) if heights else DEFAULT_WALL_HEIGHT
 
 
-def import_glb(path: str | Path, name: str | None = None, allow_external: bool = False,
-               robot_radius: float = ROBOT_RADIUS) -> tuple[SceneSpec, ImportReport]:
-    """Read, interpret and validate a designer GLB; the spec passes ``parse_spec`` (designer rules)."""
-    from biovln_ms.scene.generator import make_object, rooms_from_rects
-    from biovln_ms.scene.rules import check_layout
+def _marker(node: Node, report: ImportReport) -> _Marker | None:
+    """A ``target_*`` node's marker; a category name matching none or several is reported instead."""
+    m = match_category(node.name, TARGET_PREFIX)
+    if m.ambiguous:
+        report.ambiguous.append({"node": node.name, "candidates": list(m.candidates)})
+    elif m.category is None:
+        report.unmatched.append(node.name)
+    else:
+        return _Marker(node, m.category)
+    return None
 
-    path = Path(path)
-    scene = read_gltf(path, allow_external=allow_external)
-    report = ImportReport(str(path))
-    cat = load_catalog()
-    rects, wall_height = _rooms(scene, report)
-    rooms, walls, openings = rooms_from_rects(rects, wall_height)
 
+def _classify(scene: GLTFScene, report: ImportReport) -> _Classified:
+    """Sort the nodes (the room shell, lights and cameras aside) into markers and objects of a catalog
+    category; an object (matched or ambiguous) claims its subtree as its parts. Names matching no category,
+    or several (never guessed), and objects without a mesh are reported."""
     found: list[_Found] = []
-    markers: list[tuple[Node, str]] = []
+    markers: list[_Marker] = []
     claimed: set[int] = set()
     for n in scene.nodes:  # parents come before children (tree order)
-        key = normalise(n.name)
         if n.parent in claimed:
             claimed.add(n.index)
             continue
-        if key.startswith(("floor", "wall", "ceiling", "room", "light", "camera")) or _is_floor(n.name):
+        if normalise(n.name).startswith(SHELL_PREFIXES) or _is_floor(n.name):
             continue
         if is_target_marker(n.name):
-            m = match_category(n.name, TARGET_PREFIX)
-            if m.ambiguous:
-                report.ambiguous.append({"node": n.name, "candidates": list(m.candidates)})
-            elif m.category is None:
-                report.unmatched.append(n.name)
-            else:
-                markers.append((n, m.category))
+            if (marker := _marker(n, report)) is not None:
+                markers.append(marker)
             continue
         m = _category(n)
         if m.ambiguous:
@@ -229,89 +310,158 @@ def import_glb(path: str | Path, name: str | None = None, allow_external: bool =
             report.warnings.append(f"'{n.name}' ({m.category}) has no mesh: skipped")
             continue
         found.append(_Found(n, m.category, pts))
+    return _Classified(found, markers)
 
-    # furniture first (supports), then instruments; ids by category and order of appearance
-    found.sort(key=lambda f: (cat.get(f.category).placement != "furniture", f.node.index))
-    counts: Counter = Counter()
-    furniture: list[ObjectSpec] = []
-    instruments: list[ObjectSpec] = []
+
+def _pose(scene: GLTFScene, f: _Found, report: ImportReport) -> _Pose | None:
+    """The object's pose from its footprint; None (reported) for a degenerate footprint. Sizes stay the
+    catalog's; a measured footprint more than SIZE_TOLERANCE off is reported."""
+    fp = _footprint(f.points)
+    if fp is None:
+        report.warnings.append(f"'{f.node.name}' has a degenerate footprint: skipped")
+        return None
+    yaw, face_from = _resolve_yaw(scene, f, fp)
+    local = f.points[:, :2] @ rot2(yaw)  # rows: R(-yaw) p, the footprint in the instrument's own axes
+    lo, hi = local.min(0), local.max(0)
+    measured = sorted(hi - lo)
+    a = load_catalog().get(f.category)
+    if max(abs(x - y) for x, y in zip(measured, sorted(a.dimensions[:2]))) > SIZE_TOLERANCE:
+        report.warnings.append(f"'{f.node.name}': footprint {measured[1]:.2f} x {measured[0]:.2f} m differs "
+                               f"from the catalog's {a.dimensions[0]:.2f} x {a.dimensions[1]:.2f} m "
+                               "(the catalog's is used)")
+    return _Pose(rot2(yaw) @ ((lo + hi) / 2), yaw, face_from)
+
+
+def _rest(f: _Found, centre: np.ndarray, furniture: list[ObjectSpec],
+          report: ImportReport) -> tuple[str | None, float]:
+    """The support and centre height: a table-top instrument is snapped onto the furniture under its centre
+    at the Eq. 4 height (none there is refused); anything else stands on the floor. A bottom more than
+    SUPPORT_TOLERANCE off is reported."""
+    cat = load_catalog()
+    a = cat.get(f.category)
+    bottom = float(f.points[:, 2].min())
+    if a.placement != "table_top":
+        if abs(bottom) > SUPPORT_TOLERANCE:
+            report.warnings.append(f"'{f.node.name}': bottom at {bottom:.3f} m above the floor "
+                                   "(snapped to the floor)")
+        return None, a.dimensions[2] / 2
+    sup = next((o for o in furniture if o.placed().zone1().contains(Point(centre))), None)
+    if sup is None:
+        raise LSATImportError(f"table-top instrument '{f.node.name}' stands on no bench or table",
+                              source=report.source, field=f.node.name,
+                              fix="put it on a 'Lab Bench' or 'Lab Table' node")
+    top = cat.support_heights[sup.category]
+    if abs(bottom - top) > SUPPORT_TOLERANCE:
+        report.warnings.append(f"'{f.node.name}': bottom at {bottom:.3f} m, its support's top at {top:.3f} m "
+                               "(snapped, Eq. 4)")
+    return sup.id, placement_z(top, 0.0, -a.dimensions[2] / 2)
+
+
+def _object_id(f: _Found, taken: dict[str, dict], counts: Counter) -> str:
+    """The node's ``extras.object_id`` (our exporter's ids survive a round trip) when valid and free, else the
+    first free ``<category>_<n>``."""
+    obj_id = f.node.extras.get("object_id")
+    if isinstance(obj_id, str) and re.fullmatch(OBJECT_ID_PATTERN, obj_id) and obj_id not in taken:
+        return obj_id
+    while f"{f.category}_{counts[f.category]}" in taken:
+        counts[f.category] += 1
+    return f"{f.category}_{counts[f.category]}"
+
+
+def _place(scene: GLTFScene, found: list[_Found], rects: list[RoomRect], report: ImportReport) -> _Placed:
+    """Pose, room, support and id of each found object: furniture first (the supports), each kind in tree
+    order. Goal objects get their Eq. 1 goal here; an object outside every floor is refused."""
+    from biovln_ms.scene.generator import make_object
+
+    cat = load_catalog()
     floor_boxes = {rid: box(*rect) for rid, _, rect in rects}
-    entries: dict[str, dict] = {}
-    for f in found:
-        a = cat.get(f.category)
-        try:
-            centre, theta, s1, s2 = _footprint(f.points)
-        except ValueError:
-            report.warnings.append(f"'{f.node.name}' has a degenerate footprint: skipped")
+    placed = _Placed([], [], {})
+    counts: Counter = Counter()
+    for f in sorted(found, key=lambda f: (cat.get(f.category).placement != "furniture", f.node.index)):
+        pose = _pose(scene, f, report)
+        if pose is None:
             continue
-        yaw, face_from = _resolve_yaw(scene, f, theta, s1, s2, centre)
-        local = f.points[:, :2] @ rot2(yaw)  # rows: R(-yaw) p, the footprint in the instrument's own axes
-        lo, hi = local.min(0), local.max(0)
-        centre = rot2(yaw) @ ((lo + hi) / 2)  # the box centre along the resolved axes
-        measured = sorted(hi - lo)
-        if max(abs(x - y) for x, y in zip(measured, sorted(a.dimensions[:2]))) > SIZE_TOLERANCE:
-            report.warnings.append(f"'{f.node.name}': footprint {measured[1]:.2f} x {measured[0]:.2f} m differs from the "
-                                   f"catalog's {a.dimensions[0]:.2f} x {a.dimensions[1]:.2f} m (the catalog's is used)")
-        room = next((rid for rid, poly in floor_boxes.items() if poly.contains(Point(centre))), None)
+        room = next((rid for rid, poly in floor_boxes.items() if poly.contains(Point(pose.centre))), None)
         if room is None:
-            raise LSATImportError(f"'{f.node.name}' stands outside every floor", source=str(path), field=f.node.name,
-                                  fix="move it onto a floor mesh, or add a floor under it")
-        support, z = None, a.dimensions[2] / 2
-        bottom = float(f.points[:, 2].min())
-        if a.placement == "table_top":
-            sup = next((o for o in furniture if o.placed().zone1().contains(Point(centre))), None)
-            if sup is None:
-                raise LSATImportError(f"table-top instrument '{f.node.name}' stands on no bench or table", source=str(path),
-                                      field=f.node.name, fix="put it on a 'Lab Bench' or 'Lab Table' node")
-            support = sup.id
-            top = cat.support_heights[sup.category]
-            z = placement_z(top, 0.0, -a.dimensions[2] / 2)
-            if abs(bottom - top) > SUPPORT_TOLERANCE:
-                report.warnings.append(f"'{f.node.name}': bottom at {bottom:.3f} m, its support's top at {top:.3f} m (snapped, Eq. 4)")
-        elif abs(bottom) > SUPPORT_TOLERANCE:
-            report.warnings.append(f"'{f.node.name}': bottom at {bottom:.3f} m above the floor (snapped to the floor)")
-        obj_id = f.node.extras.get("object_id")  # our exporter's ids survive a round trip
-        if not (isinstance(obj_id, str) and re.fullmatch(r"[A-Za-z0-9_\-]{1,64}", obj_id) and obj_id not in entries):
-            while f"{f.category}_{counts[f.category]}" in entries:
-                counts[f.category] += 1
-            obj_id = f"{f.category}_{counts[f.category]}"
-        flag = f.node.extras.get("is_goal")  # our exporter says which furniture is a goal; else the catalog does
+            raise LSATImportError(f"'{f.node.name}' stands outside every floor", source=report.source,
+                                  field=f.node.name, fix="move it onto a floor mesh, or add a floor under it")
+        support, z = _rest(f, pose.centre, placed.furniture, report)
+        obj_id = _object_id(f, placed.rows, counts)
+        a = cat.get(f.category)
+        flag = f.node.extras.get("is_goal")  # our exporter says which furniture is a goal; else the catalog
         is_goal = flag if isinstance(flag, bool) else a.goal_category
-        obj = make_object(cat, obj_id, f.category, centre, z, yaw, a.placement, room, support, None, is_goal)
-        (furniture if a.placement == "furniture" else instruments).append(obj)
-        entries[obj_id] = {"id": obj_id, "node": f.node.name, "category": f.category, "is_goal": is_goal,
-                           "goal_strategy": 2 if is_goal else None, "face_from": face_from}
+        obj = make_object(cat, obj_id, f.category, pose.centre, z, pose.yaw, a.placement, room, support, None,
+                          is_goal)
+        (placed.furniture if a.placement == "furniture" else placed.instruments).append(obj)
+        placed.rows[obj_id] = {"id": obj_id, "node": f.node.name, "category": f.category, "is_goal": is_goal,
+                               "goal_strategy": None, "face_from": pose.face_from}
+    return placed
 
-    # strategy 1: each marker to the nearest goal object of its category
-    by_id = {o.id: o for o in [*furniture, *instruments]}
+
+def _assign_markers(placed: _Placed, markers: list[_Marker], report: ImportReport) -> _Placed:
+    """Strategy 1: each marker is the goal of the nearest goal object of its category (a second marker for
+    one object is ignored, reported); strategy 2: the other goal objects keep their Eq. 1 goal. Fills
+    ``report.markers`` and ``report.instruments``."""
+    by_id = {o.id: o for o in placed.objects()}
+    rows = {k: dict(v) for k, v in placed.rows.items()}
     for node, category in markers:
         xy = node.origin[:2]
         cands = [o for o in by_id.values() if o.category == category and o.is_goal]
         rec = {"node": node.name, "category": category, "assigned_to": None}
         if cands:
             o = min(cands, key=lambda o: math.dist(o.position[:2], xy))
-            if entries[o.id]["goal_strategy"] == 1:
+            if rows[o.id]["goal_strategy"] == 1:
                 report.warnings.append(f"marker '{node.name}': '{o.id}' already has a marker; ignored")
             else:
-                by_id[o.id] = o.model_copy(update={"goal": (float(xy[0]), float(xy[1])), "goal_source": "marker"})
-                entries[o.id]["goal_strategy"] = 1
+                goal = (float(xy[0]), float(xy[1]))
+                by_id[o.id] = o.model_copy(update={"goal": goal, "goal_source": "marker"})
+                rows[o.id]["goal_strategy"] = 1
                 rec["assigned_to"] = o.id
         report.markers.append(rec)
-    furniture = [by_id[o.id] for o in furniture]
-    instruments = [by_id[o.id] for o in instruments]
-    report.instruments = list(entries.values())
-    if not instruments:
-        raise LSATImportError("no instrument found", source=str(path), field="nodes",
+    for row in rows.values():
+        if row["is_goal"] and row["goal_strategy"] is None:
+            row["goal_strategy"] = 2
+    report.instruments = list(rows.values())
+    return _Placed([by_id[o.id] for o in placed.furniture], [by_id[o.id] for o in placed.instruments], rows)
+
+
+def _assemble(name: str, shell: _Shell, placed: _Placed, robot_radius: float,
+              report: ImportReport) -> SceneSpec:
+    """The designer scene spec, validated by ``parse_spec`` (a broken designer rule is refused, naming the
+    object); the other generator rules become report warnings. A scene without instruments is refused."""
+    from biovln_ms.scene.rules import check_layout
+
+    cat = load_catalog()
+    if not placed.instruments:
+        raise LSATImportError("no instrument found", source=report.source, field="nodes",
                               fix=f"name instrument nodes by category ({', '.join(cat.names())})")
-    obj = {"schema_version": SCHEMA_VERSION, "name": name or path.stem, "template": DESIGNER_TEMPLATE, "seed": 0,
+    obj = {"schema_version": SCHEMA_VERSION, "name": name, "template": DESIGNER_TEMPLATE, "seed": 0,
            "generator_version": 0, "robot_radius": robot_radius, "catalog_sha256": cat.sha256,
-           "rooms": [r.model_dump() for r in rooms], "walls": [w.model_dump() for w in walls],
-           "openings": [o.model_dump() for o in openings], "furniture": [o.model_dump() for o in furniture],
-           "instruments": [o.model_dump() for o in instruments]}
+           "rooms": [r.model_dump() for r in shell.rooms], "walls": [w.model_dump() for w in shell.walls],
+           "openings": [o.model_dump() for o in shell.openings],
+           "furniture": [o.model_dump() for o in placed.furniture],
+           "instruments": [o.model_dump() for o in placed.instruments]}
     try:
-        spec = parse_spec(obj, source=str(path))
+        spec = parse_spec(obj, source=report.source)
     except SceneSpecError as e:
-        raise LSATImportError(f"the imported scene breaks a rule: {e.message}", source=str(path), field=e.field,
-                              fix=e.fix or "move the named object in the authoring tool") from None
+        fix = e.fix or "move the named object in the authoring tool"
+        raise LSATImportError(f"the imported scene breaks a rule: {e.message}", source=report.source,
+                              field=e.field, fix=fix) from None
     report.warnings += [f"generator rule '{v.rule}': {v.message}" for v in check_layout(spec)]
-    return spec, report
+    return spec
+
+
+def import_glb(path: str | Path, name: str | None = None, allow_external: bool = False,
+               robot_radius: float = ROBOT_RADIUS) -> tuple[SceneSpec, ImportReport]:
+    """Read, interpret and validate a designer GLB: rooms, classify, place, assign markers, assemble. The
+    spec passes ``parse_spec`` (designer rules); the report says where each goal came from."""
+    from biovln_ms.scene.generator import rooms_from_rects
+
+    path = Path(path)
+    scene = read_gltf(path, allow_external=allow_external)
+    report = ImportReport(str(path))
+    rects, wall_height = _rooms(scene, report)
+    shell = _Shell(*rooms_from_rects(rects, wall_height))
+    found, markers = _classify(scene, report)
+    placed = _assign_markers(_place(scene, found, rects, report), markers, report)
+    return _assemble(name or path.stem, shell, placed, robot_radius, report), report

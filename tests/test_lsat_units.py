@@ -1,0 +1,183 @@
+"""The LSAT importer's steps one at a time, on hand-built inputs: classify, place, assign markers, assemble
+(``import_glb`` as a whole is tested in test_lsat)."""
+
+import base64
+import json
+
+import numpy as np
+import pytest
+
+from biovln_ms.catalog import load_catalog
+from biovln_ms.constants import ROBOT_RADIUS
+from biovln_ms.geometry.zones import placement_z
+from biovln_ms.lsat import importer
+from biovln_ms.lsat.gltf import GLTFScene, Node, read_gltf
+from biovln_ms.lsat.importer import (
+    ImportReport,
+    LSATImportError,
+    _assemble,
+    _assign_markers,
+    _classify,
+    _Marker,
+    _place,
+    _Placed,
+    _rooms,
+    _Shell,
+)
+from biovln_ms.lsat.names import Match, match_category
+from biovln_ms.scene.generator import make_object, rooms_from_rects
+from biovln_ms.scene.spec import ObjectSpec
+
+FLOOR = {"name": "Floor", "box": (0, 0, -0.02, 6, 4, 0)}  # one 6 x 4 m room
+
+
+def _scene(tmp_path, *nodes: dict) -> GLTFScene:
+    """A glTF of hand-built nodes, read back. Each node: a name; optionally ``box`` (x0, y0, z0, x1, y1, z1),
+    a mesh in BioVLN's Z-up world frame (m); ``at`` (x, y), an empty's position; ``parent`` (a node index);
+    ``extras``."""
+    doc: dict = {"asset": {"version": "2.0"}, "nodes": [], "meshes": [], "accessors": [], "bufferViews": []}
+    blob = b""
+    for nd in nodes:
+        node = {"name": nd["name"], "extras": nd.get("extras", {})}
+        if "box" in nd:
+            x0, y0, z0, x1, y1, z1 = nd["box"]
+            zup = [(x, y, z) for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)]
+            corners = np.array([(x, z, -y) for x, y, z in zup], "<f4")  # glTF is Y-up
+            doc["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": corners.nbytes})
+            doc["accessors"].append({"bufferView": len(doc["accessors"]), "componentType": 5126,
+                                     "type": "VEC3", "count": len(corners)})
+            doc["meshes"].append({"primitives": [{"attributes": {"POSITION": len(doc["meshes"])}}]})
+            node["mesh"] = len(doc["meshes"]) - 1
+            blob += corners.tobytes()
+        if "at" in nd:
+            node["translation"] = [nd["at"][0], 0.0, -nd["at"][1]]
+        doc["nodes"].append(node)
+    for i, nd in enumerate(nodes):
+        if "parent" in nd:
+            doc["nodes"][nd["parent"]].setdefault("children", []).append(i)
+    doc["buffers"] = [{"uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode(),
+                       "byteLength": len(blob)}]
+    (tmp_path / "hand.gltf").write_text(json.dumps(doc))
+    return read_gltf(tmp_path / "hand.gltf")
+
+
+def _object(obj_id: str, category: str, xy: tuple[float, float], yaw: float = 0.0) -> ObjectSpec:
+    cat = load_catalog()
+    a = cat.get(category)
+    return make_object(cat, obj_id, category, xy, a.dimensions[2] / 2, yaw, a.placement, "room_0", None, None,
+                       a.goal_category)
+
+
+def _placed(*objects: ObjectSpec) -> _Placed:
+    rows = {o.id: {"id": o.id, "node": o.id, "category": o.category, "is_goal": o.is_goal,
+                   "goal_strategy": None, "face_from": "node rotation (catalog face)"} for o in objects}
+    return _Placed([o for o in objects if o.placement == "furniture"],
+                   [o for o in objects if o.placement != "furniture"], rows)
+
+
+def _marker(name: str, category: str, xy: tuple[float, float]) -> _Marker:
+    world = np.eye(4)
+    world[:2, 3] = xy
+    return _Marker(Node(0, name, world, None, None), category)
+
+
+def test_classify_sorts_nodes_into_objects_markers_and_reported_names(tmp_path, monkeypatch):
+    def match(name: str, strip_prefix: str | None = None) -> Match:  # no two catalog names are 2 edits apart
+        if "mystery" in name.lower():
+            return Match(name, "mystery", None, 1, ("cabinet", "incubator"))
+        return match_category(name, strip_prefix)
+
+    monkeypatch.setattr(importer, "match_category", match)
+    scene = _scene(tmp_path, FLOOR,
+                   {"name": "Wall_north", "box": (0, 4, 0, 6, 4.1, 3)},
+                   {"name": "Camera", "at": (3, 2)},
+                   {"name": "Refrigerator", "box": (0.1, 3.0, 0, 0.99, 3.91, 1.78)},
+                   {"name": "fridge door", "box": (0.1, 2.98, 0.1, 0.99, 3.0, 1.7), "parent": 3},  # a part
+                   {"name": "centrifuge.001", "box": (2, 2, 0.76, 2.49, 2.42, 1.39)},
+                   {"name": "Thing", "extras": {"category": "incubator"}, "box": (4, 3, 0, 5.35, 3.85, 1.9)},
+                   {"name": "target_refrigerator", "at": (0.5, 2.4)},
+                   {"name": "target_lamp", "at": (1, 1)},
+                   {"name": "Sofa", "box": (3, 0.5, 0, 4, 1, 0.5)},
+                   {"name": "Empty", "at": (1, 1)},  # no mesh, no category: silently left
+                   {"name": "cabinet", "at": (5, 1)},  # a category without mesh
+                   {"name": "Mystery Box", "box": (1, 1, 0, 1.5, 1.5, 0.5)},
+                   {"name": "mystery lid", "box": (1, 1, 0.5, 1.5, 1.5, 0.6), "parent": 12},
+                   {"name": "target_mystery", "at": (1, 0.5)})
+    report = ImportReport("hand")
+    found, markers = _classify(scene, report)
+    assert [(f.node.name, f.category, len(f.points)) for f in found] == [
+        ("Refrigerator", "refrigerator", 16), ("centrifuge.001", "centrifuge", 8), ("Thing", "incubator", 8)]
+    assert [(m.node.name, m.category) for m in markers] == [("target_refrigerator", "refrigerator")]
+    assert report.unmatched == ["target_lamp", "Sofa"]  # "mystery lid" is claimed by its ambiguous parent
+    assert [a["node"] for a in report.ambiguous] == ["Mystery Box", "target_mystery"]
+    assert report.warnings == ["'cabinet' (cabinet) has no mesh: skipped"]
+
+
+def test_place_snaps_a_table_top_instrument_onto_its_support(tmp_path):
+    scene = _scene(tmp_path, FLOOR,
+                   {"name": "Lab Table", "box": (0.8, 1.5, 0, 3.2, 2.4, 0.78)},
+                   {"name": "Mini Centrifuge", "box": (1.67, 1.7, 0.83, 2.33, 2.2, 1.26)},  # 5 cm too high
+                   {"name": "display", "box": (2.33, 1.8, 0.9, 2.35, 2.1, 1.1), "parent": 2})  # its +x side
+    report = ImportReport("hand")
+    rects, _ = _rooms(scene, report)
+    placed = _place(scene, _classify(scene, report).found, rects, report)
+    assert [o.id for o in placed.furniture] == ["lab_table_0"]
+    (o,) = placed.instruments
+    assert (o.id, o.room, o.support) == ("mini_centrifuge_0", "room_0", "lab_table_0")
+    h = load_catalog().get("mini_centrifuge").dimensions[2]
+    assert o.position == pytest.approx((2.01, 1.95, placement_z(0.78, 0.0, -h / 2)), abs=1e-6)  # Eq. 4
+    assert o.face == pytest.approx((1.0, 0.0), abs=1e-9)  # towards its display
+    row = placed.rows[o.id]
+    assert row["face_from"] == "geometry (face parts)" and row["goal_strategy"] is None
+    assert o.goal is not None and o.goal_source is None  # Eq. 1 until a marker says otherwise
+    snapped = "'Mini Centrifuge': bottom at 0.830 m, its support's top at 0.780 m (snapped, Eq. 4)"
+    assert report.warnings == [snapped]
+
+
+def test_place_refuses_a_table_top_instrument_without_support(tmp_path):
+    scene = _scene(tmp_path, FLOOR, {"name": "Mini Centrifuge", "box": (1.67, 1.7, 0.78, 2.33, 2.2, 1.21)})
+    report = ImportReport("hand")
+    rects, _ = _rooms(scene, report)
+    with pytest.raises(LSATImportError, match="stands on no bench or table"):
+        _place(scene, _classify(scene, report).found, rects, report)
+
+
+def test_assign_markers_strategy_1_nearest_of_the_category_strategy_2_for_the_rest():
+    fridges = [_object(f"refrigerator_{i}", "refrigerator", (x, 3.5)) for i, x in enumerate((1.0, 4.0))]
+    waste_bin = _object("waste_bin_0", "waste_bin", (5.0, 1.0))
+    placed = _placed(*fridges, waste_bin)
+    report = ImportReport("hand")
+    out = _assign_markers(placed, [_marker("target_refrigerator", "refrigerator", (3.9, 2.9)),
+                                   _marker("target_refrigerator.001", "refrigerator", (1.1, 2.8))], report)
+    got = {o.id: o for o in out.instruments}
+    assert got["refrigerator_0"].goal == (1.1, 2.8) and got["refrigerator_1"].goal == (3.9, 2.9)
+    assert got["refrigerator_0"].goal_source == "marker" and got["refrigerator_1"].goal_source == "marker"
+    assert got["waste_bin_0"] == waste_bin  # no marker: its Eq. 1 goal
+    assert [m["assigned_to"] for m in report.markers] == ["refrigerator_1", "refrigerator_0"]
+    assert [r["goal_strategy"] for r in report.instruments] == [1, 1, 2]
+    assert all(r["goal_strategy"] is None for r in placed.rows.values())  # the input is left as it was
+
+
+def test_assign_markers_ignores_a_second_marker_and_one_without_instrument():
+    fridge = _object("refrigerator_0", "refrigerator", (1.0, 3.5))
+    report = ImportReport("hand")
+    out = _assign_markers(_placed(fridge), [_marker("target_refrigerator", "refrigerator", (1.1, 2.8)),
+                                            _marker("target_refrigerator.001", "refrigerator", (1.0, 2.9)),
+                                            _marker("target_incubator", "incubator", (3.0, 2.0))], report)
+    assert out.instruments[0].goal == (1.1, 2.8)
+    assert report.coverage()["markers_unassigned"] == ["target_refrigerator.001", "target_incubator"]
+    ignored = "marker 'target_refrigerator.001': 'refrigerator_0' already has a marker; ignored"
+    assert report.warnings == [ignored]
+
+
+def test_assemble_refuses_an_instrument_outside_the_rooms():
+    shell = _Shell(*rooms_from_rects([("room_0", "room", (0.0, 0.0, 6.0, 4.0))], 3.0))
+    report = ImportReport("hand")
+    inside = _assign_markers(_placed(_object("refrigerator_0", "refrigerator", (3.0, 3.5))), [], report)
+    spec = _assemble("lab", shell, inside, ROBOT_RADIUS, report)
+    assert (spec.name, spec.template, [o.id for o in spec.instruments]) == ("lab", "lsat", ["refrigerator_0"])
+    outside = _placed(_object("refrigerator_0", "refrigerator", (8.0, 2.0)))
+    with pytest.raises(LSATImportError, match="hand.*the imported scene breaks a rule"):
+        _assemble("lab", shell, outside, ROBOT_RADIUS, ImportReport("hand"))
+    with pytest.raises(LSATImportError, match="no instrument found"):
+        _assemble("lab", shell, _placed(), ROBOT_RADIUS, ImportReport("hand"))
