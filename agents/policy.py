@@ -21,34 +21,12 @@ Only the declared oracles also get ``EpisodeInfo.privileged``, a read-only
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
-from typing import Any
+
+from biovln_ms.task_config import EpisodeInfo, TaskSpec
+
+__all__ = ["STOP", "FORWARD", "TURN_LEFT", "TURN_RIGHT", "EpisodeInfo", "TaskSpec", "Policy"]
 
 STOP, FORWARD, TURN_LEFT, TURN_RIGHT = 0, 1, 2, 3
-
-
-@dataclass(frozen=True)
-class TaskSpec:
-    """What the action space means and what the task asks (public, as a robot's configuration)."""
-
-    forward_step: float  # m per FORWARD
-    turn_deg: float  # degrees per TURN_LEFT / TURN_RIGHT
-    hfov_deg: float  # head camera's horizontal field of view
-    max_episode_steps: int
-    goal_categories: tuple[str, ...]  # the order of the ``objectgoal`` one-hot
-    control_mode: str  # "discrete" or "continuous"
-
-
-@dataclass(frozen=True)
-class EpisodeInfo:
-    """The episode as a policy may know it: ids, the target category, the task, and for oracles only
-    the privileged view."""
-
-    scene_id: str
-    episode_id: Any
-    object_category: str
-    task: TaskSpec
-    privileged: Any = None
 
 
 class Policy(ABC):

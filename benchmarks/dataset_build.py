@@ -12,7 +12,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from biovln_ms.episodes.benchmark import paper_splits
+from biovln_ms.benchmark import paper_splits
 from biovln_ms.episodes.dataset import write_dataset
 
 

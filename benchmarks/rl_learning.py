@@ -14,7 +14,9 @@ import time
 from pathlib import Path
 
 from biovln_ms.eval.harness import EvalConfig, evaluate
-from biovln_ms.learning.rl import RL_ENV, RLConfig, train_rl
+from biovln_ms.eval.learned import train_and_evaluate
+from biovln_ms.learning.algorithms import RL_ENV
+from biovln_ms.learning.rl import RLConfig
 
 
 def raw_state_rate(steps: int = 2000) -> float:
@@ -41,7 +43,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
     raw = raw_state_rate()
-    r = train_rl(RLConfig(algo="ppo", timesteps=args.timesteps, n_envs=args.n_envs, seed=args.seed), args.out / "ppo")
+    r = train_and_evaluate(RLConfig(algo="ppo", timesteps=args.timesteps, n_envs=args.n_envs, seed=args.seed), args.out / "ppo")
     rnd = evaluate(EvalConfig("random", "ms_val", str(args.out / "ppo" / "eval"), env_id=RL_ENV, workers=args.n_envs))
     ppo = r.eval_summary["overall"]
     rows = [("PPO", ppo), ("Random", rnd["overall"])]

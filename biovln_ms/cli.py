@@ -207,7 +207,7 @@ def scene_map(spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
               islands: bool = typer.Option(False, help="Colour the navigable islands.")) -> None:
     """Draw the top-down map: walls, furniture, Zones 1/2/3, faces, goals, success radii, navigable area;
     optionally islands and one episode's start, goal, view points and shortest path."""
-    from biovln_ms.geometry.navigation import scene_navigation
+    from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.spec import load_spec
     from biovln_ms.scene.topdown import save_map
 
@@ -244,7 +244,7 @@ def scene_export(spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
 @dataset_app.command("build")
 def dataset_build(out: Path = typer.Option(Path("data/biovln"), "-o", "--out", help="Dataset folder to (re)write.")) -> None:
     """Build every scene and episode of the paper's datasets, deterministically and atomically."""
-    from biovln_ms.episodes.benchmark import paper_splits
+    from biovln_ms.benchmark import paper_splits
     from biovln_ms.episodes.dataset import write_dataset
 
     m = write_dataset(out, paper_splits())
@@ -259,7 +259,7 @@ def dataset_stats(root: Path = typer.Argument(..., help="Dataset folder.")) -> N
     """Scenes, episodes, categories and difficulty mix per split (paper's MS DEV mix beside ours)."""
     from rich.table import Table
 
-    from biovln_ms.episodes.benchmark import PAPER_MS_DEV_DIFFICULTY
+    from biovln_ms.benchmark import PAPER_MS_DEV_DIFFICULTY
     from biovln_ms.episodes.dataset import EpisodeDataset
 
     ds = EpisodeDataset(root)
@@ -287,7 +287,7 @@ def dataset_show(root: Path = typer.Argument(..., help="Dataset folder."),
                  out: Path = typer.Option(Path("episode.png"), "-o", "--out", help="PNG to write.")) -> None:
     """Map of one episode: navigable islands, start and heading, goal, view points, shortest path."""
     from biovln_ms.episodes.dataset import EpisodeDataset
-    from biovln_ms.geometry.navigation import scene_navigation
+    from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.topdown import save_map
 
     ep, radius = _find_episode(root, split, episode, scene)
@@ -483,11 +483,12 @@ def train_bc_cmd(data: list[Path] = typer.Option(..., "--data", help="Recording 
 
 def _train_rl(algo: str, timesteps: int, out: Optional[Path], n_envs: int, split: str, eval_split: str,
               eval_episodes: Optional[int], seed: int, ray_address: Optional[str], dataset: Optional[Path]) -> None:
-    from biovln_ms.learning.rl import RLConfig, train_rl
+    from biovln_ms.eval.learned import train_and_evaluate
+    from biovln_ms.learning.rl import RLConfig
 
     cfg = RLConfig(algo=algo, timesteps=timesteps, n_envs=n_envs, split=split, seed=seed, ray_address=ray_address,
                    eval_split=eval_split or None, eval_episodes=eval_episodes, dataset=str(dataset) if dataset else None)
-    r = train_rl(cfg, out or Path(f"runs/{algo}"), echo=typer.echo)
+    r = train_and_evaluate(cfg, out or Path(f"runs/{algo}"), echo=typer.echo)
     if r.eval_summary:
         o = r.eval_summary["overall"]
         typer.echo(f"{algo} on {eval_split}: SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}%")

@@ -13,9 +13,9 @@ def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
     a map with one episode (start, goal, view points, exact shortest path); the oracle run on MS VAL
     episode 0 as an MP4 (egocentric view beside the map) with its metrics; then oracle and frontier
     evaluated on MS VAL and the report (tables with the paper's numbers, plots, renders, one MP4)."""
-    from biovln_ms.episodes.benchmark import FOUR_CATEGORIES
+    from biovln_ms.benchmark import FOUR_CATEGORIES
     from biovln_ms.episodes.generator import EpisodeSampler
-    from biovln_ms.geometry.navigation import scene_navigation
+    from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.render.scene_view import render_overview
     from biovln_ms.scene.generator import generate_scene
     from biovln_ms.scene.spec import save_spec

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 #: Per-step info of every variant (paper §4.2) and the episode-end metrics.
 STEP_MEASURES = ("success", "distance_to_goal", "geodesic_distance_to_goal", "clearance", "zone2_violation", "in_zone3",
@@ -52,3 +53,27 @@ class NavTaskConfig:
     @property
     def hfov(self) -> float:
         return math.radians(self.camera_hfov_deg)
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    """What the action space means and what the task asks (public, as a robot's configuration)."""
+
+    forward_step: float  # m per FORWARD
+    turn_deg: float  # degrees per TURN_LEFT / TURN_RIGHT
+    hfov_deg: float  # head camera's horizontal field of view
+    max_episode_steps: int
+    goal_categories: tuple[str, ...]  # the order of the ``objectgoal`` one-hot
+    control_mode: str  # "discrete" or "continuous"
+
+
+@dataclass(frozen=True)
+class EpisodeInfo:
+    """The episode as a policy may know it: ids, the target category, the task, and for oracles only
+    the privileged view."""
+
+    scene_id: str
+    episode_id: Any
+    object_category: str
+    task: TaskSpec
+    privileged: Any = None

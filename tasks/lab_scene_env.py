@@ -13,7 +13,7 @@ from mani_skill.utils import sapien_utils
 
 from biovln_ms.registration import register_biovln_env
 from biovln_ms.scene.generator import generate_scene
-from biovln_ms.scene.maniskill_builder import LabSceneBuilder
+from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.scene.spec import SceneSpec
 
 

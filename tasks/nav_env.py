@@ -26,15 +26,15 @@ from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
 from mani_skill.utils.structs.types import SimConfig
 
-from biovln_ms.agents.biovln_base import CONTROL_MODES
-from biovln_ms.agents.policy import EpisodeInfo, TaskSpec
+from biovln_ms.agents.robots.biovln_base import CONTROL_MODES
+from biovln_ms.benchmark import dataset_root
 from biovln_ms.catalog import load_catalog
 from biovln_ms.episodes.source import DatasetEpisodes, EpisodeCursor, EpisodeSource, GeneratedEpisodes
 from biovln_ms.errors import BioVLNError
-from biovln_ms.geometry.navigation import scene_navigation
+from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, MeasureSet, StepState
-from biovln_ms.scene.maniskill_builder import LabSceneBuilder
-from biovln_ms.task_config import NavTaskConfig
+from biovln_ms.sim.maniskill_builder import LabSceneBuilder
+from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
 from biovln_ms.tasks.privileged import PrivilegedView
 from biovln_ms.tasks.sensors import SENSORS, SensorInputs, semantic_category
 from biovln_ms.variants import VARIANTS
@@ -66,7 +66,7 @@ class BioVLNNavEnv(BaseEnv):
         _check_arguments(self.cfg, control_mode, kwargs)
         split = split or self.cfg.default_split
         if split:
-            self.source: EpisodeSource = DatasetEpisodes(split, dataset)
+            self.source: EpisodeSource = DatasetEpisodes(split, dataset_root(dataset))
         elif dataset:
             raise EnvConfigError(f"a dataset ({dataset}) was given without a split", field="split",
                                  fix="pass split=, e.g. split='ms_val'")

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 import shapely
 
-from biovln_ms.episodes.benchmark import FOUR_CATEGORIES
+from biovln_ms.benchmark import FOUR_CATEGORIES
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset, SplitPlan, write_dataset
 from biovln_ms.episodes.generator import EpisodeError, EpisodeSampler, difficulty
-from biovln_ms.geometry.navigation import scene_navigation
+from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.rules import floor_polygon
 
@@ -140,7 +140,7 @@ def test_killed_build_leaves_nothing_that_loads(tmp_path, monkeypatch):
 
 
 def test_paper_splits_are_disjoint_and_counted():
-    from biovln_ms.episodes.benchmark import paper_splits
+    from biovln_ms.benchmark import paper_splits
 
     splits = {s.name: s for s in paper_splits()}
     full = splits["full"]

@@ -9,7 +9,8 @@ from scipy.sparse.csgraph import dijkstra
 from shapely.geometry import MultiPolygon, Point, box
 
 from biovln_ms.geometry.freespace import free_space
-from biovln_ms.geometry.navigation import NavGeometry, UnreachableError, scene_navigation
+from biovln_ms.geometry.navigation import NavGeometry, UnreachableError
+from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.rules import floor_polygon
 

@@ -6,6 +6,7 @@ import pytest
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.harness import EvalConfig, evaluate
+from biovln_ms.eval.learned import train_and_evaluate
 from biovln_ms.learning.rl import RLConfig, train_rl
 
 
@@ -19,7 +20,7 @@ def test_train_writes_logs_checkpoints_curve_and_evaluates(dataset, tmp_path, al
     hp = {"n_steps": 64, "batch_size": 32} if algo == "ppo" else {"learning_starts": 32, "batch_size": 32}
     cfg = RLConfig(algo=algo, timesteps=128, n_envs=1, dataset=dataset, checkpoint_every=64, eval_episodes=2,
                    hyperparams=hp)
-    r = train_rl(cfg, tmp_path, echo=lambda s: None, progress=False)
+    r = train_and_evaluate(cfg, tmp_path, echo=lambda s: None, progress=False)
     assert r.timesteps >= 128 and r.model.is_file()
     assert any((tmp_path / "tb").rglob("events.out.tfevents.*"))
     assert {p.name for p in (tmp_path / "checkpoints").glob("*.zip")} >= {f"{algo}_64.zip", f"{algo}_128.zip"}

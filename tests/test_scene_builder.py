@@ -6,7 +6,7 @@ import pytest
 
 import biovln_ms.tasks.lab_scene_env  # noqa: F401
 from biovln_ms.scene.generator import generate_scene
-from biovln_ms.scene.maniskill_builder import LabSceneBuilder
+from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 
 pytestmark = pytest.mark.render
 

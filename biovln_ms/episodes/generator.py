@@ -21,7 +21,8 @@ from shapely.ops import unary_union
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.freespace import grow
-from biovln_ms.geometry.navigation import NavGeometry, scene_navigation
+from biovln_ms.geometry.navigation import NavGeometry
+from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.scene.rules import floor_polygon
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 

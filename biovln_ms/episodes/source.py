@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -10,31 +9,6 @@ import numpy as np
 from biovln_ms.constants import ROBOT_RADIUS
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
 from biovln_ms.scene.spec import SceneSpec
-
-
-def default_dataset_dir() -> Path:
-    """``$BIOVLN_DATA_DIR``, else ``~/.cache/biovln_ms/datasets/biovln``."""
-    env = os.environ.get("BIOVLN_DATA_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "biovln_ms" / "datasets" / "biovln"
-
-
-def ensure_default_dataset(echo=print) -> Path:
-    """The default dataset, built on first use and rebuilt when stale (deterministic, ~2 s; nothing
-    is downloaded)."""
-    root = default_dataset_dir()
-    stale = False
-    if (root / "manifest.json").exists():
-        try:
-            EpisodeDataset(root, verify=False)
-        except DatasetError:
-            stale = True
-    if stale or not (root / "manifest.json").exists():
-        from biovln_ms.episodes.benchmark import paper_splits
-        from biovln_ms.episodes.dataset import write_dataset
-
-        echo(f"[biovln-ms] building the benchmark dataset in {root} ({'stale' if stale else 'first use'})")
-        write_dataset(root, paper_splits(), progress=False)
-    return root
 
 
 class EpisodeSource:
@@ -103,8 +77,8 @@ class EpisodeCursor:
 
 
 class DatasetEpisodes(EpisodeSource):
-    def __init__(self, split: str, root: str | Path | None = None, agent_radius: float = ROBOT_RADIUS) -> None:
-        root = Path(root) if root is not None else ensure_default_dataset()
+    def __init__(self, split: str, root: str | Path, agent_radius: float = ROBOT_RADIUS) -> None:
+        root = Path(root)
         self.dataset = EpisodeDataset(root, agent_radius=agent_radius)
         self.split = split
         self.episodes = list(self.dataset.episodes(split))

@@ -171,6 +171,7 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
     """Run (or resume) a method on a split; returns the summary (also written to summary.json)."""
     from tqdm import tqdm
 
+    from biovln_ms.benchmark import dataset_root
     from biovln_ms.episodes.source import DatasetEpisodes
 
     spec = method_spec(cfg.method, cfg.method_kwargs)
@@ -182,7 +183,7 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
     if cfg.record_dir and cfg.record_mode == "full" and spec.obs_mode == "state":
         raise BioVLNError(f"'{cfg.method}' runs on state observations: there are no frames to record", field="record_mode",
                           fix="use --record-mode trace")
-    source = DatasetEpisodes(cfg.split, cfg.dataset)
+    source = DatasetEpisodes(cfg.split, dataset_root(cfg.dataset))
     episodes = source.episodes[: cfg.max_episodes] if cfg.max_episodes else source.episodes
     run_dir = cfg.run_dir
     run_dir.mkdir(parents=True, exist_ok=True)

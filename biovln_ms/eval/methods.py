@@ -7,11 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from biovln_ms.errors import BioVLNError
-
-RL_ENV = "BioVLN-OpFace-RL-v0"  # the variant learned policies train and evaluate on
-# Stable-Baselines3 algorithms and the env control mode each needs: SAC acts in a continuous Box
-# ([forward, turn, stop] in [-1, 1]), PPO and A2C in Discrete(4)
-SB3_CONTROL_MODES = {"ppo": "discrete", "a2c": "discrete", "sac": "continuous"}
+from biovln_ms.learning.algorithms import RL_ENV, SB3_CONTROL_MODES
 
 
 @dataclass(frozen=True)

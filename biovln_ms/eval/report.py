@@ -308,7 +308,7 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
 
     import biovln_ms  # noqa: F401
     from biovln_ms.agents.frontier import FREE, OCCUPIED, FrontierPolicy
-    from biovln_ms.geometry.navigation import scene_navigation
+    from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.topdown import draw_map
 
     env = gym.make("BioVLN-OpFace-v0", split=rec["split"], dataset=dataset, obs_mode="rgbd", sim_backend="physx_cpu",
@@ -357,7 +357,7 @@ def tables(runs) -> list[list[str]]:
 def write_report(results: Path, out: Path, dataset: str | None = None, videos: int = 1, hard_figures: int = 2,
                  echo=print) -> Path:
     from biovln_ms.episodes.dataset import EpisodeDataset
-    from biovln_ms.episodes.source import ensure_default_dataset
+    from biovln_ms.benchmark import ensure_default_dataset
     from biovln_ms.errors import BioVLNError
 
     runs = load_runs(Path(results))

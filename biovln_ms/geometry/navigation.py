@@ -273,11 +273,3 @@ class NavGeometry:
             raise UnreachableError(f"no navigable path from {np.round(s, 3).tolist()} to {np.round(g, 3).tolist()} "
                                    f"for a {self.radius} m robot", fix="snap both points onto the same island first")
         return np.asarray(path)
-
-
-def scene_navigation(spec, radius: float | None = None, grid_resolution: float = 0.05) -> NavGeometry:
-    """NavGeometry of a scene spec (radius defaults to the spec's robot radius)."""
-    from biovln_ms.scene.rules import scene_free_space
-
-    r = spec.robot_radius if radius is None else radius
-    return NavGeometry(scene_free_space(spec, r), r, grid_resolution)

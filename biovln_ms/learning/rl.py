@@ -22,21 +22,8 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
 from biovln_ms.errors import BioVLNError
-from biovln_ms.eval.methods import RL_ENV, SB3_CONTROL_MODES
+from biovln_ms.learning.algorithms import RL_ENV, SB3_CONTROL_MODES, algo_class
 from biovln_ms.io_utils import atomic_write_bytes, atomic_write_text, save_figure
-
-ALGOS = tuple(SB3_CONTROL_MODES)
-
-
-def algo_class(name: str):
-    """The Stable-Baselines3 class of ``name``."""
-    from stable_baselines3 import A2C, PPO, SAC
-
-    classes = {"ppo": PPO, "a2c": A2C, "sac": SAC}
-    if name not in classes:
-        raise BioVLNError(f"unknown algorithm '{name}'", field="algo", fix=f"use one of: {', '.join(ALGOS)}")
-    return classes[name]
-
 
 @dataclass
 class RLConfig:
@@ -123,11 +110,11 @@ class RLResult:
     steps_per_second: float
     episodes: int
     final_success_rate: float
-    eval_summary: dict | None
+    eval_summary: dict | None = None  # set by biovln_ms.eval.learned.train_and_evaluate
 
 
 def train_rl(cfg: RLConfig, out: str | Path, echo: Callable[[str], None] = print, progress: bool = True) -> RLResult:
-    """Train, save, plot and (when ``eval_split``) evaluate through the harness."""
+    """Train, save and plot (``biovln_ms.eval.learned.train_and_evaluate`` then evaluates through the harness)."""
     cls = algo_class(cfg.algo)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -153,15 +140,7 @@ def train_rl(cfg: RLConfig, out: str | Path, echo: Callable[[str], None] = print
                                                        "episodes": len(log.rows), "final_success_rate": sr}, indent=1))
     echo(f"{cfg.algo}: {model.num_timesteps} timesteps in {seconds / 60:.1f} min ({model.num_timesteps / seconds:.0f} steps/s), "
          f"{len(log.rows)} episodes, last-100 success {100 * sr:.0f}% -> {model_path}")
-    summary = None
-    if cfg.eval_split:
-        from biovln_ms.eval.harness import EvalConfig, evaluate
-
-        summary = evaluate(EvalConfig(cfg.algo, cfg.eval_split, str(out / "eval"), cfg.dataset, cfg.env_id,
-                                      workers=cfg.n_envs, max_episodes=cfg.eval_episodes,
-                                      method_kwargs={"checkpoint": str(model_path)}), progress=progress, echo=echo)
-    return RLResult(model_path, int(model.num_timesteps), seconds / 60, model.num_timesteps / seconds, len(log.rows), sr,
-                    summary)
+    return RLResult(model_path, int(model.num_timesteps), seconds / 60, model.num_timesteps / seconds, len(log.rows), sr)
 
 
 def write_episode_log(rows: list[dict], path: Path) -> None:

@@ -31,8 +31,7 @@ from stable_baselines3.common.save_util import recursive_getattr
 from stable_baselines3.common.torch_layers import FlattenExtractor
 
 from biovln_ms.errors import BioVLNError
-from biovln_ms.eval.methods import SB3_CONTROL_MODES
-from biovln_ms.learning.rl import algo_class
+from biovln_ms.learning.algorithms import SB3_CONTROL_MODES, algo_class
 
 MAX_TOTAL_BYTES = 512 * 2**20  # uncompressed, all entries
 MAX_ENTRIES = 64

@@ -23,7 +23,7 @@ from biovln_ms.assetgen.generate import load_glb
 from biovln_ms.catalog import load_catalog
 from biovln_ms.geometry.zones import rot2
 from biovln_ms.io_utils import atomic_write_bytes
-from biovln_ms.lsat.gltf import Z_UP_TO_Y_UP
+from biovln_ms.geometry.frames import Z_UP_TO_Y_UP
 from biovln_ms.paths import ASSET_DIR
 
 ROOM = (8.0, 6.0, 3.0)  # x, y, wall height (m)

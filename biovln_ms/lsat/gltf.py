@@ -23,13 +23,12 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.errors import BioVLNError
+from biovln_ms.geometry.frames import Y_UP_TO_Z_UP
 
 MAGIC = 0x46546C67  # b"glTF"
 CHUNK_JSON = 0x4E4F534A
 CHUNK_BIN = 0x004E4942
 MAX_COORDINATE = 1e4  # m: anything farther is a units or transform error, not a lab
-Y_UP_TO_Z_UP = np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], float)
-Z_UP_TO_Y_UP = np.linalg.inv(Y_UP_TO_Z_UP)  # what writers of glTF apply to our Z-up data
 
 
 @dataclass(frozen=True)

@@ -124,7 +124,7 @@ def annotate(glb: bytes, spec: SceneSpec) -> bytes:
 def export_scene_glb(spec: SceneSpec, out: str | Path) -> Path:
     """Write the assembled, annotated scene GLB atomically, in glTF's Y-up frame (Blender, Habitat and
     viewers show it upright; ``biovln-ms lsat import`` reads it back)."""
-    from biovln_ms.lsat.gltf import Z_UP_TO_Y_UP
+    from biovln_ms.geometry.frames import Z_UP_TO_Y_UP
 
     scene = assemble(spec)
     scene.apply_transform(Z_UP_TO_Y_UP)

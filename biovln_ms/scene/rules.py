@@ -16,6 +16,7 @@ from shapely.ops import unary_union
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import SUPPORT_EDGE_MARGIN
 from biovln_ms.geometry.freespace import free_space, island_of
+from biovln_ms.geometry.navigation import NavGeometry
 from biovln_ms.geometry.zones import goal_position, placement_z, zone2_disjoint
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 
@@ -43,6 +44,12 @@ def obstacle_footprints(spec: SceneSpec) -> list:
 
 def scene_free_space(spec: SceneSpec, radius: float | None = None):
     return free_space(floor_polygon(spec), obstacle_footprints(spec), spec.robot_radius if radius is None else radius)
+
+
+def scene_navigation(spec: SceneSpec, radius: float | None = None, grid_resolution: float = 0.05) -> NavGeometry:
+    """NavGeometry of a scene spec (radius defaults to the spec's robot radius)."""
+    r = spec.robot_radius if radius is None else radius
+    return NavGeometry(scene_free_space(spec, r), r, grid_resolution)
 
 
 def _index(spec: SceneSpec, obj: ObjectSpec) -> str:

@@ -1,4 +1,5 @@
-"""The paper's datasets (Tables 3, 4, 12, 13), defined from seeds and generator options only.
+"""The paper's datasets (Tables 3, 4, 12, 13), defined from seeds and generator options only, and the
+default dataset built from them (a composition of the episode model and the LSAT import).
 
 * ``full``: 39 ``single_room`` scenes with 35 / 30 / 40 episodes per scene for 2 / 3 / 4-5 active
   instruments (Table 13), and 8 ``two_room`` scenes x 38 episodes. Table 3's 1,363 single-room
@@ -16,7 +17,10 @@
 
 from __future__ import annotations
 
-from biovln_ms.episodes.dataset import SplitPlan
+import os
+from pathlib import Path
+
+from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset, SplitPlan, write_dataset
 from biovln_ms.scene.generator import generate_scene
 
 FOUR_CATEGORIES = ("cabinet", "centrifuge", "refrigerator", "waste_bin")
@@ -70,3 +74,31 @@ def paper_splits() -> list[SplitPlan]:
     out.append(SplitPlan("lsat_target", [(lsat_target_scene(), LSAT_EPISODES, False)],
                          description="Table 4: designer-authored scene (LSAT import), 40 episodes, 8 categories"))
     return out
+
+
+def default_dataset_dir() -> Path:
+    """``$BIOVLN_DATA_DIR``, else ``~/.cache/biovln_ms/datasets/biovln``."""
+    env = os.environ.get("BIOVLN_DATA_DIR")
+    return Path(env) if env else Path.home() / ".cache" / "biovln_ms" / "datasets" / "biovln"
+
+
+def ensure_default_dataset(echo=print) -> Path:
+    """The default dataset, built on first use and rebuilt when stale (deterministic, ~2 s; nothing
+    is downloaded)."""
+    root = default_dataset_dir()
+    stale = False
+    if (root / "manifest.json").exists():
+        try:
+            EpisodeDataset(root, verify=False)
+        except DatasetError:
+            stale = True
+    if stale or not (root / "manifest.json").exists():
+
+        echo(f"[biovln-ms] building the benchmark dataset in {root} ({'stale' if stale else 'first use'})")
+        write_dataset(root, paper_splits(), progress=False)
+    return root
+
+
+def dataset_root(root: str | Path | None) -> Path:
+    """``root``, or the default dataset (built on first use)."""
+    return Path(root) if root is not None else ensure_default_dataset()

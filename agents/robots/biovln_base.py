@@ -1,6 +1,6 @@
 """The BioVLN-MS mobile base, registered with ManiSkill as ``biovln_base``, and its navigation controllers.
 
-Built from ``agents/assets/biovln_base.urdf`` (shipped, nothing downloaded): a 0.20 m-radius,
+Built from ``agents/robots/assets/biovln_base.urdf`` (shipped, nothing downloaded): a 0.20 m-radius,
 0.95 m-tall cylinder on three planar joints (x, y, yaw) driven by a stiff PD position drive, so a
 commanded pose is reached exactly when free and the body is stopped by walls and instruments by
 SAPIEN's contact solver. The head camera sits on ``camera_link`` at 0.88 m (Habitat's ObjectNav

@@ -14,7 +14,7 @@ import torch
 from mani_skill.utils.scene_builder import SceneBuilder
 from mani_skill.utils.scene_builder.registration import register_scene_builder
 
-from biovln_ms.scene.sapien_builder import BuiltScene, add_lights, add_spec_to_scene
+from biovln_ms.sim.sapien_builder import BuiltScene, add_lights, add_spec_to_scene
 from biovln_ms.scene.spec import SceneSpec, load_spec
 
 SpecLike = Union[SceneSpec, str, Path]
