@@ -12,17 +12,20 @@ import json
 
 import numpy as np
 
-from biovln_ms.agents.frontier import FrontierPolicy
+from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy
+from biovln_ms.agents.frontier_planner import Candidate
+from biovln_ms.agents.policy import EpisodeInfo
 
-SYSTEM = ("You guide a mobile robot exploring a biomedical laboratory to reach an instrument. Answer with a JSON "
-          'object {"choice": k} where k is the index of the frontier to explore next.')
+SYSTEM = ("You guide a mobile robot exploring a biomedical laboratory to reach an instrument. Answer with a "
+          'JSON object {"choice": k} where k is the index of the frontier to explore next.')
 
 
 class LLMFrontierPolicy(FrontierPolicy):
     name = "llm_frontier"
 
-    def __init__(self, client=None, equidistance_threshold: float = 1.0, top_k: int = 3, **kw) -> None:
-        super().__init__(**kw)
+    def __init__(self, client=None, equidistance_threshold: float = 1.0, top_k: int = 3,
+                 params: FrontierParams | None = None) -> None:
+        super().__init__(params)
         if client is None:
             from biovln_ms.llm.client import JSONChatClient
 
@@ -32,31 +35,34 @@ class LLMFrontierPolicy(FrontierPolicy):
         self.consulted = 0
         self.fallbacks = 0
 
-    def reset(self, episode_info: dict) -> None:
+    def reset(self, episode_info: EpisodeInfo) -> None:
         super().reset(episode_info)
-        self.category = episode_info["episode"]["object_category"]
+        self.category = episode_info.object_category
         self.consulted = self.fallbacks = 0
 
     def episode_stats(self) -> dict:
         """LLM use in the current episode (recorded per episode by the harness)."""
         return {"llm_consulted": self.consulted, "llm_fallbacks": self.fallbacks}
 
-    def choose(self, candidates: list, pose) -> np.ndarray:
-        ranked = sorted(candidates, key=lambda c: c[0])
-        near = [c for c in ranked if c[0] - ranked[0][0] <= self.threshold][: self.top_k]
+    def choose(self, candidates: list[Candidate], pose: np.ndarray) -> np.ndarray:
+        """The LLM's pick among the nearest frontiers within the threshold of the nearest (the nearest
+        when there is one, or on any failure)."""
+        ranked = sorted(candidates, key=lambda c: c.path_length)
+        near = [c for c in ranked if c.path_length - ranked[0].path_length <= self.threshold][: self.top_k]
         if len(near) < 2:
-            return ranked[0][1]
+            return ranked[0].position
         self.consulted += 1
         prompt = json.dumps({
             "target_instrument": self.category.replace("_", " "),
             "agent_position_m": [round(float(pose[0]), 2), round(float(pose[1]), 2)],
             "agent_heading_rad": round(float(pose[2]), 2),
-            "frontiers": [{"index": i, "position_m": [round(float(c[1][0]), 2), round(float(c[1][1]), 2)],
-                           "path_length_m": round(float(c[0]), 2), "size_cells": int(c[2])} for i, c in enumerate(near)],
+            "frontiers": [{"index": i, "position_m": [round(float(x), 2) for x in c.position[:2]],
+                           "path_length_m": round(float(c.path_length), 2), "size_cells": int(c.cells)}
+                          for i, c in enumerate(near)],
         })
         answer = self.client.ask(SYSTEM, prompt, validate=lambda o: isinstance(o.get("choice"), int)
                                  and not isinstance(o.get("choice"), bool) and 0 <= o["choice"] < len(near))
         if answer is None:
             self.fallbacks += 1
-            return ranked[0][1]
-        return near[answer["choice"]][1]
+            return ranked[0].position
+        return near[answer["choice"]].position

@@ -14,8 +14,10 @@ The structure of VLFM, with pluggable components:
    known-free cell nearest to that cloud and stops there (VLFM's PointNav-to-object stage).
 
 Unlike the frontier baseline, VLFM is never told the goal position: it only knows the target
-category, as in ObjectNav. It early-stops after 100 consecutive steps without progress (paper
-Table 15): progress = the known free area grew, or the distance to the current target shrank.
+category, as in ObjectNav (it reads the head camera's images and pose, and the GT detector the
+``semantic_category`` sensor, never ``pointgoal_with_gps_compass``). It early-stops after 100
+consecutive steps without progress (paper Table 15): progress = the known free area grew, or the
+distance to the current target shrank.
 """
 
 from __future__ import annotations
@@ -24,17 +26,20 @@ import math
 
 import numpy as np
 
-from biovln_ms.agents.frontier import FREE, FrontierPolicy, Scan, backproject
-from biovln_ms.agents.policy import STOP
+from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy, head_frame, to_numpy
+from biovln_ms.agents.frontier_map import FREE, Scan, backproject
+from biovln_ms.agents.frontier_planner import Candidate, PlanField
+from biovln_ms.agents.policy import STOP, EpisodeInfo
 
 
 class VLFMPolicy(FrontierPolicy):
     name = "vlfm"
     obs_mode = "rgb+depth+segmentation"
 
-    def __init__(self, detector="gt", scorer="default", detect_every: int = 5,
-                 score_every: int = 1, no_progress_limit: int = 100, min_object_points: int = 20, **frontier_kw) -> None:
-        super().__init__(**frontier_kw)
+    def __init__(self, detector="gt", scorer="default", detect_every: int = 5, score_every: int = 1,
+                 no_progress_limit: int = 100, min_object_points: int = 20,
+                 params: FrontierParams | None = None) -> None:
+        super().__init__(params)
         from biovln_ms.perception.scorers import make_scorer
 
         self.detector_spec = detector  # "gt", "owlvit:<dir>", or a Detector object
@@ -50,22 +55,18 @@ class VLFMPolicy(FrontierPolicy):
         name = self.detector_spec if isinstance(self.detector_spec, str) else self.detector_spec.name
         return "VLFM (GT detector)" if name == "gt" else f"VLFM ({name})"
 
-    def reset(self, episode_info: dict) -> None:
+    def reset(self, episode_info: EpisodeInfo) -> None:
         super().reset(episode_info)
         from biovln_ms.catalog import load_catalog
         from biovln_ms.perception.detectors import make_detector
 
-        env = episode_info["env"]
-        if not isinstance(self.detector_spec, str):
-            self._detector = self.detector_spec
-        elif self._detector is None or getattr(self._detector, "env", env) is not env:
-            self._detector = make_detector(self.detector_spec, env)
-        self.category = episode_info["episode"]["object_category"]
+        if self._detector is None:
+            spec = self.detector_spec
+            self._detector = make_detector(spec) if isinstance(spec, str) else spec
+        self._detector.reset(episode_info.task)
+        self.category = episode_info.object_category
         self.prompt_name = load_catalog().get(self.category).display_name.lower()
-        self.hfov = float(env._ctx.hfov)
-        n = self.map.n
-        self.value = np.zeros((n, n), np.float32)
-        self.confidence = np.zeros((n, n), np.float32)
+        self.hfov = math.radians(episode_info.task.hfov_deg)
         self.object_points = np.zeros((0, 2))
         self._t = 0
         self._no_progress = 0
@@ -95,49 +96,53 @@ class VLFMPolicy(FrontierPolicy):
         mask = self._detector.detect(obs, self.category)
         if not mask.any():
             return
-        cam = obs["sensor_data"]["head"]
-        depth = cam["depth"][0, ..., 0].cpu().numpy().astype(np.float32) / 1000.0
-        params = obs["sensor_param"]["head"]
-        v, u = np.nonzero(mask & (depth > 0) & (depth <= self.clip))
+        depth, intrinsic, extrinsic = head_frame(obs)
+        v, u = np.nonzero(mask & (depth > 0) & (depth <= self.params.depth_clip))
         if len(v) < self.min_object_points:
             return
         pick = np.linspace(0, len(v) - 1, min(len(v), 400)).astype(int)  # a bounded, deterministic subsample
-        pw, _ = backproject(depth[v[pick], u[pick]], u[pick], v[pick], params["intrinsic_cv"][0].cpu().numpy(),
-                            params["extrinsic_cv"][0].cpu().numpy())
+        pw, _ = backproject(depth[v[pick], u[pick]], u[pick], v[pick], intrinsic, extrinsic)
         self.object_points = np.concatenate([self.object_points, pw[:, :2]])[-4000:]
         self.detections += 1
 
-    # --- decisions (overrides of the frontier policy) ------------------------------------------
-    def choose(self, candidates: list, pose) -> np.ndarray:
+    # --- target rules (overrides of the frontier policy's) ------------------------------------
+    def choose(self, candidates: list[Candidate], pose: np.ndarray) -> np.ndarray:
         """The frontier with the highest value; the shorter path breaks ties."""
-        def key(c):
-            rc = self.map.cell(c[1])
-            return (-round(float(self.value[rc[0], rc[1]]), 4), c[0])
+        def key(c: Candidate) -> tuple[float, float]:
+            rc = self.map.cell(c.position)
+            return (-round(float(self.value[rc[0], rc[1]]), 4), c.path_length)
 
-        return min(candidates, key=key)[1]
+        return min(candidates, key=key).position
 
-    def _known_target(self, lo, g, trav, idx, dist) -> np.ndarray | None:
+    def known_target(self, field: PlanField) -> np.ndarray | None:
         """Once the target has been seen: the reachable known-free cell nearest its point cloud."""
         if len(self.object_points) < self.min_object_points:
             return None
-        cells = np.argwhere(trav)
-        reach = np.isfinite(dist[idx[cells[:, 0], cells[:, 1]]])
-        if not reach.any():
+        world = field.reachable_centres()
+        if not len(world):
             return None
-        world = self.map.centre(cells[reach] + lo)
         pts = self.object_points[:: max(1, len(self.object_points) // 500)]
         d = np.min(np.linalg.norm(world[:, None, :] - pts[None, :, :], axis=2), axis=1)
         return world[int(np.argmin(d))]
 
-    def _exhausted(self, lo, trav, idx, dist, pose) -> np.ndarray:
-        """No frontier left and the target never seen: stop where it stands (VLFM has no goal to fall back on)."""
+    def exhausted(self, field: PlanField, pose: np.ndarray) -> np.ndarray:
+        """No frontier left and the target never seen: stop where it stands (VLFM has no goal to fall
+        back on)."""
         return pose[:2]
 
-    # --- control -------------------------------------------------------------------------------
+    # --- steps ---------------------------------------------------------------------------------
+    def _start(self, obs, pose: np.ndarray) -> None:
+        """First step: the map, planner and controller, and an empty value map (no goal sensor read)."""
+        self._build(pose)
+        n = self.map.n
+        self.value = np.zeros((n, n), np.float32)
+        self.confidence = np.zeros((n, n), np.float32)
+
     def _integrate(self, obs) -> Scan:
         scan = super()._integrate(obs)
         if self._t % self.score_every == 0:
-            self._paint(scan, self.scorer.score(obs["sensor_data"]["head"]["rgb"][0].cpu().numpy(), self.prompt_name))
+            rgb = to_numpy(obs["sensor_data"]["head"]["rgb"][0])
+            self._paint(scan, self.scorer.score(rgb, self.prompt_name))
         if self._t % self.detect_every == 0:
             self._detect(obs)
         self._t += 1
@@ -145,22 +150,24 @@ class VLFMPolicy(FrontierPolicy):
 
     def act(self, obs, info: dict) -> int:
         action = super().act(obs, info)
-        p = self.env._planar()[:2]
-        free = int(np.count_nonzero(self.map.grid[self.map.lo[0]:self.map.hi[0], self.map.lo[1]:self.map.hi[1]] == FREE))
-        d = float(np.linalg.norm(self.target - p)) if self.target is not None else math.inf
+        p, current = self.pose[:2], self.control.target
+        lo, hi = self.map.lo, self.map.hi
+        free = int(np.count_nonzero(self.map.grid[lo[0]:hi[0], lo[1]:hi[1]] == FREE))
+        d = float(np.linalg.norm(current - p)) if current is not None else math.inf
         best_free, best_d, target = self._best_progress
-        if target is None or self.target is None or not np.array_equal(target, self.target):
+        if target is None or current is None or not np.array_equal(target, current):
             best_d = math.inf  # a new target: distance progress starts over
         if free > best_free or d < best_d - 0.05:
             self._no_progress = 0
         else:
             self._no_progress += 1
         self._best_progress = (max(free, best_free), min(d, best_d),
-                               None if self.target is None else np.array(self.target))
+                               None if current is None else np.array(current))
         if self._no_progress >= self.no_progress_limit:
-            return self._remember(p, STOP)
+            return self.control.record(p, STOP)
         return action
 
     def episode_stats(self) -> dict:
-        return {"detections": self.detections, "object_seen": bool(len(self.object_points) >= self.min_object_points),
+        return {"detections": self.detections,
+                "object_seen": bool(len(self.object_points) >= self.min_object_points),
                 "detector": self._detector.name, "scorer": self.scorer.name, "label": self.label}

@@ -65,6 +65,7 @@ class TaskSpec:
     max_episode_steps: int
     goal_categories: tuple[str, ...]  # the order of the ``objectgoal`` one-hot
     control_mode: str  # "discrete" or "continuous"
+    robot_radius: float  # m, the robot's body
 
 
 @dataclass(frozen=True)

@@ -63,6 +63,8 @@ class BioVLNNavEnv(BaseEnv):
         overrides = {f.name: kwargs.pop(f.name) for f in fields(NavTaskConfig) if f.name in kwargs}
         self.cfg = replace(self.config, **overrides)
         kwargs.setdefault("obs_mode", self.cfg.default_obs_mode)
+        if not torch.cuda.is_available():  # ManiSkill's default asks for "sapien_cuda" and warns on every make
+            kwargs.setdefault("render_backend", "cpu")
         _check_arguments(self.cfg, control_mode, kwargs)
         split = split or self.cfg.default_split
         if split:
@@ -299,7 +301,7 @@ class BioVLNNavEnv(BaseEnv):
     def task_spec(self) -> TaskSpec:
         c = self.cfg
         return TaskSpec(c.forward_step, c.turn_deg, c.camera_hfov_deg, c.max_episode_steps, tuple(self.category_names),
-                        self.control_mode)
+                        self.control_mode, self.agent.radius)
 
     def episode_info(self, i: int = 0, privileged: bool = False) -> EpisodeInfo:
         """What a policy may know of sub-env ``i``'s episode; ``privileged`` adds the oracle's read-only view."""

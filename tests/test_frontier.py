@@ -39,7 +39,7 @@ def test_frontier_reaches_goals_in_the_env():
     wins = 0
     for k in range(3):
         obs, info = env.reset(seed=k)
-        pol.reset({"env": env.unwrapped, "episode": env.unwrapped.current_episode})
+        pol.reset(env.unwrapped.episode_info())
         for _ in range(500):
             obs, _, term, trunc, info = env.step(pol.act(obs, info))
             if bool(term) or bool(trunc):

@@ -33,14 +33,18 @@ def server(openai_server):
 
 
 def client_for(srv, **kw):
-    cfg = LLMConfig(f"http://127.0.0.1:{srv.server_address[1]}/v1", "deepseek-chat", SECRET, timeout=1.0, max_retries=0)
+    url = f"http://127.0.0.1:{srv.server_address[1]}/v1"
+    cfg = LLMConfig(url, "deepseek-chat", SECRET, timeout=1.0, max_retries=0)
     return JSONChatClient(cfg, **kw)
 
 
 def test_json_answer_temperature_zero_and_cache(server, tmp_path, caplog):
     caplog.set_level(logging.DEBUG)
     c = client_for(server, cache_path=tmp_path / "cache.jsonl")
-    ok = lambda o: isinstance(o.get("choice"), int)  # noqa: E731
+
+    def ok(o: dict) -> bool:
+        return isinstance(o.get("choice"), int)
+
     assert c.ask("sys", "which?", ok) == {"choice": 1}
     req = server.requests[0]
     assert req["path"] == "/v1/chat/completions" and req["auth"] == f"Bearer {SECRET}"
@@ -54,7 +58,10 @@ def test_json_answer_temperature_zero_and_cache(server, tmp_path, caplog):
 
 def test_garbage_out_of_range_timeout_and_down_are_counted(server):
     c = client_for(server)
-    valid = lambda o: isinstance(o.get("choice"), int) and 0 <= o["choice"] < 3  # noqa: E731
+
+    def valid(o: dict) -> bool:
+        return isinstance(o.get("choice"), int) and 0 <= o["choice"] < 3
+
     server.mode = "garbage"
     assert c.ask("s", "a", valid) is None
     server.mode = "out_of_range"
@@ -75,9 +82,10 @@ def test_no_endpoint_refuses_clearly(monkeypatch, tmp_path):
     monkeypatch.delenv("DEEPSEEK_API_KEY", raising=False)
     with pytest.raises(LLMConfigError, match="no LLM endpoint configured"):
         LLMConfig.from_env()
-    env = {k: v for k, v in __import__("os").environ.items() if k not in ("BIOVLN_LLM_API_KEY", "DEEPSEEK_API_KEY")}
-    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "eval", "--method", "llm_frontier", "--split", "ms_val",
-                        "-o", str(tmp_path)], capture_output=True, text=True, env=env)
+    env = {k: v for k, v in __import__("os").environ.items()
+           if k not in ("BIOVLN_LLM_API_KEY", "DEEPSEEK_API_KEY")}
+    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "eval", "--method", "llm_frontier",
+                        "--split", "ms_val", "-o", str(tmp_path)], capture_output=True, text=True, env=env)
     assert r.returncode == 2 and "LLM-Frontier numbers are not reported" in r.stderr
 
 
@@ -91,10 +99,11 @@ class _Stub:
 
 
 def test_choice_among_near_equidistant_frontiers():
+    from biovln_ms.agents.frontier_planner import Candidate
     from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
 
-    cands = [(2.0, np.array([1.0, 1.0]), 20), (2.5, np.array([5.0, 1.0]), 30), (2.9, np.array([1.0, 5.0]), 15),
-             (6.0, np.array([9.0, 9.0]), 40)]
+    cands = [Candidate(2.0, np.array([1.0, 1.0]), 20), Candidate(2.5, np.array([5.0, 1.0]), 30),
+             Candidate(2.9, np.array([1.0, 5.0]), 15), Candidate(6.0, np.array([9.0, 9.0]), 40)]
     pol = LLMFrontierPolicy(client=_Stub({"choice": 2}))
     pol.category = "refrigerator"
     assert np.allclose(pol.choose(cands, np.array([0.0, 0.0, 0.0])), [1.0, 5.0])
@@ -115,11 +124,11 @@ def test_llm_frontier_runs_an_episode_against_the_local_server(server):
     from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
 
     server.mode = "zero"
-    env = gym.make("BioVLN-OpFace-v0", obs_mode="rgbd", camera_width=320, camera_height=240, sim_backend="physx_cpu",
-                   render_backend="cpu")
+    env = gym.make("BioVLN-OpFace-v0", obs_mode="rgbd", camera_width=320, camera_height=240,
+                   sim_backend="physx_cpu", render_backend="cpu")
     pol = LLMFrontierPolicy(client=client_for(server))
     obs, info = env.reset(seed=3)
-    pol.reset({"env": env.unwrapped, "episode": env.unwrapped.current_episode})
+    pol.reset(env.unwrapped.episode_info())
     for _ in range(500):
         obs, _, term, trunc, info = env.step(pol.act(obs, info))
         if bool(term) or bool(trunc):

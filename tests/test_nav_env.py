@@ -337,3 +337,23 @@ def test_render_shows_the_room_and_the_robot(dataset):
     colours = len(np.unique(frame.reshape(-1, 3)[::7], axis=0))
     assert colours > 2000 and frame.std() > 20, (colours, frame.std())
     e.close()
+
+
+def test_no_cuda_fallback_warning_on_a_cpu_machine(dataset):
+    code = ("import gymnasium as gym, biovln_ms; e = gym.make('BioVLN-OpFace-v0', dataset=%r, split='ms_val', "
+            "obs_mode='state'); e.reset(); e.step(1); print('ok')" % str(dataset))
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    assert r.returncode == 0 and "ok" in r.stdout, r.stderr[-2000:]
+    if not torch.cuda.is_available():
+        assert "Falling back" not in r.stderr and "sapien_cuda" not in r.stderr, r.stderr[-2000:]
+
+
+def test_robot_radius_is_one_fact(env):
+    """The robot's radius comes from its URDF collision cylinder; the navigation geometry, the episodes and the
+    task spec policies get all use the same number."""
+    from biovln_ms.constants import ROBOT_RADIUS
+
+    u = env.unwrapped
+    env.reset(options={"episode_index": 0})
+    assert u.agent.radius == ROBOT_RADIUS == u.scene_spec.robot_radius == u.navs[0].radius
+    assert u.task_spec().robot_radius == u.agent.radius

@@ -1,4 +1,5 @@
-"""VLFM: value-map fusion, the offline scorer, local-directory models, GT detection, a run through the harness."""
+"""VLFM: value-map fusion, the offline scorer, local-directory models, GT detection, a run through the
+harness."""
 
 import math
 import string
@@ -7,7 +8,10 @@ import numpy as np
 import pytest
 
 from biovln_ms.agents.frontier import OccupancyMap, Scan
+from biovln_ms.agents.frontier_planner import Candidate
+from biovln_ms.agents.policy import TaskSpec
 from biovln_ms.eval.harness import EvalConfig, evaluate, load_records
+from biovln_ms.perception.detectors import GTSegmentationDetector, make_detector
 from biovln_ms.perception.scorers import PerceptionError, make_scorer
 
 
@@ -51,11 +55,30 @@ def test_value_map_fusion_is_confidence_weighted():
 
 def test_frontier_choice_follows_the_value_map():
     p = _policy()
-    near, far = (1.0, np.array([1.0, 0.0]), 20), (3.0, np.array([0.0, 2.0]), 20)
-    assert np.array_equal(p.choose([near, far], None), near[1])  # equal values: the shorter path
-    rc = p.map.cell(far[1])
+    near, far = Candidate(1.0, np.array([1.0, 0.0]), 20), Candidate(3.0, np.array([0.0, 2.0]), 20)
+    assert np.array_equal(p.choose([near, far], None), near.position)  # equal values: the shorter path
+    rc = p.map.cell(far.position)
     p.value[rc[0], rc[1]] = 0.9
-    assert np.array_equal(p.choose([near, far], None), far[1])
+    assert np.array_equal(p.choose([near, far], None), far.position)
+
+
+def test_gt_detector_reads_the_semantic_sensor():
+    import torch
+
+    task = TaskSpec(forward_step=0.25, turn_deg=30.0, hfov_deg=79.0, max_episode_steps=500,
+                    goal_categories=("refrigerator", "centrifuge"), control_mode="discrete", robot_radius=0.2)
+    det = make_detector("gt")
+    assert isinstance(det, GTSegmentationDetector)
+    det.reset(task)
+    semantic = np.zeros((120, 160), np.int16)
+    semantic[10:30, 10:30] = 2  # 400 centrifuge pixels
+    semantic[50:53, 50:53] = 1  # 9 refrigerator pixels: fewer than 150 at 640x480 (9.4 at 160x120)
+    obs = {"extra": {"semantic_category": torch.from_numpy(semantic)[None, ..., None]}}
+    mask = det.detect(obs, "centrifuge")
+    assert mask.shape == (120, 160) and mask.sum() == 400 and mask[10:30, 10:30].all()
+    assert not det.detect(obs, "refrigerator").any()
+    with pytest.raises(PerceptionError, match="semantic_category"):
+        det.detect({"extra": {}}, "centrifuge")
 
 
 def test_offline_scorer_projects_imagenet_classes_onto_the_target(monkeypatch):
@@ -76,11 +99,11 @@ def test_clip_scorer_loads_from_a_local_directory(tmp_path):
     for c in string.ascii_lowercase + ".":
         vocab[c] = len(vocab)
         vocab[c + "</w>"] = len(vocab)
-    proc = CLIPProcessor(image_processor=CLIPImageProcessorPil(size={"shortest_edge": 32}, crop_size={"height": 32, "width": 32}),
-                         tokenizer=CLIPTokenizer(vocab=vocab, merges=[]))
-    small = dict(hidden_size=32, intermediate_size=64, num_hidden_layers=1, num_attention_heads=2)
-    cfg = CLIPConfig(text_config=dict(vocab_size=len(vocab), max_position_embeddings=77, bos_token_id=0, eos_token_id=1,
-                                      pad_token_id=1, **small),
+    image_processor = CLIPImageProcessorPil(size={"shortest_edge": 32}, crop_size={"height": 32, "width": 32})
+    proc = CLIPProcessor(image_processor=image_processor, tokenizer=CLIPTokenizer(vocab=vocab, merges=[]))
+    small = {"hidden_size": 32, "intermediate_size": 64, "num_hidden_layers": 1, "num_attention_heads": 2}
+    cfg = CLIPConfig(text_config=dict(vocab_size=len(vocab), max_position_embeddings=77, bos_token_id=0,
+                                      eos_token_id=1, pad_token_id=1, **small),
                      vision_config=dict(image_size=32, patch_size=8, **small), projection_dim=16)
     torch.manual_seed(0)
     CLIPModel(cfg).save_pretrained(tmp_path)  # a tiny random CLIP: the loading path, not the accuracy
@@ -101,11 +124,13 @@ def dataset(held_out_dataset):
 
 
 def test_vlfm_with_the_gt_detector_through_the_harness(dataset, tmp_path):
-    summary = evaluate(EvalConfig("vlfm", "ms_val", str(tmp_path), dataset, workers=1, camera=(320, 240)), progress=False)
+    cfg = EvalConfig("vlfm", "ms_val", str(tmp_path), dataset, workers=1, camera=(320, 240))
+    summary = evaluate(cfg, progress=False)
     recs = load_records(tmp_path / "vlfm" / "ms_val" / "episodes.jsonl")
     assert summary["overall"]["episodes"] == 3 and not any(r.get("error") for r in recs)
     stats = [r["policy_stats"] for r in recs]
-    assert all(s["detector"] == "gt-segmentation" and s["scorer"] == "efficientnet-lite0+minilm" for s in stats)
+    assert all(s["detector"] == "gt-segmentation" for s in stats)
+    assert all(s["scorer"] == "efficientnet-lite0+minilm" for s in stats)
     assert {s["label"] for s in stats} == {"VLFM (GT detector)"}
     assert any(s["object_seen"] for s in stats)  # the target is found in this small room
     assert summary["overall"]["sr"] > 0

@@ -1,8 +1,9 @@
 """Object detectors for VLFM: which pixels of this frame show an instance of the target category?
 
-- ``GTSegmentationDetector`` (the offline default): the simulator's per-instrument segmentation, a
-  perfect detector. Results with it are labelled "VLFM (GT detector)": they bound what a perfect
-  Grounding-DINO + SAM stage would give, not what the paper's VLM stack gives.
+- ``GTSegmentationDetector`` (the offline default): the simulator's ``semantic_category`` sensor (per
+  pixel, 1 + the goal category index of the object seen), a perfect detector. Results with it are
+  labelled "VLFM (GT detector)": they bound what a perfect Grounding-DINO + SAM stage would give, not
+  what the paper's VLM stack gives.
 - ``OwlViTDetector``: an open-vocabulary detector (Hugging Face OWL-ViT / OWLv2) from a local directory;
   its boxes (score >= threshold) become masks over the depth pixels inside them.
 """
@@ -15,10 +16,14 @@ from typing import Protocol
 import numpy as np
 
 from biovln_ms.perception.scorers import PerceptionError, load_local_model
+from biovln_ms.task_config import TaskSpec
 
 
 class Detector(Protocol):
     name: str
+
+    def reset(self, task: TaskSpec) -> None:
+        """Start an episode of ``task``."""
 
     def detect(self, obs: dict, target: str) -> np.ndarray:
         """A boolean (H, W) mask of the target's pixels in the head camera frame (all False: not seen)."""
@@ -29,29 +34,26 @@ def head_camera(obs: dict) -> dict:
 
 
 class GTSegmentationDetector:
+    """The target's pixels are those the ``semantic_category`` sensor labels with its goal category."""
+
     name = "gt-segmentation"
 
-    def __init__(self, env, min_pixels: int = 150) -> None:
-        """``env``: the BioVLN env (its ``instrument_segmentation()`` maps ids to categories);
-        ``min_pixels`` at 640x480 (scaled with the image area) for a detection to count."""
-        self.env = env
+    def __init__(self, min_pixels: int = 150) -> None:
+        """``min_pixels`` at 640x480 (scaled with the image area) for a detection to count."""
         self.min_pixels = min_pixels
-        self._ids: dict[str, np.ndarray] = {}
-        self._scene = None
+        self.goal_categories: tuple[str, ...] = ()
+
+    def reset(self, task: TaskSpec) -> None:
+        """The sensor's labels index ``task.goal_categories``."""
+        self.goal_categories = task.goal_categories
 
     def detect(self, obs: dict, target: str) -> np.ndarray:
-        cam = head_camera(obs)
-        if "segmentation" not in cam:
-            raise PerceptionError("the GT detector needs the segmentation camera", field="obs_mode",
+        if "semantic_category" not in obs["extra"]:
+            raise PerceptionError("the GT detector needs the semantic_category sensor", field="obs_mode",
                                   fix="make the env with obs_mode='rgb+depth+segmentation'")
-        seg = cam["segmentation"][0, ..., 0].cpu().numpy()
-        if self._scene != self.env.scene_spec.name:  # ids change with the scene
-            self._ids, self._scene = {}, self.env.scene_spec.name
-        if target not in self._ids:
-            self._ids[target] = np.array([sid for sid, (_, cat) in self.env.instrument_segmentation().items()
-                                          if cat == target], np.int64)
-        mask = np.isin(seg, self._ids[target])
-        scaled = self.min_pixels * seg.size / (640 * 480)
+        semantic = _numpy(obs["extra"]["semantic_category"][0, ..., 0])
+        mask = semantic == 1 + self.goal_categories.index(target)
+        scaled = self.min_pixels * semantic.size / (640 * 480)
         return mask if mask.sum() >= scaled else np.zeros_like(mask)
 
 
@@ -64,6 +66,9 @@ class OwlViTDetector:
                                                       "AutoModelForZeroShotObjectDetection", "AutoProcessor")
         self.threshold = threshold
         self.name = f"owlvit:{model_dir.name}"
+
+    def reset(self, task: TaskSpec) -> None:
+        """Nothing per episode: the prompt is the target's name."""
 
     def detect(self, obs: dict, target: str) -> np.ndarray:
         import torch
@@ -82,10 +87,15 @@ class OwlViTDetector:
         return mask
 
 
-def make_detector(spec: str, env) -> Detector:
-    """``"gt"`` (simulator segmentation) or ``"owlvit:<directory>"``."""
+def _numpy(x) -> np.ndarray:
+    return x.cpu().numpy() if hasattr(x, "cpu") else np.asarray(x)
+
+
+def make_detector(spec: str) -> Detector:
+    """``"gt"`` (the simulator's semantic sensor) or ``"owlvit:<directory>"``."""
     if spec == "gt":
-        return GTSegmentationDetector(env)
+        return GTSegmentationDetector()
     if spec.startswith("owlvit:"):
         return OwlViTDetector(spec.removeprefix("owlvit:"))
-    raise PerceptionError(f"unknown detector '{spec}'", field="detector", fix="use 'gt' or 'owlvit:/path/to/saved/owlvit'")
+    raise PerceptionError(f"unknown detector '{spec}'", field="detector",
+                          fix="use 'gt' or 'owlvit:/path/to/saved/owlvit'")

@@ -1,0 +1,96 @@
+"""The frontier baseline's controller: follows the planner's path with the discrete actions (paper §4.3).
+
+Each step it re-plans when due (every ``replan_every`` steps, when the path ran out, when an
+exploration target is reached, or after a blocked move), turns toward the next waypoint when the
+heading error exceeds half a turn and otherwise moves forward. A FORWARD that did not move marks an
+obstacle just ahead (contact the depth map missed, e.g. a low object). With no path it turns left
+to look around, banning an unreachable frontier, and gives up with STOP after ``stuck_turns`` steps.
+
+STOP rule (towards a target to stop at, mode "goal"): STOP within half a step of it, or, with the
+target in sight (at most two waypoints left), when a forward step would not bring it closer.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from biovln_ms.agents.frontier_map import OccupancyMap
+from biovln_ms.agents.frontier_params import FrontierParams
+from biovln_ms.agents.frontier_planner import FrontierPlanner, Plan
+from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT
+
+
+def heading(yaw: float) -> np.ndarray:
+    """The unit ground vector of heading ``yaw``."""
+    return np.array([math.cos(yaw), math.sin(yaw)])
+
+
+class FrontierController:
+    """Turns plans into actions; ``plan`` is the current one (mode, target, remaining waypoints)."""
+
+    def __init__(self, params: FrontierParams, step_len: float, turn: float, occ_map: OccupancyMap,
+                 planner: FrontierPlanner) -> None:
+        """``step_len``: m per FORWARD; ``turn``: radians per TURN_LEFT / TURN_RIGHT."""
+        self.params, self.step_len, self.turn = params, step_len, turn
+        self.occ_map, self.planner = occ_map, planner
+        self.plan: Plan | None = None
+        self._since_plan = 0
+        self._replan_now = True
+        self._last: tuple[np.ndarray, int] | None = None  # position and action of the previous step
+        self._stuck = 0
+
+    @property
+    def target(self) -> np.ndarray | None:
+        return None if self.plan is None else self.plan.target
+
+    def act(self, pose: np.ndarray) -> int:
+        """The action at ``pose`` (x, y, yaw)."""
+        p, yaw = pose[:2], float(pose[2])
+        if self._blocked(p):  # contact the map missed: mark it and re-plan
+            self.occ_map.mark_occupied(p + (self.params.robot_radius + self.occ_map.res) * heading(yaw))
+            self._replan_now = True
+        plan = self.plan
+        if plan is not None and plan.mode == "goal" and np.linalg.norm(plan.target - p) < self.step_len / 2:
+            return self.record(p, STOP)
+        if self._replan_due(p):
+            self.plan = self.planner.plan(self.occ_map, pose)
+            self._since_plan, self._replan_now = 0, False
+        self._since_plan += 1
+        if not self.plan.path:
+            if self.plan.mode == "explore":
+                self.planner.ban(self.plan.target)
+            self._stuck += 1
+            return self.record(p, TURN_LEFT if self._stuck < self.params.stuck_turns else STOP)
+        self._stuck = 0
+        return self.record(p, self._follow(p, yaw))
+
+    def record(self, p: np.ndarray, action: int) -> int:
+        """Remember the step's position and action (to detect a blocked move next step); returns it."""
+        self._last = (p.copy(), action)
+        return action
+
+    def _blocked(self, p: np.ndarray) -> bool:
+        return (self._last is not None and self._last[1] == FORWARD
+                and np.linalg.norm(p - self._last[0]) < self.params.blocked_move)
+
+    def _replan_due(self, p: np.ndarray) -> bool:
+        plan = self.plan
+        return (self._replan_now or self._since_plan >= self.params.replan_every or not plan.path
+                or (plan.mode == "explore" and np.linalg.norm(plan.target - p) < self.params.waypoint_reach))
+
+    def _follow(self, p: np.ndarray, yaw: float) -> int:
+        """Pass the waypoints reached (keeping the last), then turn toward the next or move forward."""
+        path = self.plan.path
+        while len(path) > 1 and np.linalg.norm(path[0] - p) < self.params.waypoint_reach:
+            path.pop(0)
+        wp = path[0]
+        err = (math.atan2(wp[1] - p[1], wp[0] - p[0]) - yaw + math.pi) % (2 * math.pi) - math.pi
+        if abs(err) > self.turn / 2:
+            return TURN_LEFT if err > 0 else TURN_RIGHT
+        if self.plan.mode == "goal" and len(path) <= 2:
+            d = np.linalg.norm(self.plan.target - p)
+            if np.linalg.norm(self.plan.target - (p + self.step_len * heading(yaw))) >= d:
+                return STOP
+        return FORWARD

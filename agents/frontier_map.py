@@ -1,0 +1,112 @@
+"""The frontier baseline's occupancy grid, built from head-camera depth like a laser scan (paper §4.3)."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from biovln_ms.agents.frontier_params import FrontierParams
+
+UNKNOWN, FREE, OCCUPIED = 0, 1, 2
+SCAN_COLUMNS = 320  # image columns sampled per frame: rays 5 m away are ~2 cm apart
+RAY_STEP = 0.7  # cells between the samples that mark a ray's cells free
+
+
+class Scan(NamedTuple):
+    """One depth frame as a laser scan: camera ground position, per-column unit direction, free length."""
+
+    cam: np.ndarray
+    direction: np.ndarray
+    free_len: np.ndarray
+
+
+def backproject(z: np.ndarray, u: np.ndarray, v: np.ndarray, intrinsic: np.ndarray,
+                extrinsic: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World points (..., 3) of pixels (u, v) at depth z (OpenCV camera conventions), and the camera
+    centre."""
+    fx, fy, cx, cy = intrinsic[0, 0], intrinsic[1, 1], intrinsic[0, 2], intrinsic[1, 2]
+    pc = np.stack([(u - cx) * z / fx, (v - cy) * z / fy, z], axis=-1)
+    R, t = extrinsic[:3, :3], extrinsic[:3, 3]
+    return (pc - t) @ R, -R.T @ t  # world = R^T (p - t)
+
+
+class OccupancyMap:
+    """A fixed-size grid centred on the start; ``lo``/``hi`` bound the observed part (rows, cols)."""
+
+    def __init__(self, centre_xy, resolution: float = FrontierParams.resolution,
+                 extent: float = FrontierParams.extent) -> None:
+        self.res = resolution
+        self.n = round(extent / resolution)
+        self.origin = np.asarray(centre_xy, float) - extent / 2
+        self.grid = np.zeros((self.n, self.n), np.uint8)
+        self.lo = np.array([self.n, self.n])
+        self.hi = np.array([0, 0])
+
+    def cell(self, xy) -> np.ndarray:
+        """The (row, col) of world point(s) ``xy`` (..., 2)."""
+        return np.floor((np.asarray(xy, float) - self.origin) / self.res).astype(int)[..., ::-1]
+
+    def centre(self, rc) -> np.ndarray:
+        """The world (x, y) of the centre of cell(s) ``rc`` (..., 2)."""
+        rc = np.asarray(rc)
+        return self.origin + (rc[..., ::-1] + 0.5) * self.res
+
+    def _grow_bbox(self, rc: np.ndarray) -> None:
+        if len(rc):
+            self.lo = np.minimum(self.lo, rc.min(0))
+            self.hi = np.maximum(self.hi, rc.max(0) + 1)
+
+    def integrate(self, depth_m: np.ndarray, intrinsic: np.ndarray, extrinsic: np.ndarray,
+                  stride: int = FrontierParams.pixel_stride, clip: float = FrontierParams.depth_clip,
+                  floor_z: float = FrontierParams.floor_z, top_z: float = FrontierParams.top_z,
+                  column_stride: int | None = None) -> Scan:
+        """Add one depth frame. The camera is level, so every image column maps to one ground
+        azimuth: per column the cells up to the nearest obstacle point are free (a laser scan from
+        depth); every sampled pixel between ``floor_z`` and ``top_z`` marks an obstacle. Rows are
+        sampled every ``stride`` pixels, columns about ``SCAN_COLUMNS`` across the image.
+        Returns the scan (camera position, per-column ground direction and free length)."""
+        h, w = depth_m.shape
+        column_stride = column_stride or max(1, w // SCAN_COLUMNS)
+        v, u = np.mgrid[stride // 2:h:stride, column_stride // 2:w:column_stride]
+        z = depth_m[v, u]
+        hit = (z > 0) & (z <= clip)
+        pw, cam = backproject(np.where(hit, z, clip), u, v, intrinsic, extrinsic)
+        d2 = np.linalg.norm(pw[..., :2] - cam[:2], axis=-1)
+        obstacle = hit & (pw[..., 2] > floor_z) & (pw[..., 2] < top_z)
+        nearest = np.where(obstacle, d2, np.inf).min(axis=0)
+        seen = np.where(hit, d2, 0.0).max(axis=0)
+        free_len = np.where(np.isfinite(nearest), nearest - self.res, seen)
+        # ground direction of each column (from its farthest point)
+        direction = pw[-1, :, :2] - cam[:2]
+        direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-9)
+        scan = Scan(cam[:2], direction, free_len)
+        rc, _ = self.ray_cells(scan)
+        keep = self.grid[rc[:, 0], rc[:, 1]] != OCCUPIED
+        self.grid[rc[keep, 0], rc[keep, 1]] = FREE
+        orc = self.cell(pw[obstacle][:, :2])
+        orc = orc[self._in_bounds(orc)]
+        self.grid[orc[:, 0], orc[:, 1]] = OCCUPIED
+        self._grow_bbox(rc)
+        self._grow_bbox(orc)
+        return scan
+
+    def ray_cells(self, scan: Scan) -> tuple[np.ndarray, np.ndarray]:
+        """Grid cells (row, col) along each column's free ray, sampled every ``RAY_STEP`` cell, and the
+        column of each."""
+        steps = np.maximum(1, (scan.free_len / (self.res * RAY_STEP)).astype(int))
+        owner = np.repeat(np.arange(len(steps)), steps)
+        frac = (np.arange(owner.size) - np.repeat(np.cumsum(steps) - steps, steps)) / np.repeat(steps, steps)
+        pts = scan.cam + scan.direction[owner] * (scan.free_len[owner] * frac)[:, None]
+        rc = self.cell(pts)
+        ok = self._in_bounds(rc)
+        return rc[ok], owner[ok]
+
+    def _in_bounds(self, rc: np.ndarray) -> np.ndarray:
+        """Mask of the (row, col) cells that lie on the grid."""
+        return (rc[:, 0] >= 0) & (rc[:, 1] >= 0) & (rc[:, 0] < self.n) & (rc[:, 1] < self.n)
+
+    def mark_occupied(self, xy) -> None:
+        """Mark the cell of world point ``xy`` as an obstacle."""
+        rc = self.cell(xy)
+        self.grid[rc[0], rc[1]] = OCCUPIED

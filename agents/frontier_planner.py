@@ -1,0 +1,197 @@
+"""The frontier baseline's planner: where to go next on the occupancy map, and by which path (paper §4.3).
+
+Path lengths come from Dijkstra over the known-free cells of the observed part of the map, with
+obstacles grown by the robot radius plus a margin (:class:`PlanField`). Frontiers are free cells next
+to unknown ones; their 8-connected groups are split into square tiles of the cluster diameter
+(2 x 1.0 m, Table 15), and every tile of at least 10 cells with a reachable cell is a candidate, at
+its reachable cell nearest the robot. Which target wins is decided by the policy's
+:class:`TargetRules`: a known target first (the frontier baseline's goal, VLFM's detected object),
+else the chosen frontier, else the exhausted fallback.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple, Protocol
+
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from biovln_ms.agents.frontier_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap
+from biovln_ms.agents.frontier_params import FrontierParams
+
+CROP_PAD = 2  # cells kept around the observed part of the map, so that its border cells have neighbours
+_NEIGHBOURS = [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)]
+
+
+class Candidate(NamedTuple):
+    """A frontier tile the robot may explore."""
+
+    path_length: float  # m from the robot
+    position: np.ndarray  # world (x, y) of the tile's reachable cell nearest the robot
+    cells: int  # frontier cells in the tile
+
+
+class Plan(NamedTuple):
+    """``mode``: "explore" (to a frontier) or "goal" (to a target to stop at); the path's waypoints end
+    at the target's cell and are empty when it is unreachable."""
+
+    mode: str
+    target: np.ndarray
+    path: list[np.ndarray]
+
+
+@dataclass
+class PlanField:
+    """Shortest path lengths from the robot over the traversable cells of the map's observed crop."""
+
+    occ_map: OccupancyMap
+    lo: np.ndarray  # the crop's first (row, col) on the map
+    grid: np.ndarray  # the crop of the map
+    trav: np.ndarray  # known free and clear of the grown obstacles, plus the robot's own cell
+    index: np.ndarray  # graph node of each traversable cell (row-major), -1 elsewhere
+    dist: np.ndarray  # path length in cells from the robot, per node (inf: unreachable)
+    pred: np.ndarray  # Dijkstra predecessor per node (negative at the robot and for unreachable nodes)
+
+    @classmethod
+    def compute(cls, occ_map: OccupancyMap, start_xy: np.ndarray, inflate_cells: int) -> PlanField:
+        lo = np.maximum(occ_map.lo - CROP_PAD, 0)
+        hi = np.minimum(occ_map.hi + CROP_PAD, occ_map.n)
+        g = occ_map.grid[lo[0]:hi[0], lo[1]:hi[1]]
+        occ = ndimage.binary_dilation(g == OCCUPIED, iterations=inflate_cells)
+        trav = (g == FREE) & ~occ
+        s = np.clip(occ_map.cell(start_xy) - lo, 0, np.array(g.shape) - 1)
+        trav[s[0], s[1]] = True  # the robot's own cell
+        index = -np.ones(g.shape, int)
+        index[trav] = np.arange(trav.sum())
+        rows, cols, wts = [], [], []
+        ys, xs = np.nonzero(trav)
+        for dy, dx in _NEIGHBOURS:
+            y2, x2 = ys + dy, xs + dx
+            ok = (y2 >= 0) & (y2 < g.shape[0]) & (x2 >= 0) & (x2 < g.shape[1])
+            ok[ok] &= trav[y2[ok], x2[ok]]
+            rows.append(index[ys[ok], xs[ok]])
+            cols.append(index[y2[ok], x2[ok]])
+            wts.append(np.full(ok.sum(), math.hypot(dy, dx)))
+        n = int(trav.sum())
+        edges = (np.concatenate(rows), np.concatenate(cols))
+        graph = coo_matrix((np.concatenate(wts), edges), shape=(n, n)).tocsr()
+        dist, pred = dijkstra(graph, indices=index[s[0], s[1]], return_predecessors=True)
+        return cls(occ_map, lo, g, trav, index, dist, pred)
+
+    def reachable(self) -> np.ndarray:
+        """Mask (over the crop) of the traversable cells the robot can reach."""
+        mask = np.zeros_like(self.trav)
+        mask[self.trav] = np.isfinite(self.dist)
+        return mask
+
+    def reachable_centres(self) -> np.ndarray:
+        """World (x, y) of the reachable cells, row-major."""
+        return self.occ_map.centre(np.argwhere(self.reachable()) + self.lo)
+
+    def is_reachable(self, xy: np.ndarray) -> bool:
+        """Whether the cell of world point ``xy`` is in the crop, traversable and reachable."""
+        rc = self.occ_map.cell(xy) - self.lo
+        if not ((0 <= rc).all() and (rc < np.array(self.grid.shape)).all()):
+            return False
+        node = self.index[rc[0], rc[1]]
+        return bool(node >= 0 and np.isfinite(self.dist[node]))
+
+    def path_to(self, xy: np.ndarray) -> list[np.ndarray]:
+        """Cell centres from the robot's cell to that of ``xy`` (empty when that cell is not traversable)."""
+        t = self.occ_map.cell(xy) - self.lo
+        node = self.index[t[0], t[1]]
+        if node < 0:
+            return []
+        chain = []
+        while node >= 0:
+            chain.append(node)
+            node = self.pred[node]
+        cells = np.argwhere(self.index >= 0)  # row-major: the nodes' numbering
+        return [self.occ_map.centre(cells[k] + self.lo) for k in chain[::-1]]
+
+
+class TargetRules(Protocol):
+    """The policy's decisions on a plan field (the frontier baseline's; VLFM and LLM-Frontier override)."""
+
+    def known_target(self, field: PlanField) -> np.ndarray | None:
+        """Where to go instead of exploring, or None."""
+
+    def choose(self, candidates: list[Candidate], pose: np.ndarray) -> np.ndarray:
+        """Which frontier to explore."""
+
+    def exhausted(self, field: PlanField, pose: np.ndarray) -> np.ndarray:
+        """Where to go (and stop) when no frontier is left."""
+
+
+class FrontierPlanner:
+    """Plans a target and its path on the map; frontiers found unreachable are banned for the episode."""
+
+    def __init__(self, params: FrontierParams, rules: TargetRules) -> None:
+        self.params, self.rules = params, rules
+        self.banned: list[np.ndarray] = []
+
+    def plan(self, occ_map: OccupancyMap, pose: np.ndarray) -> Plan:
+        """A known target if the rules have one, else the chosen frontier, else the exhausted fallback."""
+        field = PlanField.compute(occ_map, pose[:2], self.params.inflate_cells)
+        target = self.rules.known_target(field)
+        mode = "goal"
+        if target is None:
+            candidates = self.candidates(field)
+            if candidates:
+                mode, target = "explore", self.rules.choose(candidates, pose)
+            else:
+                target = self.rules.exhausted(field, pose)
+        return Plan(mode, target, field.path_to(target))
+
+    def ban(self, target: np.ndarray) -> None:
+        """No frontier within the cluster radius of ``target`` is a candidate any more."""
+        self.banned.append(target)
+
+    def candidates(self, field: PlanField) -> list[Candidate]:
+        """The reachable frontier tiles of at least ``min_frontier_cells`` cells, away from banned targets."""
+        p = self.params
+        eight = np.ones((3, 3))  # 8-connectivity
+        frontier = (field.grid == FREE) & ndimage.binary_dilation(field.grid == UNKNOWN, structure=eight)
+        labels, k = ndimage.label(frontier, structure=eight)
+        reachable = field.reachable()
+        tile = max(1, round(2 * p.cluster_radius / field.occ_map.res))
+        out = []
+        for lab in range(1, k + 1):
+            cells = np.argwhere(labels == lab)
+            keys = cells // tile  # a group wider than the cluster diameter is split into tiles of it
+            for key in np.unique(keys, axis=0):
+                part = cells[(keys == key).all(1)]
+                if len(part) < p.min_frontier_cells:
+                    continue
+                reach = part[reachable[part[:, 0], part[:, 1]]]
+                if not len(reach):
+                    continue
+                d = field.dist[field.index[reach[:, 0], reach[:, 1]]]
+                best = int(np.argmin(d))
+                world = field.occ_map.centre(reach[best] + field.lo)
+                if any(np.linalg.norm(world - b) < p.cluster_radius for b in self.banned):
+                    continue
+                out.append(Candidate(float(d[best]) * field.occ_map.res, world, len(part)))
+        return out
+
+
+def nearest_candidate(candidates: list[Candidate]) -> np.ndarray:
+    """The frontier with the shortest path (the first of equals)."""
+    return min(candidates, key=lambda c: c.path_length).position
+
+
+def goal_if_reachable(field: PlanField, goal: np.ndarray) -> np.ndarray | None:
+    """The goal, once its cell is known free and reachable on the map."""
+    return goal if field.is_reachable(goal) else None
+
+
+def nearest_reachable(field: PlanField, point: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """The reachable cell nearest ``point`` (``fallback`` when none is reachable)."""
+    world = field.reachable_centres()
+    if len(world) == 0:
+        return fallback
+    return world[np.argmin(np.linalg.norm(world - point, axis=1))]
