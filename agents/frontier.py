@@ -36,8 +36,20 @@ from biovln_ms.agents.frontier_planner import (
 )
 from biovln_ms.agents.policy import EpisodeInfo, Policy, TaskSpec
 
-__all__ = ["FREE", "OCCUPIED", "UNKNOWN", "FrontierParams", "FrontierPolicy", "OccupancyMap", "Scan",
-           "backproject", "goal_from_sensor", "head_frame", "pose_from_camera", "to_numpy"]
+__all__ = [
+    "FREE",
+    "OCCUPIED",
+    "UNKNOWN",
+    "FrontierParams",
+    "FrontierPolicy",
+    "OccupancyMap",
+    "Scan",
+    "backproject",
+    "goal_from_sensor",
+    "head_frame",
+    "pose_from_camera",
+    "to_numpy",
+]
 
 
 def to_numpy(x) -> np.ndarray:

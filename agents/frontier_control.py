@@ -30,8 +30,14 @@ def heading(yaw: float) -> np.ndarray:
 class FrontierController:
     """Turns plans into actions; ``plan`` is the current one (mode, target, remaining waypoints)."""
 
-    def __init__(self, params: FrontierParams, step_len: float, turn: float, occ_map: OccupancyMap,
-                 planner: FrontierPlanner) -> None:
+    def __init__(
+        self,
+        params: FrontierParams,
+        step_len: float,
+        turn: float,
+        occ_map: OccupancyMap,
+        planner: FrontierPlanner,
+    ) -> None:
         """``step_len``: m per FORWARD; ``turn``: radians per TURN_LEFT / TURN_RIGHT."""
         self.params, self.step_len, self.turn = params, step_len, turn
         self.occ_map, self.planner = occ_map, planner
@@ -72,13 +78,20 @@ class FrontierController:
         return action
 
     def _blocked(self, p: np.ndarray) -> bool:
-        return (self._last is not None and self._last[1] == FORWARD
-                and np.linalg.norm(p - self._last[0]) < self.params.blocked_move)
+        return (
+            self._last is not None
+            and self._last[1] == FORWARD
+            and np.linalg.norm(p - self._last[0]) < self.params.blocked_move
+        )
 
     def _replan_due(self, p: np.ndarray) -> bool:
         plan = self.plan
-        return (self._replan_now or self._since_plan >= self.params.replan_every or not plan.path
-                or (plan.mode == "explore" and np.linalg.norm(plan.target - p) < self.params.waypoint_reach))
+        return (
+            self._replan_now
+            or self._since_plan >= self.params.replan_every
+            or not plan.path
+            or (plan.mode == "explore" and np.linalg.norm(plan.target - p) < self.params.waypoint_reach)
+        )
 
     def _follow(self, p: np.ndarray, yaw: float) -> int:
         """Pass the waypoints reached (keeping the last), then turn toward the next or move forward."""

@@ -21,8 +21,9 @@ class Scan(NamedTuple):
     free_len: np.ndarray
 
 
-def backproject(z: np.ndarray, u: np.ndarray, v: np.ndarray, intrinsic: np.ndarray,
-                extrinsic: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def backproject(
+    z: np.ndarray, u: np.ndarray, v: np.ndarray, intrinsic: np.ndarray, extrinsic: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """World points (..., 3) of pixels (u, v) at depth z (OpenCV camera conventions), and the camera
     centre."""
     fx, fy, cx, cy = intrinsic[0, 0], intrinsic[1, 1], intrinsic[0, 2], intrinsic[1, 2]
@@ -34,8 +35,9 @@ def backproject(z: np.ndarray, u: np.ndarray, v: np.ndarray, intrinsic: np.ndarr
 class OccupancyMap:
     """A fixed-size grid centred on the start; ``lo``/``hi`` bound the observed part (rows, cols)."""
 
-    def __init__(self, centre_xy, resolution: float = FrontierParams.resolution,
-                 extent: float = FrontierParams.extent) -> None:
+    def __init__(
+        self, centre_xy, resolution: float = FrontierParams.resolution, extent: float = FrontierParams.extent
+    ) -> None:
         self.res = resolution
         self.n = round(extent / resolution)
         self.origin = np.asarray(centre_xy, float) - extent / 2
@@ -57,10 +59,17 @@ class OccupancyMap:
             self.lo = np.minimum(self.lo, rc.min(0))
             self.hi = np.maximum(self.hi, rc.max(0) + 1)
 
-    def integrate(self, depth_m: np.ndarray, intrinsic: np.ndarray, extrinsic: np.ndarray,
-                  stride: int = FrontierParams.pixel_stride, clip: float = FrontierParams.depth_clip,
-                  floor_z: float = FrontierParams.floor_z, top_z: float = FrontierParams.top_z,
-                  column_stride: int | None = None) -> Scan:
+    def integrate(
+        self,
+        depth_m: np.ndarray,
+        intrinsic: np.ndarray,
+        extrinsic: np.ndarray,
+        stride: int = FrontierParams.pixel_stride,
+        clip: float = FrontierParams.depth_clip,
+        floor_z: float = FrontierParams.floor_z,
+        top_z: float = FrontierParams.top_z,
+        column_stride: int | None = None,
+    ) -> Scan:
         """Add one depth frame. The camera is level, so every image column maps to one ground
         azimuth: per column the cells up to the nearest obstacle point are free (a laser scan from
         depth); every sampled pixel between ``floor_z`` and ``top_z`` marks an obstacle. Rows are
@@ -68,7 +77,7 @@ class OccupancyMap:
         Returns the scan (camera position, per-column ground direction and free length)."""
         h, w = depth_m.shape
         column_stride = column_stride or max(1, w // SCAN_COLUMNS)
-        v, u = np.mgrid[stride // 2:h:stride, column_stride // 2:w:column_stride]
+        v, u = np.mgrid[stride // 2 : h : stride, column_stride // 2 : w : column_stride]
         z = depth_m[v, u]
         hit = (z > 0) & (z <= clip)
         pw, cam = backproject(np.where(hit, z, clip), u, v, intrinsic, extrinsic)

@@ -20,7 +20,9 @@ class FrontierParams:
     # planner
     cluster_radius: float = 1.0  # m: frontier groups are split into tiles of this diameter (Table 15)
     min_frontier_cells: int = 10  # a smaller frontier tile is no candidate (Table 15)
-    robot_radius: float | None = None  # m: obstacles are grown by robot_radius + margin; None: the robot's (TaskSpec)
+    robot_radius: float | None = (
+        None  # m: obstacles are grown by robot_radius + margin; None: the robot's (TaskSpec)
+    )
     margin: float = 0.05  # m (Table 15)
     # controller
     replan_every: int = 4  # steps between re-plans (Table 15)

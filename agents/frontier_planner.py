@@ -60,7 +60,7 @@ class PlanField:
     def compute(cls, occ_map: OccupancyMap, start_xy: np.ndarray, inflate_cells: int) -> PlanField:
         lo = np.maximum(occ_map.lo - CROP_PAD, 0)
         hi = np.minimum(occ_map.hi + CROP_PAD, occ_map.n)
-        g = occ_map.grid[lo[0]:hi[0], lo[1]:hi[1]]
+        g = occ_map.grid[lo[0] : hi[0], lo[1] : hi[1]]
         occ = ndimage.binary_dilation(g == OCCUPIED, iterations=inflate_cells)
         trav = (g == FREE) & ~occ
         s = np.clip(occ_map.cell(start_xy) - lo, 0, np.array(g.shape) - 1)

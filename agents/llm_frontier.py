@@ -16,15 +16,22 @@ from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy
 from biovln_ms.agents.frontier_planner import Candidate
 from biovln_ms.agents.policy import EpisodeInfo
 
-SYSTEM = ("You guide a mobile robot exploring a biomedical laboratory to reach an instrument. Answer with a "
-          'JSON object {"choice": k} where k is the index of the frontier to explore next.')
+SYSTEM = (
+    "You guide a mobile robot exploring a biomedical laboratory to reach an instrument. Answer with a "
+    'JSON object {"choice": k} where k is the index of the frontier to explore next.'
+)
 
 
 class LLMFrontierPolicy(FrontierPolicy):
     name = "llm_frontier"
 
-    def __init__(self, client=None, equidistance_threshold: float = 1.0, top_k: int = 3,
-                 params: FrontierParams | None = None) -> None:
+    def __init__(
+        self,
+        client=None,
+        equidistance_threshold: float = 1.0,
+        top_k: int = 3,
+        params: FrontierParams | None = None,
+    ) -> None:
         super().__init__(params)
         if client is None:
             from biovln_ms.llm.client import JSONChatClient
@@ -52,16 +59,31 @@ class LLMFrontierPolicy(FrontierPolicy):
         if len(near) < 2:
             return ranked[0].position
         self.consulted += 1
-        prompt = json.dumps({
-            "target_instrument": self.category.replace("_", " "),
-            "agent_position_m": [round(float(pose[0]), 2), round(float(pose[1]), 2)],
-            "agent_heading_rad": round(float(pose[2]), 2),
-            "frontiers": [{"index": i, "position_m": [round(float(x), 2) for x in c.position[:2]],
-                           "path_length_m": round(float(c.path_length), 2), "size_cells": int(c.cells)}
-                          for i, c in enumerate(near)],
-        })
-        answer = self.client.ask(SYSTEM, prompt, validate=lambda o: isinstance(o.get("choice"), int)
-                                 and not isinstance(o.get("choice"), bool) and 0 <= o["choice"] < len(near))
+        prompt = json.dumps(
+            {
+                "target_instrument": self.category.replace("_", " "),
+                "agent_position_m": [round(float(pose[0]), 2), round(float(pose[1]), 2)],
+                "agent_heading_rad": round(float(pose[2]), 2),
+                "frontiers": [
+                    {
+                        "index": i,
+                        "position_m": [round(float(x), 2) for x in c.position[:2]],
+                        "path_length_m": round(float(c.path_length), 2),
+                        "size_cells": int(c.cells),
+                    }
+                    for i, c in enumerate(near)
+                ],
+            }
+        )
+        answer = self.client.ask(
+            SYSTEM,
+            prompt,
+            validate=lambda o: (
+                isinstance(o.get("choice"), int)
+                and not isinstance(o.get("choice"), bool)
+                and 0 <= o["choice"] < len(near)
+            ),
+        )
         if answer is None:
             self.fallbacks += 1
             return ranked[0].position

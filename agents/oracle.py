@@ -37,7 +37,9 @@ class PointFollower:
         d = float(np.linalg.norm(self.point - p))
         if d < self.step_len / 2:
             return STOP
-        blocked = self._last is not None and self._last[1] == FORWARD and np.linalg.norm(p - self._last[0]) < 0.02
+        blocked = (
+            self._last is not None and self._last[1] == FORWARD and np.linalg.norm(p - self._last[0]) < 0.02
+        )
         path = self.view.shortest_path(self.view.snap(p), self.point)
         target = next((q for q in path[1:] if np.linalg.norm(q - p) > 0.05), self.point)
         err = (math.atan2(target[1] - p[1], target[0] - p[0]) - yaw + math.pi) % (2 * math.pi) - math.pi

@@ -39,5 +39,4 @@ class Policy(ABC):
         """Start an episode."""
 
     @abstractmethod
-    def act(self, obs, info: dict) -> int:
-        ...
+    def act(self, obs, info: dict) -> int: ...

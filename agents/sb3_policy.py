@@ -22,8 +22,12 @@ class SB3Policy(Policy):
 
         path = Path(checkpoint)
         if not path.is_file():
-            raise BioVLNError("no such checkpoint", source=str(path), field="checkpoint",
-                              fix=f"train one: biovln-ms train {algo} --timesteps N --out DIR (it writes DIR/model.zip)")
+            raise BioVLNError(
+                "no such checkpoint",
+                source=str(path),
+                field="checkpoint",
+                fix=f"train one: biovln-ms train {algo} --timesteps N --out DIR (it writes DIR/model.zip)",
+            )
         self.model = load_sb3_model(path, algo)  # never unpickles: a checkpoint is untrusted input
         self.name = algo
         self.deterministic = deterministic
@@ -35,7 +39,10 @@ class SB3Policy(Policy):
         x = obs.cpu().numpy()[0] if hasattr(obs, "cpu") else np.asarray(obs)[0]
         expected = self.model.observation_space.shape
         if x.shape != expected:
-            raise BioVLNError(f"the model expects observations of shape {expected}, this env gives {x.shape}",
-                              field="env", fix="evaluate on the env it was trained on (--env BioVLN-OpFace-RL-v0)")
+            raise BioVLNError(
+                f"the model expects observations of shape {expected}, this env gives {x.shape}",
+                field="env",
+                fix="evaluate on the env it was trained on (--env BioVLN-OpFace-RL-v0)",
+            )
         action, _ = self.model.predict(x, deterministic=self.deterministic)
         return int(action) if np.ndim(action) == 0 else np.asarray(action, np.float32)

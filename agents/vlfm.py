@@ -36,9 +36,16 @@ class VLFMPolicy(FrontierPolicy):
     name = "vlfm"
     obs_mode = "rgb+depth+segmentation"
 
-    def __init__(self, detector="gt", scorer="default", detect_every: int = 5, score_every: int = 1,
-                 no_progress_limit: int = 100, min_object_points: int = 20,
-                 params: FrontierParams | None = None) -> None:
+    def __init__(
+        self,
+        detector="gt",
+        scorer="default",
+        detect_every: int = 5,
+        score_every: int = 1,
+        no_progress_limit: int = 100,
+        min_object_points: int = 20,
+        params: FrontierParams | None = None,
+    ) -> None:
         super().__init__(params)
         from biovln_ms.perception.scorers import make_scorer
 
@@ -90,7 +97,7 @@ class VLFMPolicy(FrontierPolicy):
         c_old, v_old = self.confidence[r, k], self.value[r, k]
         tot = np.maximum(c_old + c, 1e-9)
         self.value[r, k] = (c_old * v_old + c * score) / tot
-        self.confidence[r, k] = (c_old ** 2 + c ** 2) / tot
+        self.confidence[r, k] = (c_old**2 + c**2) / tot
 
     def _detect(self, obs) -> None:
         mask = self._detector.detect(obs, self.category)
@@ -108,6 +115,7 @@ class VLFMPolicy(FrontierPolicy):
     # --- target rules (overrides of the frontier policy's) ------------------------------------
     def choose(self, candidates: list[Candidate], pose: np.ndarray) -> np.ndarray:
         """The frontier with the highest value; the shorter path breaks ties."""
+
         def key(c: Candidate) -> tuple[float, float]:
             rc = self.map.cell(c.position)
             return (-round(float(self.value[rc[0], rc[1]]), 4), c.path_length)
@@ -152,7 +160,7 @@ class VLFMPolicy(FrontierPolicy):
         action = super().act(obs, info)
         p, current = self.pose[:2], self.control.target
         lo, hi = self.map.lo, self.map.hi
-        free = int(np.count_nonzero(self.map.grid[lo[0]:hi[0], lo[1]:hi[1]] == FREE))
+        free = int(np.count_nonzero(self.map.grid[lo[0] : hi[0], lo[1] : hi[1]] == FREE))
         d = float(np.linalg.norm(current - p)) if current is not None else math.inf
         best_free, best_d, target = self._best_progress
         if target is None or current is None or not np.array_equal(target, current):
@@ -161,13 +169,20 @@ class VLFMPolicy(FrontierPolicy):
             self._no_progress = 0
         else:
             self._no_progress += 1
-        self._best_progress = (max(free, best_free), min(d, best_d),
-                               None if current is None else np.array(current))
+        self._best_progress = (
+            max(free, best_free),
+            min(d, best_d),
+            None if current is None else np.array(current),
+        )
         if self._no_progress >= self.no_progress_limit:
             return self.control.record(p, STOP)
         return action
 
     def episode_stats(self) -> dict:
-        return {"detections": self.detections,
-                "object_seen": bool(len(self.object_points) >= self.min_object_points),
-                "detector": self._detector.name, "scorer": self.scorer.name, "label": self.label}
+        return {
+            "detections": self.detections,
+            "object_seen": bool(len(self.object_points) >= self.min_object_points),
+            "detector": self._detector.name,
+            "scorer": self.scorer.name,
+            "label": self.label,
+        }

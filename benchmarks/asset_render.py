@@ -37,12 +37,16 @@ def main() -> None:
     scene = new_scene()
     cam = scene.add_camera("bench", w, h, np.deg2rad(60), 0.05, 50)
     ref = scene.create_actor_builder()
-    ref.add_box_visual(half_size=[0.4, 0.4, 0.4], material=sapien.render.RenderMaterial(base_color=[0.6, 0.6, 0.6, 1]))
+    ref.add_box_visual(
+        half_size=[0.4, 0.4, 0.4], material=sapien.render.RenderMaterial(base_color=[0.6, 0.6, 0.6, 1])
+    )
     ref_actor = ref.build_kinematic(name="reference")
     cam.entity.set_pose(look_at_pose([-3.0, 1.0, 1.5], [0, 0, 0.5]))
     base = frame_ms(scene, cam, args.frames)
     scene.remove_entity(ref_actor)
-    print(f"device: {scene.render_system.device.name} ({device_kind(scene.render_system.device)}), {w}x{h}, {args.frames} frames")
+    print(
+        f"device: {scene.render_system.device.name} ({device_kind(scene.render_system.device)}), {w}x{h}, {args.frames} frames"
+    )
     print(f"{'reference (one box)':<22} {base:8.2f} ms/frame   1.00x")
     for plan in plans(load_catalog()):
         b = scene.create_actor_builder()

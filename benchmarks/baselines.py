@@ -24,7 +24,9 @@ def raw_render_rate() -> float:
     import biovln_ms  # noqa: F401
     from biovln_ms.render.sapien_utils import raw_camera_rate as rate
 
-    env = gym.make("BioVLN-OpFace-v0", split="ms_val", obs_mode="rgbd", sim_backend="physx_cpu", render_backend="cpu")
+    env = gym.make(
+        "BioVLN-OpFace-v0", split="ms_val", obs_mode="rgbd", sim_backend="physx_cpu", render_backend="cpu"
+    )
     env.reset(seed=0)
     r = rate(env, 40)
     env.close()

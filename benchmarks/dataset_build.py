@@ -29,9 +29,13 @@ def main() -> None:
     build = time.perf_counter() - t
     total = sum(s["episodes"] for k, s in m["splits"].items() if k == "full")
     bench = sum(s["episodes"] for k, s in m["splits"].items() if k not in ("full", "train"))
-    print(f"scene specs: {specs:.2f} s; episodes + files: {build:.2f} s; total {specs + build:.2f} s (budget 60 s)")
-    print(f"{len(m['scenes'])} scenes, {total} episodes in 'full', {bench} in the benchmark splits "
-          f"-> whole build = {(specs + build) / specs:.1f}x the spec generation alone")
+    print(
+        f"scene specs: {specs:.2f} s; episodes + files: {build:.2f} s; total {specs + build:.2f} s (budget 60 s)"
+    )
+    print(
+        f"{len(m['scenes'])} scenes, {total} episodes in 'full', {bench} in the benchmark splits "
+        f"-> whole build = {(specs + build) / specs:.1f}x the spec generation alone"
+    )
 
 
 if __name__ == "__main__":

@@ -56,9 +56,14 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(1)
     rows = []
-    for label, obs_mode, w, h in (("640x480 RGB-D", "rgbd", 640, 480), ("128x128 RGB-D", "rgbd", 128, 128),
-                                  ("state only", "state", 128, 128)):
-        env = gym.make("BioVLN-OpFace-v0", split="ms_val", obs_mode=obs_mode, camera_width=w, camera_height=h, **CPU)
+    for label, obs_mode, w, h in (
+        ("640x480 RGB-D", "rgbd", 640, 480),
+        ("128x128 RGB-D", "rgbd", 128, 128),
+        ("state only", "state", 128, 128),
+    ):
+        env = gym.make(
+            "BioVLN-OpFace-v0", split="ms_val", obs_mode=obs_mode, camera_width=w, camera_height=h, **CPU
+        )
         env.reset(seed=0)
         raw = raw_camera_rate(env, max(20, args.steps // 5)) if obs_mode != "state" else None
         rate = step_rate(env, args.steps if obs_mode != "state" else args.steps * 5)
@@ -66,7 +71,9 @@ def main() -> None:
         env.close()
     print(f"{'mode':<16} {'env steps/s':>12} {'raw SAPIEN frames/s':>20} {'ratio':>7}")
     for label, rate, raw in rows:
-        print(f"{label:<16} {rate:12.0f} {raw if raw else float('nan'):20.0f} {rate / raw if raw else float('nan'):7.2f}")
+        print(
+            f"{label:<16} {rate:12.0f} {raw if raw else float('nan'):20.0f} {rate / raw if raw else float('nan'):7.2f}"
+        )
 
     # Resets: same scene vs new scene (state obs, so the timing is the env's, not a frame's).
     env = gym.make("BioVLN-OpFace-v0", split="ms_dev", obs_mode="state", **CPU)
@@ -87,8 +94,10 @@ def main() -> None:
         t = time.perf_counter()
         env.reset(options={"episode_index": idx})
         new.append(time.perf_counter() - t)
-    print(f"reset, same scene: median {np.median(same) * 1e3:.1f} ms (budget 20 ms); "
-          f"new scene: median {np.median(new) * 1e3:.0f} ms, max {max(new) * 1e3:.0f} ms (budget 500 ms)")
+    print(
+        f"reset, same scene: median {np.median(same) * 1e3:.1f} ms (budget 20 ms); "
+        f"new scene: median {np.median(new) * 1e3:.0f} ms, max {max(new) * 1e3:.0f} ms (budget 500 ms)"
+    )
     gc.collect()
     gc.freeze()
     marks = {}
@@ -97,7 +106,10 @@ def main() -> None:
         env.reset(options={"episode_index": by_scene[scene][k % len(by_scene[scene])]})
         if k + 1 in (100, args.resets // 2, args.resets):
             marks[k + 1] = rss_mb()
-    print("resident memory over resets (a new scene every 10): " + ", ".join(f"{k}: {v:.0f} MB" for k, v in marks.items()))
+    print(
+        "resident memory over resets (a new scene every 10): "
+        + ", ".join(f"{k}: {v:.0f} MB" for k, v in marks.items())
+    )
     env.close()
 
 

@@ -43,21 +43,44 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
     raw = raw_state_rate()
-    r = train_and_evaluate(RLConfig(algo="ppo", timesteps=args.timesteps, n_envs=args.n_envs, seed=args.seed), args.out / "ppo")
-    rnd = evaluate(EvalConfig("random", "ms_val", str(args.out / "ppo" / "eval"), env_id=RL_ENV, workers=args.n_envs))
+    r = train_and_evaluate(
+        RLConfig(algo="ppo", timesteps=args.timesteps, n_envs=args.n_envs, seed=args.seed), args.out / "ppo"
+    )
+    rnd = evaluate(
+        EvalConfig("random", "ms_val", str(args.out / "ppo" / "eval"), env_id=RL_ENV, workers=args.n_envs)
+    )
     ppo = r.eval_summary["overall"]
     rows = [("PPO", ppo), ("Random", rnd["overall"])]
-    lines = [f"PPO on {RL_ENV}: {r.timesteps} timesteps in {r.minutes:.1f} min on this machine "
-             f"({r.steps_per_second:.0f} steps/s with {args.n_envs} envs; the env alone: {raw:.0f} steps/s in one process, "
-             f"ratio {r.steps_per_second / raw:.2f})", "",
-             "| MS VAL (RL variant) | episodes | SR % | SPL | MCR m | VRT % |", "|---|---|---|---|---|---|"]
-    lines += [f"| {n} | {o['episodes']} | {o['sr']:.1f} | {o['spl']:.3f} | {o['mcr']:.3f} | {o['vrt']:.1f} |" for n, o in rows]
+    lines = [
+        f"PPO on {RL_ENV}: {r.timesteps} timesteps in {r.minutes:.1f} min on this machine "
+        f"({r.steps_per_second:.0f} steps/s with {args.n_envs} envs; the env alone: {raw:.0f} steps/s in one process, "
+        f"ratio {r.steps_per_second / raw:.2f})",
+        "",
+        "| MS VAL (RL variant) | episodes | SR % | SPL | MCR m | VRT % |",
+        "|---|---|---|---|---|---|",
+    ]
+    lines += [
+        f"| {n} | {o['episodes']} | {o['sr']:.1f} | {o['spl']:.3f} | {o['mcr']:.3f} | {o['vrt']:.1f} |"
+        for n, o in rows
+    ]
     text = "\n".join(lines)
     print(text)
-    (args.out / "summary.md").write_text(text + f"\n\nLearning curve: {args.out / 'ppo' / 'learning_curve.png'}\n")
-    (args.out / "summary.json").write_text(json.dumps({"ppo": ppo, "random": rnd["overall"], "timesteps": r.timesteps,
-                                                       "minutes": r.minutes, "steps_per_second": r.steps_per_second,
-                                                       "env_state_steps_per_second": raw}, indent=1))
+    (args.out / "summary.md").write_text(
+        text + f"\n\nLearning curve: {args.out / 'ppo' / 'learning_curve.png'}\n"
+    )
+    (args.out / "summary.json").write_text(
+        json.dumps(
+            {
+                "ppo": ppo,
+                "random": rnd["overall"],
+                "timesteps": r.timesteps,
+                "minutes": r.minutes,
+                "steps_per_second": r.steps_per_second,
+                "env_state_steps_per_second": raw,
+            },
+            indent=1,
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -26,8 +26,15 @@ def main() -> None:
     args = ap.parse_args()
     specs = [generate_scene(args.template, seed) for seed in range(args.n)]
     t0 = time.perf_counter()
-    env = gym.make("BioVLN-LabScene-v0", specs=[specs[0]], obs_mode="none", sim_backend="physx_cpu", render_backend="cpu",
-                   render_mode="rgb_array", render_size=(640, 480))
+    env = gym.make(
+        "BioVLN-LabScene-v0",
+        specs=[specs[0]],
+        obs_mode="none",
+        sim_backend="physx_cpu",
+        render_backend="cpu",
+        render_mode="rgb_array",
+        render_size=(640, 480),
+    )
     env.reset(seed=0)
     env.render()
     first = time.perf_counter() - t0
@@ -49,8 +56,12 @@ def main() -> None:
     env.close()
     later = sorted(times)
     print(f"first build + frame (env creation, shader JIT): {first:.2f} s")
-    print(f"later builds incl. first frame: median {later[len(later) // 2]:.3f} s, max {later[-1]:.3f} s (budget 2 s) over {len(times)} scenes")
-    print(f"one 640x480 frame of the built scene: {frame * 1e3:.1f} ms -> a build = {later[len(later) // 2] / frame:.1f} frames")
+    print(
+        f"later builds incl. first frame: median {later[len(later) // 2]:.3f} s, max {later[-1]:.3f} s (budget 2 s) over {len(times)} scenes"
+    )
+    print(
+        f"one 640x480 frame of the built scene: {frame * 1e3:.1f} ms -> a build = {later[len(later) // 2] / frame:.1f} frames"
+    )
 
 
 if __name__ == "__main__":

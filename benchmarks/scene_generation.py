@@ -23,7 +23,9 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=1000)
     args = ap.parse_args()
     t0 = time.perf_counter()
-    specs = [generate_scene(args.template, seed) for seed in tqdm(range(args.n), desc=f"{args.template} specs")]
+    specs = [
+        generate_scene(args.template, seed) for seed in tqdm(range(args.n), desc=f"{args.template} specs")
+    ]
     gen = time.perf_counter() - t0
     t0 = time.perf_counter()
     for s in specs[:200]:
@@ -31,7 +33,9 @@ def main() -> None:
     check = (time.perf_counter() - t0) / min(200, len(specs))
     per = gen / args.n
     print(f"{args.n} {args.template} specs in {gen:.2f} s ({per * 1e3:.2f} ms/spec; budget 20 s per 1000)")
-    print(f"rule check of one finished spec: {check * 1e3:.2f} ms -> generation = {per / check:.2f}x one rule check")
+    print(
+        f"rule check of one finished spec: {check * 1e3:.2f} ms -> generation = {per / check:.2f}x one rule check"
+    )
 
 
 if __name__ == "__main__":

@@ -47,8 +47,11 @@ def _bucket(n_active: int) -> str:
 
 
 def paper_splits() -> list[SplitPlan]:
-    held = {seed: generate_scene("single_room", seed, required_categories=FOUR_CATEGORIES)
-            for seeds, _ in HELD_OUT.values() for seed in seeds}
+    held = {
+        seed: generate_scene("single_room", seed, required_categories=FOUR_CATEGORIES)
+        for seeds, _ in HELD_OUT.values()
+        for seed in seeds
+    }
     buckets: dict[str, list] = {"two": [], "three": [], "four_five": list(held.values())}
     seed = 0
     while any(len(v) < SCENES_PER_BUCKET for v in buckets.values()):
@@ -59,20 +62,42 @@ def paper_splits() -> list[SplitPlan]:
         seed += 1
     singles = sorted((s for b in buckets.values() for s in b), key=lambda s: s.seed)
     two_rooms = [generate_scene("two_room", s) for s in TWO_ROOM_SEEDS]
-    full = SplitPlan("full", [(s, EPISODES_BY_ACTIVE[len(s.instruments)], False) for s in singles]
-                     + [(s, 38, False) for s in two_rooms],
-                     description="all 47 scenes, Table 13 episode counts (Table 3)")
+    full = SplitPlan(
+        "full",
+        [(s, EPISODES_BY_ACTIVE[len(s.instruments)], False) for s in singles]
+        + [(s, 38, False) for s in two_rooms],
+        description="all 47 scenes, Table 13 episode counts (Table 3)",
+    )
     bench_names = {held[s].name for seeds, _ in HELD_OUT.values() for s in seeds}
     two_bench = next(s for s in two_rooms if s.seed == TWO_ROOM_BENCH[0])
     bench_names.add(two_bench.name)
-    train = SplitPlan("train", [t for t in full.scenes if t[0].name not in bench_names], view_of="full",
-                      description="scenes of 'full' in no benchmark split")
+    train = SplitPlan(
+        "train",
+        [t for t in full.scenes if t[0].name not in bench_names],
+        view_of="full",
+        description="scenes of 'full' in no benchmark split",
+    )
     out = [full, train]
     for name, (seeds, n) in HELD_OUT.items():
-        out.append(SplitPlan(name, [(held[s], n, False) for s in seeds], description=f"Table 4: seeds {list(seeds)}, {n} per scene"))
-    out.append(SplitPlan("two_room", [(two_bench, TWO_ROOM_BENCH[1], True)], description="Table 4: cross-room episodes"))
-    out.append(SplitPlan("lsat_target", [(lsat_target_scene(), LSAT_EPISODES, False)],
-                         description="Table 4: designer-authored scene (LSAT import), 40 episodes, 8 categories"))
+        out.append(
+            SplitPlan(
+                name,
+                [(held[s], n, False) for s in seeds],
+                description=f"Table 4: seeds {list(seeds)}, {n} per scene",
+            )
+        )
+    out.append(
+        SplitPlan(
+            "two_room", [(two_bench, TWO_ROOM_BENCH[1], True)], description="Table 4: cross-room episodes"
+        )
+    )
+    out.append(
+        SplitPlan(
+            "lsat_target",
+            [(lsat_target_scene(), LSAT_EPISODES, False)],
+            description="Table 4: designer-authored scene (LSAT import), 40 episodes, 8 categories",
+        )
+    )
     return out
 
 
@@ -93,7 +118,6 @@ def ensure_default_dataset(echo=print) -> Path:
         except DatasetError:
             stale = True
     if stale or not (root / "manifest.json").exists():
-
         echo(f"[biovln-ms] building the benchmark dataset in {root} ({'stale' if stale else 'first use'})")
         write_dataset(root, paper_splits(), progress=False)
     return root

@@ -31,7 +31,10 @@ Placement = Literal["wall", "table_top", "floor", "furniture"]
 
 #: Model-space unit vectors of the four operational-face labels.
 FACE_VECTORS: dict[str, tuple[float, float]] = {
-    "+X": (1.0, 0.0), "-X": (-1.0, 0.0), "+Y": (0.0, 1.0), "-Y": (0.0, -1.0),
+    "+X": (1.0, 0.0),
+    "-X": (-1.0, 0.0),
+    "+Y": (0.0, 1.0),
+    "-Y": (0.0, -1.0),
 }
 #: Tolerance between a printed d_half and half the printed dimension along the face axis
 #: (the paper's d_half values come from Blender vertex analysis and differ by up to 7 mm).
@@ -70,7 +73,9 @@ class AssetSpec(_Strict):
     def _consistent(self) -> AssetSpec:
         if self.face is None:
             if self.placement != "furniture":
-                raise ValueError(f"face: only furniture may have no operational face (placement={self.placement})")
+                raise ValueError(
+                    f"face: only furniture may have no operational face (placement={self.placement})"
+                )
             if self.goal_category:
                 raise ValueError("goal_category: an asset without an operational face cannot be a goal")
             return self
@@ -82,7 +87,8 @@ class AssetSpec(_Strict):
         if abs(self.d_half - half) > D_HALF_TOLERANCE:
             raise ValueError(
                 f"d_half: {self.d_half} is not half the {self.face[1]} dimension ({half:.3f}) within "
-                f"{D_HALF_TOLERANCE} m")
+                f"{D_HALF_TOLERANCE} m"
+            )
         return self
 
     @property
@@ -190,8 +196,11 @@ class Catalog:
             known = sorted(self._assets)
             guess = fuzz_process.extractOne(str(name), known)
             hint = f" Did you mean '{guess[0]}'?" if guess and guess[1] >= 70 else ""
-            raise CatalogError(f"unknown instrument '{name}'.{hint} Known: {', '.join(known)}",
-                               source=str(self.source), field="name") from None
+            raise CatalogError(
+                f"unknown instrument '{name}'.{hint} Known: {', '.join(known)}",
+                source=str(self.source),
+                field="name",
+            ) from None
 
     __getitem__ = get
 
@@ -216,16 +225,25 @@ def _load(path: Path) -> Catalog:
     try:
         raw = path.read_bytes()
     except OSError as e:
-        raise CatalogError(f"cannot read the catalog ({e.strerror})", source=str(path),
-                           fix="reinstall biovln-ms or pass an existing catalog file") from None
+        raise CatalogError(
+            f"cannot read the catalog ({e.strerror})",
+            source=str(path),
+            fix="reinstall biovln-ms or pass an existing catalog file",
+        ) from None
     try:
         obj = json.loads(raw)
     except json.JSONDecodeError as e:
-        raise CatalogError(f"not valid JSON at line {e.lineno} column {e.colno}: {e.msg}", source=str(path)) from None
+        raise CatalogError(
+            f"not valid JSON at line {e.lineno} column {e.colno}: {e.msg}", source=str(path)
+        ) from None
     try:
         data = CatalogFile.model_validate(obj)
     except ValidationError as e:
         field, msg = describe_validation_error(e)
-        raise CatalogError(msg, source=str(path), field=field,
-                           fix="correct that value (see the 'rules' section of the packaged catalog.json)") from None
+        raise CatalogError(
+            msg,
+            source=str(path),
+            field=field,
+            fix="correct that value (see the 'rules' section of the packaged catalog.json)",
+        ) from None
     return Catalog(data, raw, path)

@@ -14,32 +14,51 @@ from typer.core import TyperCommand
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import METHODS, RL_ENV, SB3_CONTROL_MODES, report_methods
 
-app = typer.Typer(help="BioVLN-MS: operational-face navigation to laboratory instruments (SAPIEN / ManiSkill3).",
-                  no_args_is_help=True, pretty_exceptions_enable=False)
-assets_app = typer.Typer(help="Generate, verify and preview the procedural instrument assets.", no_args_is_help=True)
+app = typer.Typer(
+    help="BioVLN-MS: operational-face navigation to laboratory instruments (SAPIEN / ManiSkill3).",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+)
+assets_app = typer.Typer(
+    help="Generate, verify and preview the procedural instrument assets.", no_args_is_help=True
+)
 app.add_typer(assets_app, name="assets")
 scene_app = typer.Typer(help="Generate, validate, map, render and export lab scenes.", no_args_is_help=True)
 app.add_typer(scene_app, name="scene")
-dataset_app = typer.Typer(help="Build and inspect the episode datasets (paper Tables 3, 4, 12, 13).", no_args_is_help=True)
+dataset_app = typer.Typer(
+    help="Build and inspect the episode datasets (paper Tables 3, 4, 12, 13).", no_args_is_help=True
+)
 app.add_typer(dataset_app, name="dataset")
-lsat_app = typer.Typer(help="Designer-authored scenes (LSAT): import a GLB with target_* markers, export goals / "
-                            "LSAT format / USD.", no_args_is_help=True)
+lsat_app = typer.Typer(
+    help="Designer-authored scenes (LSAT): import a GLB with target_* markers, export goals / "
+    "LSAT format / USD.",
+    no_args_is_help=True,
+)
 app.add_typer(lsat_app, name="lsat")
-layout_app = typer.Typer(help="LLM-assisted layout design: a description (or a structured request) -> a valid scene spec.",
-                         no_args_is_help=True)
+layout_app = typer.Typer(
+    help="LLM-assisted layout design: a description (or a structured request) -> a valid scene spec.",
+    no_args_is_help=True,
+)
 app.add_typer(layout_app, name="layout")
-train_app = typer.Typer(help="Train learned policies: behavioural cloning (bc) and RL with Stable-Baselines3 "
-                             f"({', '.join(SB3_CONTROL_MODES)}).", no_args_is_help=True)
+train_app = typer.Typer(
+    help="Train learned policies: behavioural cloning (bc) and RL with Stable-Baselines3 "
+    f"({', '.join(SB3_CONTROL_MODES)}).",
+    no_args_is_help=True,
+)
 app.add_typer(train_app, name="train")
 console = Console(stderr=True)
 
 
 def _methods_help() -> str:
     """One line per registered method, in report order: name, label, description and what it needs."""
+
     def line(name: str) -> str:
         s = METHODS[name]
-        return (f"{name:<13} {s.label} — {s.description}" + ("; privileged" if s.privileged else "")
-                + (f"; runs on {s.env_id}" if s.env_id else ""))
+        return (
+            f"{name:<13} {s.label} — {s.description}"
+            + ("; privileged" if s.privileged else "")
+            + (f"; runs on {s.env_id}" if s.env_id else "")
+        )
 
     return "\n".join(line(m) for m in report_methods())
 
@@ -57,8 +76,10 @@ def doctor() -> None:
 
 
 @app.command()
-def catalog(as_json: bool = typer.Option(False, "--json", help="Print the catalog as a JSON list."),
-            path: Optional[Path] = typer.Option(None, help="Another catalog file to validate and print.")) -> None:
+def catalog(
+    as_json: bool = typer.Option(False, "--json", help="Print the catalog as a JSON list."),
+    path: Optional[Path] = typer.Option(None, help="Another catalog file to validate and print."),
+) -> None:
     """Print the instrument catalog (paper Table 2 plus the goal categories of Tables 6 and 8)."""
     from rich.table import Table
 
@@ -72,15 +93,26 @@ def catalog(as_json: bool = typer.Option(False, "--json", help="Print the catalo
     for col in ("name", "dimensions (m)", "placement", "face", "d_half", "delta", "r", "goal"):
         table.add_column(col)
     for a in cat.assets():
-        table.add_row(a.name, " x ".join(f"{d:.2f}" for d in a.dimensions), a.placement, a.face or "-",
-                      f"{a.d_half:.3f}" if a.d_half else "-", f"{a.approach_distance}" if a.approach_distance else "-",
-                      f"{a.success_radius}" if a.success_radius else "-", "yes" if a.goal_category else "no")
+        table.add_row(
+            a.name,
+            " x ".join(f"{d:.2f}" for d in a.dimensions),
+            a.placement,
+            a.face or "-",
+            f"{a.d_half:.3f}" if a.d_half else "-",
+            f"{a.approach_distance}" if a.approach_distance else "-",
+            f"{a.success_radius}" if a.success_radius else "-",
+            "yes" if a.goal_category else "no",
+        )
     Console().print(table)
 
 
 @assets_app.command("generate")
-def assets_generate(out: Optional[Path] = typer.Option(None, "-o", "--out", help="Output folder (default: the package's assets/)."),
-                    only: Optional[list[str]] = typer.Option(None, "--only", help="Regenerate just these assets.")) -> None:
+def assets_generate(
+    out: Optional[Path] = typer.Option(
+        None, "-o", "--out", help="Output folder (default: the package's assets/)."
+    ),
+    only: Optional[list[str]] = typer.Option(None, "--only", help="Regenerate just these assets."),
+) -> None:
     """Regenerate the GLB assets and coacd collision caches (bit-identical for the same catalog)."""
     from biovln_ms.assetgen.generate import generate_assets
     from biovln_ms.catalog import load_catalog
@@ -91,11 +123,15 @@ def assets_generate(out: Optional[Path] = typer.Option(None, "-o", "--out", help
         if name not in cat and name not in {p.name for p in cat.room_shell}:
             cat.get(name)  # raises with the list of known names
     manifest = generate_assets(out or ASSET_DIR, cat, names=list(only) if only else None)
-    typer.echo(f"wrote {len(manifest['files'])} GLBs and {len(manifest['collision'])} collision caches to {out or ASSET_DIR}")
+    typer.echo(
+        f"wrote {len(manifest['files'])} GLBs and {len(manifest['collision'])} collision caches to {out or ASSET_DIR}"
+    )
 
 
 @assets_app.command("verify")
-def assets_verify(path: Optional[Path] = typer.Option(None, help="Asset folder (default: the package's).")) -> None:
+def assets_verify(
+    path: Optional[Path] = typer.Option(None, help="Asset folder (default: the package's)."),
+) -> None:
     """Check every shipped asset against the manifest (missing, corrupt or stale files)."""
     from biovln_ms.assetgen.generate import verify_assets
     from biovln_ms.paths import ASSET_DIR
@@ -109,19 +145,25 @@ def assets_verify(path: Optional[Path] = typer.Option(None, help="Asset folder (
 
 
 @assets_app.command("preview")
-def assets_preview(out: Path = typer.Option(Path("asset_sheet.png"), "-o", "--out", help="PNG to write."),
-                   tile: int = typer.Option(320, help="Tile size in pixels.")) -> None:
+def assets_preview(
+    out: Path = typer.Option(Path("asset_sheet.png"), "-o", "--out", help="PNG to write."),
+    tile: int = typer.Option(320, help="Tile size in pixels."),
+) -> None:
     """Render every asset with SAPIEN (front and back, operational face marked) into one contact sheet."""
     from biovln_ms.render.asset_preview import contact_sheet
 
     renders = contact_sheet(out, tile=tile)
     for r in renders:
-        typer.echo(f"{r.name:<18} face {r.face or '-':<3} colours front {r.front_colors:>5}  back {r.back_colors:>5}")
+        typer.echo(
+            f"{r.name:<18} face {r.face or '-':<3} colours front {r.front_colors:>5}  back {r.back_colors:>5}"
+        )
     typer.echo(f"wrote {out}")
 
 
 @app.command()
-def demo(out: Path = typer.Option(Path("outputs/demo"), "-o", "--out", help="Folder for the demo's files.")) -> None:
+def demo(
+    out: Path = typer.Option(Path("outputs/demo"), "-o", "--out", help="Folder for the demo's files."),
+) -> None:
     """Run the demo: asset sheet, catalog, scene lab_s150_v0 (spec, view, episode map), an oracle episode MP4 and metrics."""
     from biovln_ms.demo import run_demo
 
@@ -135,7 +177,9 @@ def scene_templates() -> None:
 
     for name in template_names():
         t = get_template(name)
-        typer.echo(f"{name:<12} {len(t.slots)} slots, {t.active_slots[0]}-{t.active_slots[1]} active: {t.description}")
+        typer.echo(
+            f"{name:<12} {len(t.slots)} slots, {t.active_slots[0]}-{t.active_slots[1]} active: {t.description}"
+        )
 
 
 def _split_categories(values: list[str] | None) -> list[str]:
@@ -163,22 +207,33 @@ class _GreedyRequireCommand(TyperCommand):
 
 
 @scene_app.command("generate", cls=_GreedyRequireCommand)
-def scene_generate(template: str = typer.Option("single_room", "--template", "-t", help="Template name (see `scene templates`)."),
-                   seed: int = typer.Option(..., "--seed", "-s", help="Scene seed."),
-                   out: Optional[Path] = typer.Option(None, "-o", "--out", help="Spec JSON to write (default: NAME.json)."),
-                   require: list[str] | None = typer.Option(
-                       None, "--require", metavar="CAT...", callback=_split_categories,
-                       help="Categories the scene must hold: --require a b, --require a,b "
-                            "or --require a --require b."),
-                   render: Optional[Path] = typer.Option(None, "--render", help="Also write a SAPIEN view from above at an angle."),
-                   map_png: Optional[Path] = typer.Option(None, "--map", help="Also write the top-down map.")) -> None:
+def scene_generate(
+    template: str = typer.Option(
+        "single_room", "--template", "-t", help="Template name (see `scene templates`)."
+    ),
+    seed: int = typer.Option(..., "--seed", "-s", help="Scene seed."),
+    out: Optional[Path] = typer.Option(None, "-o", "--out", help="Spec JSON to write (default: NAME.json)."),
+    require: list[str] | None = typer.Option(
+        None,
+        "--require",
+        metavar="CAT...",
+        callback=_split_categories,
+        help="Categories the scene must hold: --require a b, --require a,b or --require a --require b.",
+    ),
+    render: Optional[Path] = typer.Option(
+        None, "--render", help="Also write a SAPIEN view from above at an angle."
+    ),
+    map_png: Optional[Path] = typer.Option(None, "--map", help="Also write the top-down map."),
+) -> None:
     """Generate the scene of a seed deterministically and write its spec JSON."""
     from biovln_ms.scene.generator import generate_scene
     from biovln_ms.scene.spec import save_spec
 
     spec = generate_scene(template, seed, required_categories=tuple(require or ()))
     path = save_spec(spec, out or Path(f"{spec.name}.json"))
-    typer.echo(f"wrote {path}: {len(spec.instruments)} instruments ({', '.join(o.id for o in spec.instruments)})")
+    typer.echo(
+        f"wrote {path}: {len(spec.instruments)} instruments ({', '.join(o.id for o in spec.instruments)})"
+    )
     if map_png:
         from biovln_ms.scene.topdown import save_map
 
@@ -195,16 +250,20 @@ def scene_validate(spec_path: Path = typer.Argument(..., help="Scene spec JSON."
     from biovln_ms.scene.spec import load_spec
 
     spec = load_spec(spec_path)
-    typer.echo(f"{spec_path}: valid ({spec.name}, {len(spec.instruments)} instruments, {len(spec.furniture)} furniture)")
+    typer.echo(
+        f"{spec_path}: valid ({spec.name}, {len(spec.instruments)} instruments, {len(spec.furniture)} furniture)"
+    )
 
 
 @scene_app.command("map")
-def scene_map(spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
-              out: Path = typer.Option(Path("map.png"), "-o", "--out", help="PNG to write."),
-              dataset: Optional[Path] = typer.Option(None, help="Dataset folder, to overlay one of its episodes."),
-              split: str = typer.Option("ms_dev", help="Split of the episode (with --dataset)."),
-              episode: Optional[str] = typer.Option(None, help="episode_id to overlay (with --dataset)."),
-              islands: bool = typer.Option(False, help="Colour the navigable islands.")) -> None:
+def scene_map(
+    spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
+    out: Path = typer.Option(Path("map.png"), "-o", "--out", help="PNG to write."),
+    dataset: Optional[Path] = typer.Option(None, help="Dataset folder, to overlay one of its episodes."),
+    split: str = typer.Option("ms_dev", help="Split of the episode (with --dataset)."),
+    episode: Optional[str] = typer.Option(None, help="episode_id to overlay (with --dataset)."),
+    islands: bool = typer.Option(False, help="Colour the navigable islands."),
+) -> None:
     """Draw the top-down map: walls, furniture, Zones 1/2/3, faces, goals, success radii, navigable area;
     optionally islands and one episode's start, goal, view points and shortest path."""
     from biovln_ms.scene.rules import scene_navigation
@@ -223,16 +282,28 @@ def _find_episode(root: Path, split: str, episode: str, scene: Optional[str]) ->
     from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
 
     ds = EpisodeDataset(root)
-    ep = next((e for e in ds.episodes(split) if e["episode_id"] == episode and (scene is None or e["scene_id"] == scene)), None)
+    ep = next(
+        (
+            e
+            for e in ds.episodes(split)
+            if e["episode_id"] == episode and (scene is None or e["scene_id"] == scene)
+        ),
+        None,
+    )
     if ep is None:
-        raise DatasetError(f"no episode '{episode}' in split '{split}'" + (f" for scene '{scene}'" if scene else ""),
-                           field="episode", fix="list them with `biovln-ms dataset stats`")
+        raise DatasetError(
+            f"no episode '{episode}' in split '{split}'" + (f" for scene '{scene}'" if scene else ""),
+            field="episode",
+            fix="list them with `biovln-ms dataset stats`",
+        )
     return ep, ds.agent_radius
 
 
 @scene_app.command("export")
-def scene_export(spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
-                 out: Path = typer.Option(Path("lab.glb"), "-o", "--out", help="GLB to write.")) -> None:
+def scene_export(
+    spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
+    out: Path = typer.Option(Path("lab.glb"), "-o", "--out", help="GLB to write."),
+) -> None:
     """Write the assembled scene as one GLB: a node per object named by id, category in extras and COLOR_0."""
     from biovln_ms.scene.export_glb import export_scene_glb
     from biovln_ms.scene.spec import load_spec
@@ -242,7 +313,9 @@ def scene_export(spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
 
 
 @dataset_app.command("build")
-def dataset_build(out: Path = typer.Option(Path("data/biovln"), "-o", "--out", help="Dataset folder to (re)write.")) -> None:
+def dataset_build(
+    out: Path = typer.Option(Path("data/biovln"), "-o", "--out", help="Dataset folder to (re)write."),
+) -> None:
     """Build every scene and episode of the paper's datasets, deterministically and atomically."""
     from biovln_ms.benchmark import paper_splits
     from biovln_ms.episodes.dataset import write_dataset
@@ -264,7 +337,17 @@ def dataset_stats(root: Path = typer.Argument(..., help="Dataset folder.")) -> N
 
     ds = EpisodeDataset(root)
     table = Table(title=f"{root} (agent radius {ds.agent_radius} m)")
-    for col in ("split", "scenes", "episodes", "categories", "easy %", "medium %", "hard %", "start fallback", "paper"):
+    for col in (
+        "split",
+        "scenes",
+        "episodes",
+        "categories",
+        "easy %",
+        "medium %",
+        "hard %",
+        "start fallback",
+        "paper",
+    ):
         table.add_column(col)
     for name in ds.split_names():
         info = ds.manifest["splits"][name]
@@ -273,18 +356,33 @@ def dataset_stats(root: Path = typer.Argument(..., help="Dataset folder.")) -> N
             continue
         st = ds.stats(name)
         d = st["difficulty"]
-        paper = ("paper " + " / ".join(f"{v}" for v in PAPER_MS_DEV_DIFFICULTY.values())) if name == "ms_dev" else ""
-        table.add_row(name, str(st["scenes"]), str(st["episodes"]), str(len(st["categories"])), f"{d['easy']}",
-                      f"{d['medium']}", f"{d['hard']}", str(st["start_fallback"]), paper)
+        paper = (
+            ("paper " + " / ".join(f"{v}" for v in PAPER_MS_DEV_DIFFICULTY.values()))
+            if name == "ms_dev"
+            else ""
+        )
+        table.add_row(
+            name,
+            str(st["scenes"]),
+            str(st["episodes"]),
+            str(len(st["categories"])),
+            f"{d['easy']}",
+            f"{d['medium']}",
+            f"{d['hard']}",
+            str(st["start_fallback"]),
+            paper,
+        )
     Console(width=160).print(table)
 
 
 @dataset_app.command("show")
-def dataset_show(root: Path = typer.Argument(..., help="Dataset folder."),
-                 split: str = typer.Option("ms_dev", help="Split name."),
-                 episode: str = typer.Option("0", help="episode_id (the first scene holding it)."),
-                 scene: Optional[str] = typer.Option(None, help="scene_id, when ids repeat across scenes."),
-                 out: Path = typer.Option(Path("episode.png"), "-o", "--out", help="PNG to write.")) -> None:
+def dataset_show(
+    root: Path = typer.Argument(..., help="Dataset folder."),
+    split: str = typer.Option("ms_dev", help="Split name."),
+    episode: str = typer.Option("0", help="episode_id (the first scene holding it)."),
+    scene: Optional[str] = typer.Option(None, help="scene_id, when ids repeat across scenes."),
+    out: Path = typer.Option(Path("episode.png"), "-o", "--out", help="PNG to write."),
+) -> None:
     """Map of one episode: navigable islands, start and heading, goal, view points, shortest path."""
     from biovln_ms.episodes.dataset import EpisodeDataset
     from biovln_ms.scene.rules import scene_navigation
@@ -296,62 +394,102 @@ def dataset_show(root: Path = typer.Argument(..., help="Dataset folder."),
 
 
 @app.command()
-def record(out: Path = typer.Option(Path("episode.mp4"), "-o", "--out", help="MP4 to write."),
-           split: str = typer.Option("ms_val", help="Split of the default (or --dataset) dataset."),
-           episode: int = typer.Option(0, help="Episode index within the split."),
-           policy: str = typer.Option("oracle", help=f"Policy to run: {_RECORDABLE}."),
-           dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
-           env_id: str = typer.Option("BioVLN-OpFace-v0", "--env", help="Env id (a registered variant)."),
-           fps: int = typer.Option(5, help="Frames per second.")) -> None:
+def record(
+    out: Path = typer.Option(Path("episode.mp4"), "-o", "--out", help="MP4 to write."),
+    split: str = typer.Option("ms_val", help="Split of the default (or --dataset) dataset."),
+    episode: int = typer.Option(0, help="Episode index within the split."),
+    policy: str = typer.Option("oracle", help=f"Policy to run: {_RECORDABLE}."),
+    dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
+    env_id: str = typer.Option("BioVLN-OpFace-v0", "--env", help="Env id (a registered variant)."),
+    fps: int = typer.Option(5, help="Frames per second."),
+) -> None:
     """Record one episode: the egocentric view beside a top-down map with trajectory, zones and goal."""
     from biovln_ms.record import record_episode
 
     m = record_episode(out, split, episode, policy, str(dataset) if dataset else None, env_id, fps=fps)
-    typer.echo(f"wrote {out}: success={m['success']} steps={m['steps']} spl={m['spl']:.3f} "
-               f"mcr={m['mcr']:.3f} vrt={m['vrt']:.3f}")
+    typer.echo(
+        f"wrote {out}: success={m['success']} steps={m['steps']} spl={m['spl']:.3f} "
+        f"mcr={m['mcr']:.3f} vrt={m['vrt']:.3f}"
+    )
 
 
-@app.command("eval", help="Evaluate a method on a split: per-episode JSONL (resumable) and summary.json.\n\n"
-                          "Methods (--method):\n\n" + _methods_help())
-def eval_cmd(method: str = typer.Option(..., "--method", "-m", help=f"Method: {', '.join(report_methods())}.",
-                                        autocompletion=report_methods),
-             split: str = typer.Option("ms_dev", "--split", "-s", help="Dataset split."),
-             out: Path = typer.Option(Path("results"), "--out", "-o", help="Results folder."),
-             dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
-             env_id: Optional[str] = typer.Option(None, "--env", help="Env variant, e.g. BioVLN-Centroid-v0 "
-                                                  "(default: BioVLN-OpFace-v0, or the method's own above)."),
-             workers: Optional[int] = typer.Option(None, help="Worker processes (default: one per core)."),
-             max_episodes: Optional[int] = typer.Option(None, help="Only the first N episodes."),
-             ray_address: Optional[str] = typer.Option(None, help="Run on Ray: 'local' (a local instance), 'auto' or "
-                                                                    "'ray://host:port' (a cluster); --workers actors."),
-             record: Optional[Path] = typer.Option(None, "--record", help="Record trajectories (TrajectoryRecorder) here."),
-             record_mode: str = typer.Option("full", help="full (RGB PNGs + depth) or trace (positions/actions only)."),
-             checkpoint: Optional[Path] = typer.Option(None, help="Checkpoint of a learned method "
-                                                       f"({_LEARNED}): bc.pt for bc, a Stable-Baselines3 "
-                                                       ".zip for RL."),
-             detector: Optional[str] = typer.Option(None, help="vlfm: 'gt' (default, simulator segmentation) or "
-                                                                "'owlvit:/local/dir'."),
-             scorer: Optional[str] = typer.Option(None, help="vlfm: 'default' (packaged EfficientNet-Lite0 + MiniLM) or "
-                                                             "'clip:/local/dir'."),
-             name: Optional[str] = typer.Option(None, help="Results folder name (default: the method).")) -> None:
+@app.command(
+    "eval",
+    help="Evaluate a method on a split: per-episode JSONL (resumable) and summary.json.\n\n"
+    "Methods (--method):\n\n" + _methods_help(),
+)
+def eval_cmd(
+    method: str = typer.Option(
+        ..., "--method", "-m", help=f"Method: {', '.join(report_methods())}.", autocompletion=report_methods
+    ),
+    split: str = typer.Option("ms_dev", "--split", "-s", help="Dataset split."),
+    out: Path = typer.Option(Path("results"), "--out", "-o", help="Results folder."),
+    dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
+    env_id: Optional[str] = typer.Option(
+        None,
+        "--env",
+        help="Env variant, e.g. BioVLN-Centroid-v0 (default: BioVLN-OpFace-v0, or the method's own above).",
+    ),
+    workers: Optional[int] = typer.Option(None, help="Worker processes (default: one per core)."),
+    max_episodes: Optional[int] = typer.Option(None, help="Only the first N episodes."),
+    ray_address: Optional[str] = typer.Option(
+        None,
+        help="Run on Ray: 'local' (a local instance), 'auto' or "
+        "'ray://host:port' (a cluster); --workers actors.",
+    ),
+    record: Optional[Path] = typer.Option(
+        None, "--record", help="Record trajectories (TrajectoryRecorder) here."
+    ),
+    record_mode: str = typer.Option(
+        "full", help="full (RGB PNGs + depth) or trace (positions/actions only)."
+    ),
+    checkpoint: Optional[Path] = typer.Option(
+        None,
+        help=f"Checkpoint of a learned method ({_LEARNED}): bc.pt for bc, a Stable-Baselines3 .zip for RL.",
+    ),
+    detector: Optional[str] = typer.Option(
+        None, help="vlfm: 'gt' (default, simulator segmentation) or 'owlvit:/local/dir'."
+    ),
+    scorer: Optional[str] = typer.Option(
+        None, help="vlfm: 'default' (packaged EfficientNet-Lite0 + MiniLM) or 'clip:/local/dir'."
+    ),
+    name: Optional[str] = typer.Option(None, help="Results folder name (default: the method)."),
+) -> None:
     from biovln_ms.eval.harness import EvalConfig, evaluate
 
     given = {"checkpoint": str(checkpoint) if checkpoint else None, "detector": detector, "scorer": scorer}
     kwargs = {k: v for k, v in given.items() if v is not None}
-    cfg = EvalConfig(method, split, str(out), str(dataset) if dataset else None, env_id, workers, max_episodes=max_episodes,
-                     ray_address=ray_address, record_dir=str(record) if record else None, record_mode=record_mode,
-                     method_kwargs=kwargs, name=name)
+    cfg = EvalConfig(
+        method,
+        split,
+        str(out),
+        str(dataset) if dataset else None,
+        env_id,
+        workers,
+        max_episodes=max_episodes,
+        ray_address=ray_address,
+        record_dir=str(record) if record else None,
+        record_mode=record_mode,
+        method_kwargs=kwargs,
+        name=name,
+    )
     o = evaluate(cfg, echo=typer.echo)["overall"]
-    typer.echo(f"{cfg.run_name} on {split}: {o['episodes']} episodes, SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, "
-               f"DTG {o['dtg']:.2f} m, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}% -> {cfg.run_dir}")
+    typer.echo(
+        f"{cfg.run_name} on {split}: {o['episodes']} episodes, SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, "
+        f"DTG {o['dtg']:.2f} m, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}% -> {cfg.run_dir}"
+    )
 
 
 @app.command()
-def report(results: Path = typer.Argument(Path("results"), help="Results folder of `biovln-ms eval`."),
-           out: Path = typer.Option(Path("report"), "-o", "--out", help="Report folder."),
-           dataset: Optional[Path] = typer.Option(None, help="Dataset the results were made on (default dataset if omitted)."),
-           videos: int = typer.Option(1, help="How many episode MP4s to record."),
-           hard: int = typer.Option(2, help="How many hard-episode figures (re-runs frontier).")) -> None:
+def report(
+    results: Path = typer.Argument(Path("results"), help="Results folder of `biovln-ms eval`."),
+    out: Path = typer.Option(Path("report"), "-o", "--out", help="Report folder."),
+    dataset: Optional[Path] = typer.Option(
+        None, help="Dataset the results were made on (default dataset if omitted)."
+    ),
+    videos: int = typer.Option(1, help="How many episode MP4s to record."),
+    hard: int = typer.Option(2, help="How many hard-episode figures (re-runs frontier)."),
+) -> None:
     """Write the report: the paper's tables with its numbers beside ours, McNemar tests, plots, renders, MP4s."""
     from biovln_ms.eval.report import write_report
 
@@ -359,12 +497,15 @@ def report(results: Path = typer.Argument(Path("results"), help="Results folder 
 
 
 @lsat_app.command("import")
-def lsat_import(glb: Path = typer.Argument(..., help="Designer GLB (Blender export, +Y up)."),
-                out: Path = typer.Option(..., "-o", "--out", help="Scene spec JSON to write."),
-                report: Optional[Path] = typer.Option(None, help="Coverage report (Markdown); default beside --out."),
-                name: Optional[str] = typer.Option(None, help="Scene name (default: the GLB's file name)."),
-                allow_external: bool = typer.Option(False, help="Read buffers/images referenced beside the GLB "
-                                                                "(never outside its folder).")) -> None:
+def lsat_import(
+    glb: Path = typer.Argument(..., help="Designer GLB (Blender export, +Y up)."),
+    out: Path = typer.Option(..., "-o", "--out", help="Scene spec JSON to write."),
+    report: Optional[Path] = typer.Option(None, help="Coverage report (Markdown); default beside --out."),
+    name: Optional[str] = typer.Option(None, help="Scene name (default: the GLB's file name)."),
+    allow_external: bool = typer.Option(
+        False, help="Read buffers/images referenced beside the GLB (never outside its folder)."
+    ),
+) -> None:
     """Import a designer-authored GLB (paper P1): markers (strategy 1), geometry + Eq. 1 (strategy 2)."""
     from biovln_ms.io_utils import atomic_write_text
     from biovln_ms.lsat.importer import import_glb
@@ -374,30 +515,41 @@ def lsat_import(glb: Path = typer.Argument(..., help="Designer GLB (Blender expo
     rpath = report or out.with_suffix(".report.md")
     atomic_write_text(rpath, rep.to_markdown())
     c = rep.coverage()
-    typer.echo(f"wrote {out}: {c['instruments_found']} instruments, goals from markers {c['goals_strategy1']}, "
-               f"from Eq. 1 {c['goals_strategy2']}, missing {len(c['missing'])}, {len(rep.warnings)} warning(s) -> {rpath}")
+    typer.echo(
+        f"wrote {out}: {c['instruments_found']} instruments, goals from markers {c['goals_strategy1']}, "
+        f"from Eq. 1 {c['goals_strategy2']}, missing {len(c['missing'])}, {len(rep.warnings)} warning(s) -> {rpath}"
+    )
 
 
 @lsat_app.command("export")
-def lsat_export(spec_path: Path = typer.Argument(..., help="Scene spec JSON (imported or procedural)."),
-                goals: Optional[Path] = typer.Option(None, help="BioVLN goal JSON to write."),
-                lsat: Optional[Path] = typer.Option(None, help="LSAT intermediate-format JSON to write."),
-                usd: Optional[Path] = typer.Option(None, help="USD stage to write (.usda text, .usd/.usdc binary).")) -> None:
+def lsat_export(
+    spec_path: Path = typer.Argument(..., help="Scene spec JSON (imported or procedural)."),
+    goals: Optional[Path] = typer.Option(None, help="BioVLN goal JSON to write."),
+    lsat: Optional[Path] = typer.Option(None, help="LSAT intermediate-format JSON to write."),
+    usd: Optional[Path] = typer.Option(None, help="USD stage to write (.usda text, .usd/.usdc binary)."),
+) -> None:
     """Export a scene's goals (BioVLN JSON), the LSAT intermediate format and/or a USD stage for Isaac Sim."""
     from biovln_ms.lsat.exporters import goal_json, lsat_json, write_json, write_usd
     from biovln_ms.scene.spec import load_spec
 
     if not (goals or lsat or usd):
-        raise BioVLNError("nothing to export", field="--goals/--lsat/--usd", fix="name at least one output file")
+        raise BioVLNError(
+            "nothing to export", field="--goals/--lsat/--usd", fix="name at least one output file"
+        )
     spec = load_spec(spec_path)
-    for path, write in ((goals, lambda p: write_json(goal_json(spec), p)), (lsat, lambda p: write_json(lsat_json(spec), p)),
-                        (usd, lambda p: write_usd(spec, p))):
+    for path, write in (
+        (goals, lambda p: write_json(goal_json(spec), p)),
+        (lsat, lambda p: write_json(lsat_json(spec), p)),
+        (usd, lambda p: write_usd(spec, p)),
+    ):
         if path:
             typer.echo(f"wrote {write(path)}")
 
 
 @lsat_app.command("blender-addon")
-def lsat_blender_addon(out: Path = typer.Option(Path("biovln_lsat.zip"), "-o", "--out", help="Zip to write.")) -> None:
+def lsat_blender_addon(
+    out: Path = typer.Option(Path("biovln_lsat.zip"), "-o", "--out", help="Zip to write."),
+) -> None:
     """Package the Blender add-on (Edit > Preferences > Add-ons > Install from Disk)."""
     import io
     import zipfile
@@ -409,11 +561,15 @@ def lsat_blender_addon(out: Path = typer.Option(Path("biovln_lsat.zip"), "-o", "
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
         for f in sorted(src.glob("*.py")):
             z.writestr(zipfile.ZipInfo(f"biovln_lsat/{f.name}", (1980, 1, 1, 0, 0, 0)), f.read_bytes())
-    typer.echo(f"wrote {atomic_write_bytes(out, buf.getvalue())} (install it from Blender's add-on preferences)")
+    typer.echo(
+        f"wrote {atomic_write_bytes(out, buf.getvalue())} (install it from Blender's add-on preferences)"
+    )
 
 
 @lsat_app.command("build-target")
-def lsat_build_target(out: Path = typer.Option(None, "-o", "--out", help="GLB to write (default: the shipped one).")) -> None:
+def lsat_build_target(
+    out: Path = typer.Option(None, "-o", "--out", help="GLB to write (default: the shipped one)."),
+) -> None:
     """Regenerate the LSAT Target scene GLB (the designer's layout; deterministic bytes)."""
     from biovln_ms.lsat.designer_scene import target_glb_path, write_target_glb
 
@@ -430,13 +586,19 @@ def _write_layout(spec, notes, out: Path, map_png: Optional[Path]) -> None:
         from biovln_ms.scene.topdown import save_map
 
         save_map(spec, map_png)
-    typer.echo(f"wrote {out}: {len(spec.instruments)} instruments, {len(spec.furniture)} furniture; passes every generator rule")
+    typer.echo(
+        f"wrote {out}: {len(spec.instruments)} instruments, {len(spec.furniture)} furniture; passes every generator rule"
+    )
 
 
 @layout_app.command("solve")
-def layout_solve(request: Path = typer.Argument(..., help="Layout request (YAML or JSON; schema: biovln_ms/lsat/layout.py)."),
-                 out: Path = typer.Option(..., "-o", "--out", help="Scene spec JSON to write."),
-                 map_png: Optional[Path] = typer.Option(None, "--map", help="Also write its top-down map.")) -> None:
+def layout_solve(
+    request: Path = typer.Argument(
+        ..., help="Layout request (YAML or JSON; schema: biovln_ms/lsat/layout.py)."
+    ),
+    out: Path = typer.Option(..., "-o", "--out", help="Scene spec JSON to write."),
+    map_png: Optional[Path] = typer.Option(None, "--map", help="Also write its top-down map."),
+) -> None:
     """Offline: lay out a structured request with our placement solver."""
     from biovln_ms.lsat.layout import load_request, solve_layout
 
@@ -445,10 +607,14 @@ def layout_solve(request: Path = typer.Argument(..., help="Layout request (YAML 
 
 
 @layout_app.command("suggest")
-def layout_suggest(description: str = typer.Argument(..., help='e.g. "a cell-culture room with two incubators and a BSC"'),
-                   out: Path = typer.Option(..., "-o", "--out", help="Scene spec JSON to write."),
-                   request_out: Optional[Path] = typer.Option(None, help="Also keep the LLM's request (JSON) to edit and re-solve."),
-                   map_png: Optional[Path] = typer.Option(None, "--map", help="Also write its top-down map.")) -> None:
+def layout_suggest(
+    description: str = typer.Argument(..., help='e.g. "a cell-culture room with two incubators and a BSC"'),
+    out: Path = typer.Option(..., "-o", "--out", help="Scene spec JSON to write."),
+    request_out: Optional[Path] = typer.Option(
+        None, help="Also keep the LLM's request (JSON) to edit and re-solve."
+    ),
+    map_png: Optional[Path] = typer.Option(None, "--map", help="Also write its top-down map."),
+) -> None:
     """Ask the LLM (BIOVLN_LLM_* endpoint) for a layout request, validate it, and solve it."""
     from biovln_ms.io_utils import atomic_write_text
     from biovln_ms.lsat.layout import request_json, solve_layout, suggest_request
@@ -461,53 +627,102 @@ def layout_suggest(description: str = typer.Argument(..., help='e.g. "a cell-cul
 
 
 @train_app.command("bc")
-def train_bc_cmd(data: list[Path] = typer.Option(..., "--data", help="Recording folder(s) of `eval --record` (repeatable)."),
-                 out: Path = typer.Option(Path("ckpt/bc"), "--out", "-o", help="Folder for bc.pt, loss.png, history.json."),
-                 epochs: int = typer.Option(500, help="Maximum epochs (the paper: 500)."),
-                 patience: int = typer.Option(50, help="Early-stopping patience in epochs (the paper: 50)."),
-                 batch_size: int = typer.Option(32, help="Batch size (the paper: 32)."),
-                 lr: float = typer.Option(1e-4, help="Adam learning rate (the paper: 1e-4)."),
-                 image_size: int = typer.Option(224, help="Input size in pixels (the paper: 224)."),
-                 max_minutes: Optional[float] = typer.Option(None, help="Wall-clock budget; stops after the epoch past it."),
-                 pretrained: Optional[Path] = typer.Option(None, help="torchvision-layout ResNet-18 state dict to start from."),
-                 seed: int = typer.Option(0, help="Seed of the split, the shuffling and the initial weights.")) -> None:
+def train_bc_cmd(
+    data: list[Path] = typer.Option(
+        ..., "--data", help="Recording folder(s) of `eval --record` (repeatable)."
+    ),
+    out: Path = typer.Option(
+        Path("ckpt/bc"), "--out", "-o", help="Folder for bc.pt, loss.png, history.json."
+    ),
+    epochs: int = typer.Option(500, help="Maximum epochs (the paper: 500)."),
+    patience: int = typer.Option(50, help="Early-stopping patience in epochs (the paper: 50)."),
+    batch_size: int = typer.Option(32, help="Batch size (the paper: 32)."),
+    lr: float = typer.Option(1e-4, help="Adam learning rate (the paper: 1e-4)."),
+    image_size: int = typer.Option(224, help="Input size in pixels (the paper: 224)."),
+    max_minutes: Optional[float] = typer.Option(
+        None, help="Wall-clock budget; stops after the epoch past it."
+    ),
+    pretrained: Optional[Path] = typer.Option(
+        None, help="torchvision-layout ResNet-18 state dict to start from."
+    ),
+    seed: int = typer.Option(0, help="Seed of the split, the shuffling and the initial weights."),
+) -> None:
     """Behavioural cloning on recorded trajectories (appendix, Table 17)."""
     from biovln_ms.learning.bc import BCConfig, train_bc
 
-    cfg = BCConfig(lr=lr, batch_size=batch_size, max_epochs=epochs, patience=patience, image_size=image_size,
-                   max_minutes=max_minutes, pretrained=str(pretrained) if pretrained else None, seed=seed)
+    cfg = BCConfig(
+        lr=lr,
+        batch_size=batch_size,
+        max_epochs=epochs,
+        patience=patience,
+        image_size=image_size,
+        max_minutes=max_minutes,
+        pretrained=str(pretrained) if pretrained else None,
+        seed=seed,
+    )
     r = train_bc(data, out, cfg, echo=typer.echo)
-    typer.echo(f"best epoch {r.best_epoch} (val loss {r.best_val_loss:.4f}) of {r.epochs}, {r.stopped_by}, "
-               f"{r.minutes:.1f} min -> {r.checkpoint}")
+    typer.echo(
+        f"best epoch {r.best_epoch} (val loss {r.best_val_loss:.4f}) of {r.epochs}, {r.stopped_by}, "
+        f"{r.minutes:.1f} min -> {r.checkpoint}"
+    )
 
 
-def _train_rl(algo: str, timesteps: int, out: Optional[Path], n_envs: int, split: str, eval_split: str,
-              eval_episodes: Optional[int], seed: int, ray_address: Optional[str], dataset: Optional[Path]) -> None:
+def _train_rl(
+    algo: str,
+    timesteps: int,
+    out: Optional[Path],
+    n_envs: int,
+    split: str,
+    eval_split: str,
+    eval_episodes: Optional[int],
+    seed: int,
+    ray_address: Optional[str],
+    dataset: Optional[Path],
+) -> None:
     from biovln_ms.eval.learned import train_and_evaluate
     from biovln_ms.learning.rl import RLConfig
 
-    cfg = RLConfig(algo=algo, timesteps=timesteps, n_envs=n_envs, split=split, seed=seed, ray_address=ray_address,
-                   eval_split=eval_split or None, eval_episodes=eval_episodes, dataset=str(dataset) if dataset else None)
+    cfg = RLConfig(
+        algo=algo,
+        timesteps=timesteps,
+        n_envs=n_envs,
+        split=split,
+        seed=seed,
+        ray_address=ray_address,
+        eval_split=eval_split or None,
+        eval_episodes=eval_episodes,
+        dataset=str(dataset) if dataset else None,
+    )
     r = train_and_evaluate(cfg, out or Path(f"runs/{algo}"), echo=typer.echo)
     if r.eval_summary:
         o = r.eval_summary["overall"]
-        typer.echo(f"{algo} on {eval_split}: SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}%")
+        typer.echo(
+            f"{algo} on {eval_split}: SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}%"
+        )
 
 
 def _rl_command(algo: str):
-    def command(timesteps: int = typer.Option(200_000, "--timesteps", "-t", help="Environment steps to train for."),
-                out: Optional[Path] = typer.Option(None, "--out", "-o", help=f"Run folder (default runs/{algo})."),
-                n_envs: int = typer.Option(2, help="Parallel envs (one process or Ray actor each)."),
-                split: str = typer.Option("train", help="Training split."),
-                eval_split: str = typer.Option("ms_val", help="Split evaluated through the harness afterwards ('' skips)."),
-                eval_episodes: Optional[int] = typer.Option(None, help="Only the first N evaluation episodes."),
-                seed: int = typer.Option(0, help="Seed."),
-                ray_address: Optional[str] = typer.Option(None, help="Envs on Ray actors: 'local', 'auto' or 'ray://host:port'."),
-                dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use).")) -> None:
+    def command(
+        timesteps: int = typer.Option(200_000, "--timesteps", "-t", help="Environment steps to train for."),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help=f"Run folder (default runs/{algo})."),
+        n_envs: int = typer.Option(2, help="Parallel envs (one process or Ray actor each)."),
+        split: str = typer.Option("train", help="Training split."),
+        eval_split: str = typer.Option(
+            "ms_val", help="Split evaluated through the harness afterwards ('' skips)."
+        ),
+        eval_episodes: Optional[int] = typer.Option(None, help="Only the first N evaluation episodes."),
+        seed: int = typer.Option(0, help="Seed."),
+        ray_address: Optional[str] = typer.Option(
+            None, help="Envs on Ray actors: 'local', 'auto' or 'ray://host:port'."
+        ),
+        dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
+    ) -> None:
         _train_rl(algo, timesteps, out, n_envs, split, eval_split, eval_episodes, seed, ray_address, dataset)
 
-    command.__doc__ = (f"{algo.upper()} (Stable-Baselines3) on {RL_ENV}: TensorBoard logs, checkpoints, "
-                       "learning curve, then evaluation through the harness.")
+    command.__doc__ = (
+        f"{algo.upper()} (Stable-Baselines3) on {RL_ENV}: TensorBoard logs, checkpoints, "
+        "learning curve, then evaluation through the harness."
+    )
     return command
 
 

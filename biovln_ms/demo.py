@@ -26,14 +26,19 @@ def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
     cat = load_catalog()
     files: dict[str, Path] = {"sheet": out_dir / "asset_sheet.png"}
     renders = {r.name: r for r in contact_sheet(files["sheet"], cat)}
-    lines = ["# BioVLN-MS catalog (paper Table 2 + Tables 6, 8)", "",
-             "| asset | dimensions (m) | placement | face | d_half | delta | r | colours front / back |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "# BioVLN-MS catalog (paper Table 2 + Tables 6, 8)",
+        "",
+        "| asset | dimensions (m) | placement | face | d_half | delta | r | colours front / back |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for a in cat.assets():
         r = renders[a.name]
         dims = " x ".join(f"{d:.2f}" for d in a.dimensions)
-        lines.append(f"| {a.name} | {dims} | {a.placement} | {a.face or '-'} | {a.d_half} | {a.approach_distance} | "
-                     f"{a.success_radius} | {r.front_colors} / {r.back_colors} |")
+        lines.append(
+            f"| {a.name} | {dims} | {a.placement} | {a.face or '-'} | {a.d_half} | {a.approach_distance} | "
+            f"{a.success_radius} | {r.front_colors} / {r.back_colors} |"
+        )
     spec = generate_scene("single_room", 150, required_categories=FOUR_CATEGORIES)
     nav = scene_navigation(spec)
     episode = EpisodeSampler(spec, nav).episodes(1, seed=0)[0]
@@ -41,18 +46,28 @@ def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
     files["map"] = save_map(spec, out_dir / f"{spec.name}_episode.png", episode=episode, nav=nav)
     files["render"] = render_overview(spec, out_dir / f"{spec.name}_view.png")
     info = episode["info"]
-    lines += ["", f"# Scene {spec.name}, episode 0", "",
-              "| target | start | goal | geodesic (m) | euclidean (m) | difficulty |", "|---|---|---|---|---|---|",
-              f"| {episode['object_id']} | {episode['start_position'][:2]} | {episode['goals'][0]['position'][:2]} | "
-              f"{info['geodesic_distance']:.3f} | {info['euclidean_distance']:.3f} | {info['difficulty']} |"]
+    lines += [
+        "",
+        f"# Scene {spec.name}, episode 0",
+        "",
+        "| target | start | goal | geodesic (m) | euclidean (m) | difficulty |",
+        "|---|---|---|---|---|---|",
+        f"| {episode['object_id']} | {episode['start_position'][:2]} | {episode['goals'][0]['position'][:2]} | "
+        f"{info['geodesic_distance']:.3f} | {info['euclidean_distance']:.3f} | {info['difficulty']} |",
+    ]
     from biovln_ms.record import record_episode
 
     files["video"] = out_dir / "ms_val_episode0_oracle.mp4"
     m = record_episode(files["video"], split="ms_val", episode=0, policy="oracle")
-    lines += ["", "# Oracle on MS VAL episode 0 (BioVLN-OpFace-v0, SAPIEN physics, CPU render)", "",
-              "| success | steps | SPL | soft SPL | DTG (m) | MCR (m) | VRT | collisions |", "|---|---|---|---|---|---|---|---|",
-              f"| {m['success']} | {m['steps']} | {m['spl']:.3f} | {m['soft_spl']:.3f} | {m['distance_to_goal']:.3f} | "
-              f"{m['mcr']:.3f} | {m['vrt']:.3f} | {m['collisions']} |"]
+    lines += [
+        "",
+        "# Oracle on MS VAL episode 0 (BioVLN-OpFace-v0, SAPIEN physics, CPU render)",
+        "",
+        "| success | steps | SPL | soft SPL | DTG (m) | MCR (m) | VRT | collisions |",
+        "|---|---|---|---|---|---|---|---|",
+        f"| {m['success']} | {m['steps']} | {m['spl']:.3f} | {m['soft_spl']:.3f} | {m['distance_to_goal']:.3f} | "
+        f"{m['mcr']:.3f} | {m['vrt']:.3f} | {m['collisions']} |",
+    ]
     files["table"] = out_dir / "demo.md"
     files["table"].write_text("\n".join(lines) + "\n")
 
@@ -62,7 +77,9 @@ def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
 
     for method in ("oracle", "frontier"):
         evaluate(EvalConfig(method, "ms_val", str(out_dir / "results")), echo=echo)
-    files["report"] = write_report(out_dir / "results", out_dir / "report", videos=1, hard_figures=1, echo=echo)
+    files["report"] = write_report(
+        out_dir / "results", out_dir / "report", videos=1, hard_figures=1, echo=echo
+    )
     for k, p in files.items():
         echo(f"wrote {p}")
     return files

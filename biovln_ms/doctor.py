@@ -33,17 +33,26 @@ def render_probe(size: int = 64) -> dict:
     scene = new_scene()
     dev = scene.render_system.device
     b = scene.create_actor_builder()
-    b.add_box_visual(half_size=[0.3, 0.3, 0.3], material=sapien.render.RenderMaterial(base_color=[0.9, 0.1, 0.1, 1]))
+    b.add_box_visual(
+        half_size=[0.3, 0.3, 0.3], material=sapien.render.RenderMaterial(base_color=[0.9, 0.1, 0.1, 1])
+    )
     b.build_kinematic(name="probe")
     cam = scene.add_camera("probe", size, size, 1.0, 0.01, 20)
     cam.entity.set_pose(look_at_pose([-2.0, 0.3, 0.8], [0, 0, 0]))
     rgb = take_rgb(scene, cam)
-    centre = rgb[size // 2 - 4: size // 2 + 4, size // 2 - 4: size // 2 + 4].reshape(-1, 3).mean(0)
+    centre = rgb[size // 2 - 4 : size // 2 + 4, size // 2 - 4 : size // 2 + 4].reshape(-1, 3).mean(0)
     if not (centre[0] > 80 and centre[0] > 2 * centre[1]):
-        raise RenderError(f"the probe frame is wrong (centre colour {centre.round().tolist()}, expected red)",
-                          fix="update the Vulkan driver; " + BACKPORTS_FIX)
-    return {"device": dev.name, "kind": device_kind(dev), "frame": f"{size}x{size}",
-            "centre_rgb": [int(v) for v in centre.round()], "frame_mean": float(np.mean(rgb))}
+        raise RenderError(
+            f"the probe frame is wrong (centre colour {centre.round().tolist()}, expected red)",
+            fix="update the Vulkan driver; " + BACKPORTS_FIX,
+        )
+    return {
+        "device": dev.name,
+        "kind": device_kind(dev),
+        "frame": f"{size}x{size}",
+        "centre_rgb": [int(v) for v in centre.round()],
+        "frame_mean": float(np.mean(rgb)),
+    }
 
 
 def run_doctor(echo=print) -> int:

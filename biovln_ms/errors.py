@@ -6,8 +6,9 @@ from __future__ import annotations
 class BioVLNError(Exception):
     """Base class: a message meant for the user, with an optional source, field and fix."""
 
-    def __init__(self, message: str, *, source: str | None = None, field: str | None = None,
-                 fix: str | None = None) -> None:
+    def __init__(
+        self, message: str, *, source: str | None = None, field: str | None = None, fix: str | None = None
+    ) -> None:
         self.message = message
         self.source = source
         self.field = field

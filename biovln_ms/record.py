@@ -7,17 +7,32 @@ from pathlib import Path
 from biovln_ms.eval.methods import method_spec
 
 
-def record_episode(out: Path, split: str | None = "ms_val", episode: int = 0, policy: str = "oracle",
-                   dataset: str | None = None, env_id: str = "BioVLN-OpFace-v0", size: tuple[int, int] = (640, 480),
-                   fps: int = 5) -> dict:
+def record_episode(
+    out: Path,
+    split: str | None = "ms_val",
+    episode: int = 0,
+    policy: str = "oracle",
+    dataset: str | None = None,
+    env_id: str = "BioVLN-OpFace-v0",
+    size: tuple[int, int] = (640, 480),
+    fps: int = 5,
+) -> dict:
     """Record one episode; returns its final metrics."""
     import gymnasium as gym
 
     import biovln_ms  # noqa: F401
     from biovln_ms.render.video import MapCanvas, side_by_side, write_mp4
 
-    env = gym.make(env_id, split=split, dataset=dataset, obs_mode="rgbd", camera_width=size[0], camera_height=size[1],
-                   sim_backend="physx_cpu", render_backend="cpu")
+    env = gym.make(
+        env_id,
+        split=split,
+        dataset=dataset,
+        obs_mode="rgbd",
+        camera_width=size[0],
+        camera_height=size[1],
+        sim_backend="physx_cpu",
+        render_backend="cpu",
+    )
     try:
         from biovln_ms.eval.rollout import rollout
 
@@ -26,13 +41,18 @@ def record_episode(out: Path, split: str | None = "ms_val", episode: int = 0, po
         for st in rollout(env, spec.factory(), episode, spec.privileged):
             pose = st.info["agent_pose"][0].cpu().numpy()
             if canvas is None:
-                canvas = MapCanvas(env.unwrapped.scene_spec, size[1], goal=st.info["goal_position"][0].cpu().numpy())
+                canvas = MapCanvas(
+                    env.unwrapped.scene_spec, size[1], goal=st.info["goal_position"][0].cpu().numpy()
+                )
             trail.append(pose[:2].copy())
             ego = st.obs["sensor_data"]["head"]["rgb"][0].cpu().numpy()
             frames.append(side_by_side(ego, canvas.frame(trail, pose)))
             info = st.info
         write_mp4(frames, out, fps=fps)
-        return {k: (v.item() if hasattr(v, "item") else v) for k, v in info.items()
-                if k != "reconfigure" and getattr(v, "numel", lambda: 1)() == 1}
+        return {
+            k: (v.item() if hasattr(v, "item") else v)
+            for k, v in info.items()
+            if k != "reconfigure" and getattr(v, "numel", lambda: 1)() == 1
+        }
     finally:
         env.close()

@@ -11,7 +11,10 @@ from __future__ import annotations
 from biovln_ms.variants import VARIANTS
 
 #: uid -> max_episode_steps of every env this package provides (the variants' own, and the scene viewer).
-ENV_IDS: dict[str, int] = {**{uid: cfg.max_episode_steps for uid, cfg in VARIANTS.items()}, "BioVLN-LabScene-v0": 1}
+ENV_IDS: dict[str, int] = {
+    **{uid: cfg.max_episode_steps for uid, cfg in VARIANTS.items()},
+    "BioVLN-LabScene-v0": 1,
+}
 
 
 def register_lazily() -> None:
@@ -21,10 +24,20 @@ def register_lazily() -> None:
     for uid, steps in ENV_IDS.items():
         if uid in gym.registry:
             continue
-        gym.register(uid, entry_point="biovln_ms.registration:make_lazy", kwargs={"env_id": uid},
-                     max_episode_steps=steps, disable_env_checker=True,
-                     additional_wrappers=(WrapperSpec("MSTimeLimit", "mani_skill.utils.registration:TimeLimitWrapper",
-                                                      {"max_episode_steps": steps}),))
+        gym.register(
+            uid,
+            entry_point="biovln_ms.registration:make_lazy",
+            kwargs={"env_id": uid},
+            max_episode_steps=steps,
+            disable_env_checker=True,
+            additional_wrappers=(
+                WrapperSpec(
+                    "MSTimeLimit",
+                    "mani_skill.utils.registration:TimeLimitWrapper",
+                    {"max_episode_steps": steps},
+                ),
+            ),
+        )
 
 
 def make_lazy(env_id: str, **kwargs):

@@ -11,8 +11,16 @@ from dataclasses import dataclass
 from typing import Any
 
 #: Per-step info of every variant (paper §4.2) and the episode-end metrics.
-STEP_MEASURES = ("success", "distance_to_goal", "geodesic_distance_to_goal", "clearance", "zone2_violation", "in_zone3",
-                 "facing_instrument", "collisions")
+STEP_MEASURES = (
+    "success",
+    "distance_to_goal",
+    "geodesic_distance_to_goal",
+    "clearance",
+    "zone2_violation",
+    "in_zone3",
+    "facing_instrument",
+    "collisions",
+)
 END_MEASURES = ("spl", "soft_spl", "mcr", "vrt", "steps", "path_length")
 #: The sensors of the benchmark env (Habitat's PointNav/ObjectNav sensors; see ``biovln_ms.agents.policy``).
 NAV_SENSORS = ("gps", "compass", "pointgoal_with_gps_compass", "objectgoal")
@@ -34,7 +42,9 @@ class NavTaskConfig:
     step_penalty: float = 0.01
     safety_penalty: float = 0.05
     proportional_safety: bool = False  # RL variant: penalty * (1 - clearance / 0.5)
-    shuffle_episodes: bool = False  # RL variant: shuffle once (scene order, and episodes within a scene), then cycle
+    shuffle_episodes: bool = (
+        False  # RL variant: shuffle once (scene order, and episodes within a scene), then cycle
+    )
     position_scale: float = 4.0  # RL variant observation normalisation (m)
     measures: tuple[str, ...] = STEP_MEASURES + END_MEASURES
     reward_measure: str = "nav_reward"
@@ -48,7 +58,9 @@ class NavTaskConfig:
     @property
     def camera_vfov(self) -> float:
         """Vertical FOV (radians) for SAPIEN from the horizontal one: 2 atan(tan(h/2) H/W)."""
-        return 2 * math.atan(math.tan(math.radians(self.camera_hfov_deg) / 2) * self.camera_height / self.camera_width)
+        return 2 * math.atan(
+            math.tan(math.radians(self.camera_hfov_deg) / 2) * self.camera_height / self.camera_width
+        )
 
     @property
     def hfov(self) -> float:

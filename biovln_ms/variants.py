@@ -15,7 +15,13 @@ VARIANTS: dict[str, NavTaskConfig] = {
     "BioVLN-Centroid-v0": NavTaskConfig(goal_mode="centroid"),
     # the paper's Gym variant for RL: 10 deg turns, positions / 4.0 m, heading as a unit vector,
     # Eq. 5 with the proportional safety penalty, episodes shuffled once and cycled
-    "BioVLN-OpFace-RL-v0": NavTaskConfig(turn_deg=10.0, proportional_safety=True, safety_penalty=1.0,
-                                         shuffle_episodes=True, sensors=("rl_state", "objectgoal"), agent_obs=False,
-                                         default_split="train"),
+    "BioVLN-OpFace-RL-v0": NavTaskConfig(
+        turn_deg=10.0,
+        proportional_safety=True,
+        safety_penalty=1.0,
+        shuffle_episodes=True,
+        sensors=("rl_state", "objectgoal"),
+        agent_obs=False,
+        default_split="train",
+    ),
 }

@@ -34,12 +34,21 @@ class LabSceneEnv(BaseEnv):
     SUPPORTED_REWARD_MODES = ("none",)
     SUPPORTED_ROBOTS = ("none",)
 
-    def __init__(self, *args, specs: Sequence[SceneSpec | str | Path] | None = None,
-                 template: str = "single_room", seed: int = 0, ceiling: bool = True,
-                 render_size: tuple[int, int] = (960, 720), **kwargs) -> None:
+    def __init__(
+        self,
+        *args,
+        specs: Sequence[SceneSpec | str | Path] | None = None,
+        template: str = "single_room",
+        seed: int = 0,
+        ceiling: bool = True,
+        render_size: tuple[int, int] = (960, 720),
+        **kwargs,
+    ) -> None:
         if kwargs.get("obs_mode") == "pointcloud":
-            raise NotImplementedError("obs_mode 'pointcloud': BioVLN-LabScene-v0 has no sensor to fuse one "
-                                      "from; use render() (the overview camera) or obs_mode 'none'/'state'")
+            raise NotImplementedError(
+                "obs_mode 'pointcloud': BioVLN-LabScene-v0 has no sensor to fuse one "
+                "from; use render() (the overview camera) or obs_mode 'none'/'state'"
+            )
         self._specs = list(specs) if specs else [generate_scene(template, seed)]
         self._ceiling = ceiling
         self._render_size = render_size
@@ -60,7 +69,9 @@ class LabSceneEnv(BaseEnv):
 
     def _load_scene(self, options: dict):
         self.scene_builder = LabSceneBuilder(self, self._specs, ceiling=self._ceiling)
-        self.scene_builder.build(list(range(len(self._specs)))[: self.num_envs] if len(self._specs) == self.num_envs else 0)
+        self.scene_builder.build(
+            list(range(len(self._specs)))[: self.num_envs] if len(self._specs) == self.num_envs else 0
+        )
 
     def _load_lighting(self, options: dict):
         """Lights come from the scene builder."""

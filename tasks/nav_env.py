@@ -58,20 +58,34 @@ class BioVLNNavEnv(BaseEnv):
     SUPPORTED_REWARD_MODES = ("normalized_dense", "dense", "sparse", "none")
     config: NavTaskConfig = VARIANTS["BioVLN-OpFace-v0"]
 
-    def __init__(self, *args, split: str | None = None, dataset: str | None = None, template: str = "single_room",
-                 scene_seed: int = 0, control_mode: str = "discrete", robot_uids: str = "biovln_base", **kwargs) -> None:
+    def __init__(
+        self,
+        *args,
+        split: str | None = None,
+        dataset: str | None = None,
+        template: str = "single_room",
+        scene_seed: int = 0,
+        control_mode: str = "discrete",
+        robot_uids: str = "biovln_base",
+        **kwargs,
+    ) -> None:
         overrides = {f.name: kwargs.pop(f.name) for f in fields(NavTaskConfig) if f.name in kwargs}
         self.cfg = replace(self.config, **overrides)
         kwargs.setdefault("obs_mode", self.cfg.default_obs_mode)
-        if not torch.cuda.is_available():  # ManiSkill's default asks for "sapien_cuda" and warns on every make
+        if (
+            not torch.cuda.is_available()
+        ):  # ManiSkill's default asks for "sapien_cuda" and warns on every make
             kwargs.setdefault("render_backend", "cpu")
         _check_arguments(self.cfg, control_mode, kwargs)
         split = split or self.cfg.default_split
         if split:
             self.source: EpisodeSource = DatasetEpisodes(split, dataset_root(dataset))
         elif dataset:
-            raise EnvConfigError(f"a dataset ({dataset}) was given without a split", field="split",
-                                 fix="pass split=, e.g. split='ms_val'")
+            raise EnvConfigError(
+                f"a dataset ({dataset}) was given without a split",
+                field="split",
+                fix="pass split=, e.g. split='ms_val'",
+            )
         else:
             self.source = GeneratedEpisodes(template, scene_seed)
         self.cursor = EpisodeCursor(self.source, self.cfg.shuffle_episodes)
@@ -92,8 +106,19 @@ class BioVLNNavEnv(BaseEnv):
         c, visual = self.cfg, self.obs_mode_struct.visual
         # ManiSkill's fast "minimal" shader renders rgb, depth and segmentation; normals and albedo need "default"
         shader = "default" if visual.normal or visual.albedo else "minimal"
-        return [CameraConfig("head", sapien.Pose(), c.camera_width, c.camera_height, c.camera_vfov, 0.05, c.camera_far,
-                             mount=self.agent.camera_link, shader_pack=shader)]
+        return [
+            CameraConfig(
+                "head",
+                sapien.Pose(),
+                c.camera_width,
+                c.camera_height,
+                c.camera_vfov,
+                0.05,
+                c.camera_far,
+                mount=self.agent.camera_link,
+                shader_pack=shader,
+            )
+        ]
 
     @property
     def _default_human_render_camera_configs(self):
@@ -121,7 +146,9 @@ class BioVLNNavEnv(BaseEnv):
 
     def _load_scene(self, options: dict):
         scene_ids = list(dict.fromkeys(self._scene_ids))  # one build config per distinct scene
-        self.scene_builder = LabSceneBuilder(self, [self.scene_specs[self._scene_ids.index(s)] for s in scene_ids])
+        self.scene_builder = LabSceneBuilder(
+            self, [self.scene_specs[self._scene_ids.index(s)] for s in scene_ids]
+        )
         self.scene_builder.build([scene_ids.index(s) for s in self._scene_ids])
         self._build_segmentation_lookup()
 
@@ -136,21 +163,38 @@ class BioVLNNavEnv(BaseEnv):
 
     def _measure_names(self) -> tuple[str, ...]:
         c = self.cfg
-        extra = (c.reward_measure, c.success_measure, c.fail_measure, "stopped", "clearance", "agent_pose", "goal_position")
+        extra = (
+            c.reward_measure,
+            c.success_measure,
+            c.fail_measure,
+            "stopped",
+            "clearance",
+            "agent_pose",
+            "goal_position",
+        )
         return tuple(dict.fromkeys(c.measures + extra))
 
     def reset(self, seed=None, options=None):
         options = dict(options or {})
         env_idx = options.get("env_idx")
-        rows = range(self.num_envs) if env_idx is None else [int(i) for i in torch.as_tensor(env_idx).reshape(-1)]
+        rows = (
+            range(self.num_envs)
+            if env_idx is None
+            else [int(i) for i in torch.as_tensor(env_idx).reshape(-1)]
+        )
         cursor_seed = seed
         for i in rows:
             self._episodes[i] = self.source.episodes[self.cursor.select(cursor_seed, options)]
-            cursor_seed = None  # a seed positions the cursor once; further sub-envs take the episodes after it
+            cursor_seed = (
+                None  # a seed positions the cursor once; further sub-envs take the episodes after it
+            )
         if [ep["scene_id"] for ep in self._episodes] != self._scene_ids:
             if self.num_envs > 1 and env_idx is not None:
-                raise EnvConfigError("a partial reset cannot change a sub-env's scene on the GPU", field="env_idx",
-                                     fix="reset all sub-envs (reconfigure), or keep each sub-env's episodes in its scene")
+                raise EnvConfigError(
+                    "a partial reset cannot change a sub-env's scene on the GPU",
+                    field="env_idx",
+                    fix="reset all sub-envs (reconfigure), or keep each sub-env's episodes in its scene",
+                )
             self._set_scenes()
             options["reconfigure"] = True
         return super().reset(seed=seed, options=options)
@@ -180,9 +224,15 @@ class BioVLNNavEnv(BaseEnv):
             goal = np.asarray(ep["goals"][0]["position"][:2], float)
             geodesic = nav.distance_to(goal)
         start = np.asarray(ep["start_position"][:2], float)
-        return EpisodeContext(goal=goal, success_radius=float(ep["goals"][0]["radius"]), target=target,
-                              instruments=[o.placed() for o in spec.instruments], geodesic=geodesic,
-                              start_geodesic=float(geodesic(start)), hfov=self.cfg.hfov)
+        return EpisodeContext(
+            goal=goal,
+            success_radius=float(ep["goals"][0]["radius"]),
+            target=target,
+            instruments=[o.placed() for o in spec.instruments],
+            geodesic=geodesic,
+            start_geodesic=float(geodesic(start)),
+            hfov=self.cfg.hfov,
+        )
 
     def _pose(self) -> torch.Tensor:
         """(N, 3) float64 planar poses from the base joints."""
@@ -209,7 +259,9 @@ class BioVLNNavEnv(BaseEnv):
     def evaluate(self) -> dict:
         """The measures' values (a pure query: it changes nothing)."""
         c = self.cfg
-        info = self._measures.info(tuple(dict.fromkeys(c.measures + ("stopped", "agent_pose", "goal_position"))))
+        info = self._measures.info(
+            tuple(dict.fromkeys(c.measures + ("stopped", "agent_pose", "goal_position")))
+        )
         info["success"] = self._measures[c.success_measure].clone()
         info["fail"] = self._measures[c.fail_measure].clone()
         return info
@@ -218,15 +270,24 @@ class BioVLNNavEnv(BaseEnv):
         return super()._get_obs_agent() if self.cfg.agent_obs else {}
 
     def _get_obs_extra(self, info: dict):
-        x = SensorInputs(self._measures["agent_pose"], self._start, self._ctx.goal, self._category,
-                         len(self.category_names), self._measures["clearance"], self.cfg)
+        x = SensorInputs(
+            self._measures["agent_pose"],
+            self._start,
+            self._ctx.goal,
+            self._category,
+            len(self.category_names),
+            self._measures["clearance"],
+            self.cfg,
+        )
         return {name: SENSORS[name](x) for name in self.cfg.sensors}
 
     def _get_obs_with_sensor_data(self, info: dict, apply_texture_transforms: bool = True) -> dict:
         obs = super()._get_obs_with_sensor_data(info, apply_texture_transforms)
         head = obs.get("sensor_data", {}).get("head", {})
         if "segmentation" in head:
-            obs["extra"]["semantic_category"] = semantic_category(head["segmentation"], self._segmentation_lookup)
+            obs["extra"]["semantic_category"] = semantic_category(
+                head["segmentation"], self._segmentation_lookup
+            )
         return obs
 
     def _build_segmentation_lookup(self) -> None:
@@ -256,9 +317,12 @@ class BioVLNNavEnv(BaseEnv):
         """ManiSkill's simulation and controller state plus the task's: each sub-env's episode, start pose,
         elapsed steps and every measure's state, so a replay from it gives the same rewards and infos."""
         state = super().get_state_dict()
-        state["task"] = dict(episode=self._episode_indices(), start=self._start.clone(),
-                             elapsed_steps=torch.as_tensor(self._elapsed_steps).clone(),
-                             measures=self._measures.state_dict())
+        state["task"] = dict(
+            episode=self._episode_indices(),
+            start=self._start.clone(),
+            elapsed_steps=torch.as_tensor(self._elapsed_steps).clone(),
+            measures=self._measures.state_dict(),
+        )
         return state
 
     def set_state_dict(self, state: dict, env_idx: torch.Tensor | None = None):
@@ -269,11 +333,15 @@ class BioVLNNavEnv(BaseEnv):
         idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx.to(self.device)
         saved = torch.as_tensor(task["episode"]).to(self.device)
         if not torch.equal(saved[idx], self._episode_indices()[idx]):
-            raise EnvConfigError("the state belongs to another episode", field="state['task']['episode']",
-                                 fix="reset to that episode first: env.reset(options={'episode_index': k})")
+            raise EnvConfigError(
+                "the state belongs to another episode",
+                field="state['task']['episode']",
+                fix="reset to that episode first: env.reset(options={'episode_index': k})",
+            )
         self._start[idx] = torch.as_tensor(task["start"], device=self.device)[idx].to(torch.float64)
         self._elapsed_steps[idx] = torch.as_tensor(task["elapsed_steps"], device=self.device)[idx].to(
-            self._elapsed_steps.dtype)
+            self._elapsed_steps.dtype
+        )
         self._measures.load_state_dict(task["measures"], idx)
 
     def _episode_indices(self) -> torch.Tensor:
@@ -282,8 +350,13 @@ class BioVLNNavEnv(BaseEnv):
     # --- rendering -----------------------------------------------------------------------------
     def render_rgb_array(self, camera_name: str | None = None):
         """The follow camera's view with the ceilings hidden (sensors keep them)."""
-        bodies = [e.find_component_by_type(sapien.render.RenderBodyComponent)
-                  for b in self.scene_builder.built.values() for a in b.shell if a.name.endswith("ceiling") for e in a._objs]
+        bodies = [
+            e.find_component_by_type(sapien.render.RenderBodyComponent)
+            for b in self.scene_builder.built.values()
+            for a in b.shell
+            if a.name.endswith("ceiling")
+            for e in a._objs
+        ]
         for body in bodies:
             body.visibility = 0.0
         try:
@@ -300,37 +373,69 @@ class BioVLNNavEnv(BaseEnv):
 
     def task_spec(self) -> TaskSpec:
         c = self.cfg
-        return TaskSpec(c.forward_step, c.turn_deg, c.camera_hfov_deg, c.max_episode_steps, tuple(self.category_names),
-                        self.control_mode, self.agent.radius)
+        return TaskSpec(
+            c.forward_step,
+            c.turn_deg,
+            c.camera_hfov_deg,
+            c.max_episode_steps,
+            tuple(self.category_names),
+            self.control_mode,
+            self.agent.radius,
+        )
 
     def episode_info(self, i: int = 0, privileged: bool = False) -> EpisodeInfo:
         """What a policy may know of sub-env ``i``'s episode; ``privileged`` adds the oracle's read-only view."""
         ep = self._episodes[i]
         view = None
         if privileged:
-            view = PrivilegedView(self._ctx.episode(i), self.navs[i], lambda: self._pose()[i].cpu().numpy(),
-                                  self.cfg.goal_mode)
+            view = PrivilegedView(
+                self._ctx.episode(i), self.navs[i], lambda: self._pose()[i].cpu().numpy(), self.cfg.goal_mode
+            )
         return EpisodeInfo(ep["scene_id"], ep["episode_id"], ep["object_category"], self.task_spec(), view)
 
 
 def _check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> None:
     """One-line errors for arguments ManiSkill would reject with a traceback, or accept silently."""
     if control_mode not in CONTROL_MODES:
-        raise EnvConfigError(f"unknown control mode '{control_mode}'", field="control_mode",
-                             fix=f"use one of: {', '.join(CONTROL_MODES)}")
+        raise EnvConfigError(
+            f"unknown control mode '{control_mode}'",
+            field="control_mode",
+            fix=f"use one of: {', '.join(CONTROL_MODES)}",
+        )
     if cfg.goal_mode not in GOAL_MODES:
-        raise EnvConfigError(f"unknown goal mode '{cfg.goal_mode}'", field="goal_mode", fix=f"use one of: {', '.join(GOAL_MODES)}")
-    for name in ("forward_step", "turn_deg", "camera_width", "camera_height", "camera_hfov_deg", "max_episode_steps"):
+        raise EnvConfigError(
+            f"unknown goal mode '{cfg.goal_mode}'",
+            field="goal_mode",
+            fix=f"use one of: {', '.join(GOAL_MODES)}",
+        )
+    for name in (
+        "forward_step",
+        "turn_deg",
+        "camera_width",
+        "camera_height",
+        "camera_hfov_deg",
+        "max_episode_steps",
+    ):
         v = getattr(cfg, name)
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise EnvConfigError(f"{name} must be a positive number, got {v!r}", field=name, fix=f"pass a positive {name}")
+            raise EnvConfigError(
+                f"{name} must be a positive number, got {v!r}", field=name, fix=f"pass a positive {name}"
+            )
     backend = str(kwargs.get("sim_backend", "auto"))
     if backend.startswith(("gpu", "physx_cuda", "cuda")) and not torch.cuda.is_available():
-        raise EnvConfigError(f"sim_backend='{backend}' needs a CUDA GPU and none is visible", field="sim_backend",
-                             fix="use sim_backend='physx_cpu' (the default on a machine without a GPU)")
+        raise EnvConfigError(
+            f"sim_backend='{backend}' needs a CUDA GPU and none is visible",
+            field="sim_backend",
+            fix="use sim_backend='physx_cpu' (the default on a machine without a GPU)",
+        )
     n = kwargs.get("num_envs", 1)
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
-        raise EnvConfigError(f"num_envs must be a positive integer, got {n!r}", field="num_envs", fix="pass num_envs=1 or more")
+        raise EnvConfigError(
+            f"num_envs must be a positive integer, got {n!r}", field="num_envs", fix="pass num_envs=1 or more"
+        )
     if n > 1 and not (torch.cuda.is_available() and backend.startswith(("gpu", "physx_cuda", "cuda"))):
-        raise EnvConfigError("num_envs > 1 needs sim_backend='physx_cuda' and a CUDA GPU; on the CPU run one env per "
-                             "process (gymnasium AsyncVectorEnv or SB3 SubprocVecEnv, see README)", field="num_envs")
+        raise EnvConfigError(
+            "num_envs > 1 needs sim_backend='physx_cuda' and a CUDA GPU; on the CPU run one env per "
+            "process (gymnasium AsyncVectorEnv or SB3 SubprocVecEnv, see README)",
+            field="num_envs",
+        )

@@ -22,7 +22,9 @@ class PrivilegedView:
 
     __slots__ = ("_ctx", "_nav", "_pose", "_goal_mode")
 
-    def __init__(self, ctx: EpisodeContext, nav: NavGeometry, pose: Callable[[], np.ndarray], goal_mode: str) -> None:
+    def __init__(
+        self, ctx: EpisodeContext, nav: NavGeometry, pose: Callable[[], np.ndarray], goal_mode: str
+    ) -> None:
         self._ctx, self._nav, self._pose, self._goal_mode = ctx, nav, pose, goal_mode
 
     @property
@@ -51,7 +53,9 @@ class PrivilegedView:
         return float(self._nav.geodesic_distance(np.asarray(a, float), np.asarray(b, float)))
 
     def shortest_path(self, a, b) -> list[np.ndarray]:
-        return [np.array(p, float) for p in self._nav.shortest_path(np.asarray(a, float), np.asarray(b, float))]
+        return [
+            np.array(p, float) for p in self._nav.shortest_path(np.asarray(a, float), np.asarray(b, float))
+        ]
 
     def snap(self, p) -> np.ndarray:
         """The nearest navigable point."""

@@ -31,9 +31,11 @@ SENSORS: dict[str, Callable[[SensorInputs], torch.Tensor]] = {}
 
 def register_sensor(uuid: str):
     """Register ``fn(inputs) -> (N, k) tensor`` as observation key ``uuid``."""
+
     def wrap(fn: Callable[[SensorInputs], torch.Tensor]) -> Callable[[SensorInputs], torch.Tensor]:
         SENSORS[uuid] = fn
         return fn
+
     return wrap
 
 
@@ -77,8 +79,16 @@ def rl_state(x: SensorInputs) -> torch.Tensor:
     s = x.cfg.position_scale
     local = _rotate(x.goal - x.pose[:, :2], x.pose[:, 2])
     yaw = x.pose[:, 2]
-    return torch.cat([x.pose[:, :2] / s, torch.stack([torch.cos(yaw), torch.sin(yaw)], 1), x.goal / s, local / s,
-                      (torch.clamp(x.clearance, max=2.0) / 2.0)[:, None]], dim=1).float()
+    return torch.cat(
+        [
+            x.pose[:, :2] / s,
+            torch.stack([torch.cos(yaw), torch.sin(yaw)], 1),
+            x.goal / s,
+            local / s,
+            (torch.clamp(x.clearance, max=2.0) / 2.0)[:, None],
+        ],
+        dim=1,
+    ).float()
 
 
 def semantic_category(segmentation: torch.Tensor, lookup: torch.Tensor) -> torch.Tensor:

@@ -15,8 +15,16 @@ from biovln_ms.variants import VARIANTS
 def _register_all() -> None:
     for uid, cfg in VARIANTS.items():
         name = "".join(ch for ch in uid if ch.isalnum())
-        cls = type(name, (BioVLNNavEnv,), {"config": cfg, "__module__": __name__, "__qualname__": name,
-                                            "__doc__": f"``{uid}``: {BioVLNNavEnv.__doc__.splitlines()[0]}"})
+        cls = type(
+            name,
+            (BioVLNNavEnv,),
+            {
+                "config": cfg,
+                "__module__": __name__,
+                "__qualname__": name,
+                "__doc__": f"``{uid}``: {BioVLNNavEnv.__doc__.splitlines()[0]}",
+            },
+        )
         globals()[name] = cls
         register_biovln_env(uid, max_episode_steps=cfg.max_episode_steps)(cls)
 

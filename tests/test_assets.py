@@ -4,7 +4,11 @@ import numpy as np
 import pytest
 
 from biovln_ms.assetgen.generate import (
-    build_scene, generate_assets, load_glb, plans, verify_assets,
+    build_scene,
+    generate_assets,
+    load_glb,
+    plans,
+    verify_assets,
 )
 from biovln_ms.errors import AssetError
 from biovln_ms.paths import ASSET_DIR, asset_glb
@@ -14,7 +18,9 @@ def test_shipped_assets_match_manifest(catalog):
     assert verify_assets(ASSET_DIR, catalog) == []
 
 
-@pytest.mark.parametrize("plan", plans(__import__("biovln_ms.catalog", fromlist=["x"]).load_catalog()), ids=lambda p: p.name)
+@pytest.mark.parametrize(
+    "plan", plans(__import__("biovln_ms.catalog", fromlist=["x"]).load_catalog()), ids=lambda p: p.name
+)
 def test_glb_is_origin_centred_with_table2_bounds(plan):
     scene = load_glb(asset_glb(plan.name))
     lo, hi = scene.bounds
@@ -30,8 +36,11 @@ def test_instruments_are_detailed(catalog):
         names = " ".join(scene.geometry)
         assert len(scene.geometry) >= 7, a.name
         assert any(k in names for k in ("label", "display", "keypad", "services")), a.name
-        textured = [g for g in scene.geometry.values()
-                    if getattr(getattr(g.visual, "material", None), "baseColorTexture", None) is not None]
+        textured = [
+            g
+            for g in scene.geometry.values()
+            if getattr(getattr(g.visual, "material", None), "baseColorTexture", None) is not None
+        ]
         assert len(textured) >= 3, a.name
 
 
@@ -45,7 +54,20 @@ def test_operational_face_carries_the_controls(catalog):
         front = []
         for node in scene.graph.nodes_geometry:
             tf, geom = scene.graph[node]
-            if any(k in geom for k in ("display", "keypad", "control", "door", "pedal", "console", "drawer", "volume", "sash")):
+            if any(
+                k in geom
+                for k in (
+                    "display",
+                    "keypad",
+                    "control",
+                    "door",
+                    "pedal",
+                    "console",
+                    "drawer",
+                    "volume",
+                    "sash",
+                )
+            ):
                 c = scene.geometry[geom].bounds.mean(axis=0) + tf[:3, 3]
                 front.append(float(c[:2] @ f))
         assert front, a.name

@@ -19,10 +19,25 @@ def dataset(held_out_dataset):
 @pytest.fixture(scope="module")
 def trained(dataset, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("bc")
-    evaluate(EvalConfig("oracle", "ms_val", str(tmp / "res"), dataset, workers=1, camera=(160, 120),
-                        record_dir=str(tmp / "rec")), progress=False)
-    result = train_bc([tmp / "rec"], tmp / "ckpt", BCConfig(max_epochs=2, image_size=32, val_fraction=0.25), echo=lambda s: None,
-                      progress=False)
+    evaluate(
+        EvalConfig(
+            "oracle",
+            "ms_val",
+            str(tmp / "res"),
+            dataset,
+            workers=1,
+            camera=(160, 120),
+            record_dir=str(tmp / "rec"),
+        ),
+        progress=False,
+    )
+    result = train_bc(
+        [tmp / "rec"],
+        tmp / "ckpt",
+        BCConfig(max_epochs=2, image_size=32, val_fraction=0.25),
+        echo=lambda s: None,
+        progress=False,
+    )
     return tmp, result
 
 
@@ -48,8 +63,19 @@ def test_training_writes_checkpoint_curve_and_history(trained):
 
 def test_bc_is_evaluated_through_the_harness(trained, dataset):
     tmp, r = trained
-    summary = evaluate(EvalConfig("bc", "ms_val", str(tmp / "res"), dataset, workers=1, camera=(160, 120), max_episodes=2,
-                                  method_kwargs={"checkpoint": str(r.checkpoint)}), progress=False)
+    summary = evaluate(
+        EvalConfig(
+            "bc",
+            "ms_val",
+            str(tmp / "res"),
+            dataset,
+            workers=1,
+            camera=(160, 120),
+            max_episodes=2,
+            method_kwargs={"checkpoint": str(r.checkpoint)},
+        ),
+        progress=False,
+    )
     recs = load_records(tmp / "res" / "bc" / "ms_val" / "episodes.jsonl")
     assert summary["overall"]["episodes"] == 2 and len(recs) == 2
     assert all(not rec.get("error") and all(a in (0, 1, 2, 3) for a in rec["actions"]) for rec in recs)
@@ -77,5 +103,14 @@ def test_bad_checkpoints_are_refused(tmp_path, trained, dataset):
     from biovln_ms.errors import BioVLNError
 
     with pytest.raises(BioVLNError, match="takes no option checkpoint"):
-        evaluate(EvalConfig("oracle", "ms_val", str(tmp_path / "res"), dataset, workers=1,
-                            method_kwargs={"checkpoint": str(r.checkpoint)}), progress=False)
+        evaluate(
+            EvalConfig(
+                "oracle",
+                "ms_val",
+                str(tmp_path / "res"),
+                dataset,
+                workers=1,
+                method_kwargs={"checkpoint": str(r.checkpoint)},
+            ),
+            progress=False,
+        )

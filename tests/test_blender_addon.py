@@ -19,10 +19,23 @@ BLENDER_PY = Path(os.environ.get("BIOVLN_BLENDER_PYTHON", ROOT / ".venv-blender"
 
 @pytest.mark.skipif(not BLENDER_PY.exists(), reason="no Blender Python (run scripts/install_blender.sh)")
 def test_addon_panel_operators_headless(tmp_path):
-    subprocess.run([sys.executable, "-m", "biovln_ms.cli", "lsat", "blender-addon", "-o", str(tmp_path / "addon.zip")], check=True,
-                   capture_output=True)
-    r = subprocess.run([str(BLENDER_PY), str(ROOT / "tests" / "blender" / "addon_session.py"), str(tmp_path / "addon.zip"),
-                        str(target_glb_path()), str(tmp_path / "out")], capture_output=True, text=True, timeout=600)
+    subprocess.run(
+        [sys.executable, "-m", "biovln_ms.cli", "lsat", "blender-addon", "-o", str(tmp_path / "addon.zip")],
+        check=True,
+        capture_output=True,
+    )
+    r = subprocess.run(
+        [
+            str(BLENDER_PY),
+            str(ROOT / "tests" / "blender" / "addon_session.py"),
+            str(tmp_path / "addon.zip"),
+            str(target_glb_path()),
+            str(tmp_path / "out"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     line = next((x for x in r.stdout.splitlines() if x.startswith("BIOVLN_RESULT ")), None)
     assert line, r.stdout[-2000:] + r.stderr[-2000:]
     res = json.loads(line.removeprefix("BIOVLN_RESULT "))
@@ -30,8 +43,12 @@ def test_addon_panel_operators_headless(tmp_path):
     assert res["add_marker"] == ["FINISHED"]
     assert res["new_marker"][:2] == pytest.approx([5.5, 3.439], abs=1e-3)  # Eq. 1 in front of the stand
     assert res["check_bad"] == ["CANCELLED"] and res["check_good"] == ["FINISHED"]
-    assert res["import_export"] == ["FINISHED"] and res["coverage"].startswith("8 instruments, 6 marker goals")
-    spec = parse_spec(json.loads((tmp_path / "out" / "scene.json").read_text()))  # Blender's own GLB, re-imported
+    assert res["import_export"] == ["FINISHED"] and res["coverage"].startswith(
+        "8 instruments, 6 marker goals"
+    )
+    spec = parse_spec(
+        json.loads((tmp_path / "out" / "scene.json").read_text())
+    )  # Blender's own GLB, re-imported
     assert len(spec.goal_objects()) == 8
     for suffix in ("report.md", "goals.json", "lsat.json", "usda"):
         assert (tmp_path / "out" / f"scene.{suffix}").is_file(), suffix

@@ -80,16 +80,19 @@ def _write(tmp_path, mutate):
     return p
 
 
-@pytest.mark.parametrize("mutate, field", [
-    (lambda o: o["assets"][0].update(approach_distance=2.0), "assets[0].approach_distance"),
-    (lambda o: o["assets"][1].update(face="-Z"), "assets[1].face"),
-    (lambda o: o["assets"][2].update(dimensions=[0.49, -0.42, 0.63]), "assets[2].dimensions"),
-    (lambda o: o["assets"][3].update(d_half=0.9), "assets[3]"),
-    (lambda o: o["assets"][4].pop("placement"), "assets[4].placement"),
-    (lambda o: o["assets"].append(dict(o["assets"][0])), "assets"),
-    (lambda o: o["assets"][0].update(colour="red"), "assets[0].colour"),
-    (lambda o: o.update(zone2_clearance=0.0), "zone2_clearance"),
-])
+@pytest.mark.parametrize(
+    "mutate, field",
+    [
+        (lambda o: o["assets"][0].update(approach_distance=2.0), "assets[0].approach_distance"),
+        (lambda o: o["assets"][1].update(face="-Z"), "assets[1].face"),
+        (lambda o: o["assets"][2].update(dimensions=[0.49, -0.42, 0.63]), "assets[2].dimensions"),
+        (lambda o: o["assets"][3].update(d_half=0.9), "assets[3]"),
+        (lambda o: o["assets"][4].pop("placement"), "assets[4].placement"),
+        (lambda o: o["assets"].append(dict(o["assets"][0])), "assets"),
+        (lambda o: o["assets"][0].update(colour="red"), "assets[0].colour"),
+        (lambda o: o.update(zone2_clearance=0.0), "zone2_clearance"),
+    ],
+)
 def test_malformed_catalog_names_file_and_field(tmp_path, mutate, field):
     path = _write(tmp_path, mutate)
     with pytest.raises(CatalogError) as e:
@@ -123,4 +126,6 @@ def test_every_asset_carries_its_catalogs_zone2_clearance(tmp_path, catalog):
     assert {a.zone2_clearance for a in wide.assets()} == {0.4}
     assert {a.zone2_clearance for a in catalog.assets()} == {0.25}  # the packaged catalog is untouched
     raw = json.loads(CATALOG_PATH.read_text())["assets"][0]
-    assert AssetSpec.model_validate(raw).zone2_clearance == 0.25  # a stand-alone asset: the packaged catalog's
+    assert (
+        AssetSpec.model_validate(raw).zone2_clearance == 0.25
+    )  # a stand-alone asset: the packaged catalog's

@@ -10,8 +10,19 @@ from biovln_ms.cli import app
 runner = CliRunner()
 
 
-@pytest.mark.parametrize("args", [[], ["doctor"], ["demo"], ["catalog"], ["assets"], ["assets", "generate"], ["assets", "verify"],
-                                  ["assets", "preview"]])
+@pytest.mark.parametrize(
+    "args",
+    [
+        [],
+        ["doctor"],
+        ["demo"],
+        ["catalog"],
+        ["assets"],
+        ["assets", "generate"],
+        ["assets", "verify"],
+        ["assets", "preview"],
+    ],
+)
 def test_help_on_every_command(args):
     r = runner.invoke(app, [*args, "--help"])
     assert r.exit_code == 0, r.output
@@ -33,8 +44,11 @@ def test_console_script_turns_errors_into_one_line(tmp_path):
     assert r.returncode == 2
     assert "Traceback" not in r.stderr
     assert str(bad) in r.stderr
-    r = subprocess.run([*exe, "assets", "generate", "--only", "fridge", "-o", str(tmp_path / "a")],
-                       capture_output=True, text=True)
+    r = subprocess.run(
+        [*exe, "assets", "generate", "--only", "fridge", "-o", str(tmp_path / "a")],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 2 and "unknown instrument 'fridge'" in r.stderr and "Traceback" not in r.stderr
 
 

@@ -24,23 +24,35 @@ def _generate(tmp_path: Path, name: str, *require_args: str) -> dict:
     return json.loads(out.read_text())
 
 
-@pytest.mark.parametrize("require_args", [
-    ("--require", "refrigerator", "centrifuge", "waste_bin"),             # as the README shows
-    ("--require", "refrigerator,centrifuge", "--require", "waste_bin"),   # commas, and repeated
-    ("--require", "refrigerator centrifuge waste_bin"),                    # one quoted word
-    ("--require=refrigerator", "centrifuge", "waste_bin"),
-])
+@pytest.mark.parametrize(
+    "require_args",
+    [
+        ("--require", "refrigerator", "centrifuge", "waste_bin"),  # as the README shows
+        ("--require", "refrigerator,centrifuge", "--require", "waste_bin"),  # commas, and repeated
+        ("--require", "refrigerator centrifuge waste_bin"),  # one quoted word
+        ("--require=refrigerator", "centrifuge", "waste_bin"),
+    ],
+)
 def test_require_takes_several_categories(tmp_path: Path, require_args: tuple[str, ...]) -> None:
-    repeated = _generate(tmp_path, "repeated.json", "--require", "refrigerator", "--require", "centrifuge",
-                         "--require", "waste_bin")
+    repeated = _generate(
+        tmp_path,
+        "repeated.json",
+        "--require",
+        "refrigerator",
+        "--require",
+        "centrifuge",
+        "--require",
+        "waste_bin",
+    )
     assert {"refrigerator", "centrifuge", "waste_bin"} <= {o["category"] for o in repeated["instruments"]}
     assert _generate(tmp_path, "listed.json", *require_args) == repeated
 
 
 def test_require_stops_at_the_next_option(tmp_path: Path) -> None:
     """Options after the categories still parse; a category word never swallows them."""
-    spec = _generate(tmp_path, "a.json", "--require", "refrigerator", "centrifuge",
-                     "--template", "single_room")
+    spec = _generate(
+        tmp_path, "a.json", "--require", "refrigerator", "centrifuge", "--template", "single_room"
+    )
     assert spec["template"] == "single_room"
     assert {"refrigerator", "centrifuge"} <= {o["category"] for o in spec["instruments"]}
     r = runner.invoke(app, ["scene", "generate", "--seed", "3", "--require", "-o", str(tmp_path / "b.json")])
@@ -48,24 +60,44 @@ def test_require_stops_at_the_next_option(tmp_path: Path) -> None:
 
 
 def test_require_unknown_category_is_one_line(tmp_path: Path) -> None:
-    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "scene", "generate", "--seed", "3",
-                        "--require", "refrigerator", "fridge", "-o", str(tmp_path / "x.json")],
-                       capture_output=True, text=True, check=False, cwd=tmp_path)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "biovln_ms.cli",
+            "scene",
+            "generate",
+            "--seed",
+            "3",
+            "--require",
+            "refrigerator",
+            "fridge",
+            "-o",
+            str(tmp_path / "x.json"),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=tmp_path,
+    )
     assert r.returncode == 2, r.stderr
     assert "unknown instrument 'fridge'" in r.stderr and "Traceback" not in r.stderr
 
 
 def _run_python(code: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", code], cwd=cwd, capture_output=True, text=True, check=False,
-                          timeout=300)
+    return subprocess.run(
+        [sys.executable, "-c", code], cwd=cwd, capture_output=True, text=True, check=False, timeout=300
+    )
 
 
 def test_register_template_readme_path_from_any_folder(tmp_path: Path) -> None:
-    code = ("from biovln_ms.scene.templates import register_template\n"
-            "from biovln_ms.scene.generator import generate_scene\n"
-            "register_template('tasks/examples/cold_room.json')\n"
-            "register_template('cold_room.json')\n"
-            "print(generate_scene('cold_room', seed=3).name)\n")
+    code = (
+        "from biovln_ms.scene.templates import register_template\n"
+        "from biovln_ms.scene.generator import generate_scene\n"
+        "register_template('tasks/examples/cold_room.json')\n"
+        "register_template('cold_room.json')\n"
+        "print(generate_scene('cold_room', seed=3).name)\n"
+    )
     r = _run_python(code, tmp_path)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["cold_room_s3_v0"]

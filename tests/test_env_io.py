@@ -17,8 +17,24 @@ CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
 
 def test_record_cli_writes_mp4_with_ego_view_and_map(tmp_path):
     out = tmp_path / "ep.mp4"
-    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "record", "--split", "ms_val", "--episode", "0",
-                        "--policy", "oracle", "-o", str(out)], capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "biovln_ms.cli",
+            "record",
+            "--split",
+            "ms_val",
+            "--episode",
+            "0",
+            "--policy",
+            "oracle",
+            "-o",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 0, r.stderr
     assert "success=True" in r.stdout  # the oracle reaches this episode's goal
     reader = imageio.get_reader(out)
@@ -31,8 +47,14 @@ def test_maniskill_record_episode_wrapper(tmp_path):
     from mani_skill.utils.wrappers.record import RecordEpisode
 
     env = gym.make("BioVLN-OpFace-v0", obs_mode="state", render_mode="rgb_array", **CPU)
-    env = RecordEpisode(env, output_dir=str(tmp_path), save_trajectory=True, save_video=True, video_fps=5,
-                        max_steps_per_video=20)
+    env = RecordEpisode(
+        env,
+        output_dir=str(tmp_path),
+        save_trajectory=True,
+        save_video=True,
+        video_fps=5,
+        max_steps_per_video=20,
+    )
     env.reset(seed=0)
     for a in (1, 2, 1, 3, 0):
         env.step(a)
@@ -42,7 +64,9 @@ def test_maniskill_record_episode_wrapper(tmp_path):
 
 def test_gymnasium_async_vector_env():
     factory = functools.partial(make_gym_env, "BioVLN-OpFace-v0", obs_mode="state")
-    venv = gym.vector.AsyncVectorEnv([factory, factory], context="spawn")  # fork deadlocks after SAPIEN/torch start
+    venv = gym.vector.AsyncVectorEnv(
+        [factory, factory], context="spawn"
+    )  # fork deadlocks after SAPIEN/torch start
     try:
         obs, info = venv.reset(seed=[0, 1])
         assert obs.shape[0] == 2 and not np.array_equal(obs[0], obs[1])

@@ -29,7 +29,10 @@ def test_episode_fields_and_geometry(spec150):
         g = np.asarray(e["goals"][0]["position"][:2])
         o = spec150.get(e["object_id"])
         assert nav.is_navigable(s) and nav.is_navigable(g)
-        clear = min(min(obj.placed().clearance(s) for obj in spec150.objects()), floor.exterior.distance(shapely.Point(s)))
+        clear = min(
+            min(obj.placed().clearance(s) for obj in spec150.objects()),
+            floor.exterior.distance(shapely.Point(s)),
+        )
         assert clear >= e["info"]["start_clearance"] - 1e-6 and e["info"]["start_clearance"] == 1.0
         assert e["info"]["geodesic_distance"] == pytest.approx(nav.geodesic_distance(s, g), abs=1e-5)
         assert e["info"]["euclidean_distance"] == pytest.approx(np.linalg.norm(g - s), abs=1e-5)
@@ -47,7 +50,13 @@ def test_episode_fields_and_geometry(spec150):
 
 
 def test_difficulty_tiers():
-    assert [difficulty(x) for x in (0.5, 2.999, 3.0, 6.0, 6.001)] == ["easy", "easy", "medium", "medium", "hard"]
+    assert [difficulty(x) for x in (0.5, 2.999, 3.0, 6.0, 6.001)] == [
+        "easy",
+        "easy",
+        "medium",
+        "medium",
+        "hard",
+    ]
 
 
 def test_cross_room_starts_in_the_other_room():
@@ -70,8 +79,12 @@ def test_unreachable_zone3_fails_loudly(spec150):
 def _small_splits():
     a = generate_scene("single_room", 150, required_categories=FOUR_CATEGORIES)
     b = generate_scene("single_room", 3)
-    return [SplitPlan("full", [(a, 10, False), (b, 6, False)]), SplitPlan("train", [(b, 6, False)], view_of="full"),
-            SplitPlan("ms_dev", [(a, 8, False)]), SplitPlan("lsat_target", [], missing="not built")]
+    return [
+        SplitPlan("full", [(a, 10, False), (b, 6, False)]),
+        SplitPlan("train", [(b, 6, False)], view_of="full"),
+        SplitPlan("ms_dev", [(a, 8, False)]),
+        SplitPlan("lsat_target", [], missing="not built"),
+    ]
 
 
 def test_dataset_is_deterministic_and_loads(tmp_path):
@@ -150,11 +163,11 @@ def test_paper_splits_are_disjoint_and_counted():
     bench = ["ms_dev", "ms_val", "ms_test", "two_room", "lsat_target"]
     names = {b: {s.name for s, _, _ in splits[b].scenes} for b in bench + ["train"]}
     for i, a in enumerate(bench + ["train"]):
-        for b in (bench + ["train"])[i + 1:]:
+        for b in (bench + ["train"])[i + 1 :]:
             assert not names[a] & names[b], (a, b)
     assert [sum(n for _, n, _ in splits[b].scenes) for b in bench] == [160, 50, 120, 50, 40]
     assert names["ms_dev"] == {f"lab_s{s}_v0" for s in (150, 151, 152, 153)}
-    (lsat, n, _), = splits["lsat_target"].scenes
+    ((lsat, n, _),) = splits["lsat_target"].scenes
     assert lsat.template == "lsat" and n == 40 and len(lsat.goal_objects()) == 8  # 5 episodes per category
 
 
@@ -167,13 +180,48 @@ def test_cli_dataset_build_stats_show_and_map_overlay(tmp_path):
     exe = [sys.executable, "-m", "biovln_ms.cli"]
     r = subprocess.run([*exe, "dataset", "stats", str(root)], capture_output=True, text=True)
     assert r.returncode == 0 and "ms_dev" in r.stdout and "MISSING" in r.stdout, r.stderr
-    r = subprocess.run([*exe, "dataset", "show", str(root), "--split", "ms_dev", "--episode", "2", "-o", str(tmp_path / "e.png")],
-                       capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            *exe,
+            "dataset",
+            "show",
+            str(root),
+            "--split",
+            "ms_dev",
+            "--episode",
+            "2",
+            "-o",
+            str(tmp_path / "e.png"),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 0, r.stderr
     spec = root / "scenes" / "lab_s150_v0.json"
-    r = subprocess.run([*exe, "scene", "map", str(spec), "--dataset", str(root), "--split", "ms_dev", "--episode", "2",
-                        "--islands", "-o", str(tmp_path / "m.png")], capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            *exe,
+            "scene",
+            "map",
+            str(spec),
+            "--dataset",
+            str(root),
+            "--split",
+            "ms_dev",
+            "--episode",
+            "2",
+            "--islands",
+            "-o",
+            str(tmp_path / "m.png"),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "m.png").stat().st_size > 20_000
-    r = subprocess.run([*exe, "dataset", "show", str(root), "--split", "ms_dev", "--episode", "999"], capture_output=True, text=True)
+    r = subprocess.run(
+        [*exe, "dataset", "show", str(root), "--split", "ms_dev", "--episode", "999"],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 2 and "no episode '999'" in r.stderr and "Traceback" not in r.stderr

@@ -23,13 +23,32 @@ def test_oracle_run_records_everything(dataset, tmp_path):
     recs = load_records(tmp_path / "oracle" / "ms_val" / "episodes.jsonl")
     assert len(recs) == 8 and s["overall"]["episodes"] == 8
     r = recs[0]
-    for key in ("scene_id", "episode_id", "object_category", "difficulty", "geodesic_distance", "positions", "headings",
-                "clearance", "zone2", "actions", "success", "spl", "dtg", "steps", "mcr", "vrt", "wall_time_s"):
+    for key in (
+        "scene_id",
+        "episode_id",
+        "object_category",
+        "difficulty",
+        "geodesic_distance",
+        "positions",
+        "headings",
+        "clearance",
+        "zone2",
+        "actions",
+        "success",
+        "spl",
+        "dtg",
+        "steps",
+        "mcr",
+        "vrt",
+        "wall_time_s",
+    ):
         assert key in r, key
     assert len(r["positions"]) == len(r["actions"]) + 1 == len(r["clearance"])
     assert r["mcr"] == pytest.approx(min(r["clearance"]), abs=1e-3)
     assert s["overall"]["sr"] >= 75.0
-    assert json.loads((tmp_path / "oracle" / "ms_val" / "summary.json").read_text())["overall"]["episodes"] == 8
+    assert (
+        json.loads((tmp_path / "oracle" / "ms_val" / "summary.json").read_text())["overall"]["episodes"] == 8
+    )
 
 
 def test_resume_after_a_kill_loses_and_repeats_nothing(dataset, tmp_path):
@@ -44,8 +63,12 @@ def test_resume_after_a_kill_loses_and_repeats_nothing(dataset, tmp_path):
     keys = [(r["scene_id"], r["episode_id"]) for r in recs]
     assert len(keys) == len(set(keys)) == 8 and s["overall"]["episodes"] == 8
     # the random policy is seeded per episode: the resumed run equals a fresh one
-    fresh = evaluate(EvalConfig("random", "ms_val", str(tmp_path / "fresh"), dataset, workers=2), progress=False)
-    assert fresh["overall"]["sr"] == s["overall"]["sr"] and fresh["overall"]["spl"] == pytest.approx(s["overall"]["spl"])
+    fresh = evaluate(
+        EvalConfig("random", "ms_val", str(tmp_path / "fresh"), dataset, workers=2), progress=False
+    )
+    assert fresh["overall"]["sr"] == s["overall"]["sr"] and fresh["overall"]["spl"] == pytest.approx(
+        s["overall"]["spl"]
+    )
 
 
 def test_corrupt_results_file_is_named(dataset, tmp_path):
@@ -74,11 +97,30 @@ def test_failing_episode_is_recorded_and_the_run_continues(dataset, tmp_path, mo
 
 def test_cli_eval_and_unknown_method(dataset, tmp_path):
     exe = [sys.executable, "-m", "biovln_ms.cli", "eval"]
-    r = subprocess.run([*exe, "--method", "zone3_oracle", "--split", "ms_val", "--dataset", dataset, "-o", str(tmp_path),
-                        "--workers", "2"], capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            *exe,
+            "--method",
+            "zone3_oracle",
+            "--split",
+            "ms_val",
+            "--dataset",
+            dataset,
+            "-o",
+            str(tmp_path),
+            "--workers",
+            "2",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 0, r.stderr
     assert "zone3_oracle on ms_val: 8 episodes" in r.stdout
-    r = subprocess.run([*exe, "--method", "telepathy", "--dataset", dataset, "-o", str(tmp_path)], capture_output=True, text=True)
+    r = subprocess.run(
+        [*exe, "--method", "telepathy", "--dataset", dataset, "-o", str(tmp_path)],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 2 and "unknown method 'telepathy'" in r.stderr and "random, oracle" in r.stderr
 
 
@@ -86,32 +128,70 @@ def test_report_has_the_paper_tables_figures_and_a_video(dataset, tmp_path):
     from biovln_ms.eval.report import write_report
 
     for m in ("oracle", "random", "frontier"):
-        evaluate(EvalConfig(m, "ms_val", str(tmp_path / "res"), dataset, workers=1, max_episodes=4), progress=False)
-    evaluate(EvalConfig("frontier", "ms_val", str(tmp_path / "res"), dataset, workers=1, max_episodes=4,
-                        env_id="BioVLN-Centroid-v0"), progress=False)
-    md = write_report(tmp_path / "res", tmp_path / "rep", dataset=dataset, videos=1, hard_figures=1, echo=lambda *_: None)
+        evaluate(
+            EvalConfig(m, "ms_val", str(tmp_path / "res"), dataset, workers=1, max_episodes=4), progress=False
+        )
+    evaluate(
+        EvalConfig(
+            "frontier",
+            "ms_val",
+            str(tmp_path / "res"),
+            dataset,
+            workers=1,
+            max_episodes=4,
+            env_id="BioVLN-Centroid-v0",
+        ),
+        progress=False,
+    )
+    md = write_report(
+        tmp_path / "res", tmp_path / "rep", dataset=dataset, videos=1, hard_figures=1, echo=lambda *_: None
+    )
     text = md.read_text()
-    for heading in ("Table 5 layout", "Table 10 layout", "Table 6 layout", "Table 9 layout", "Table 11 layout",
-                    "Pairwise McNemar", "differ from the paper"):
+    for heading in (
+        "Table 5 layout",
+        "Table 10 layout",
+        "Table 6 layout",
+        "Table 9 layout",
+        "Table 11 layout",
+        "Pairwise McNemar",
+        "differ from the paper",
+    ):
         assert heading in text, heading
     assert "| Oracle | – (71.9)" in text  # paper numbers beside ours
     figs = {p.name for p in (tmp_path / "rep" / "figures").iterdir()}
     assert {"sr_by_method.png", "safety.png", "trajectories_oracle_ms_val.png"} <= figs
     assert any(f.startswith("hard_") for f in figs)
     assert len(list((tmp_path / "rep" / "videos").glob("*.mp4"))) == 1
-    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "report", str(tmp_path / "nothing"), "-o", str(tmp_path / "x")],
-                       capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "biovln_ms.cli",
+            "report",
+            str(tmp_path / "nothing"),
+            "-o",
+            str(tmp_path / "x"),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 2 and "no results under" in r.stderr
 
 
 def test_ray_local_instance_runs_and_resumes(dataset, tmp_path):
     pytest.importorskip("ray")
-    cfg = EvalConfig("oracle", "ms_val", str(tmp_path), dataset, workers=2, max_episodes=5, ray_address="local")
+    cfg = EvalConfig(
+        "oracle", "ms_val", str(tmp_path), dataset, workers=2, max_episodes=5, ray_address="local"
+    )
     evaluate(cfg, progress=False)
     cfg.max_episodes = None
     s = evaluate(cfg, progress=False)
     recs = load_records(tmp_path / "oracle" / "ms_val" / "episodes.jsonl")
     keys = [(r["scene_id"], r["episode_id"]) for r in recs]
     assert len(keys) == len(set(keys)) == 8 and s["overall"]["episodes"] == 8
-    pool = evaluate(EvalConfig("oracle", "ms_val", str(tmp_path / "pool"), dataset, workers=1), progress=False)
-    assert pool["overall"]["sr"] == s["overall"]["sr"] and pool["overall"]["spl"] == pytest.approx(s["overall"]["spl"])
+    pool = evaluate(
+        EvalConfig("oracle", "ms_val", str(tmp_path / "pool"), dataset, workers=1), progress=False
+    )
+    assert pool["overall"]["sr"] == s["overall"]["sr"] and pool["overall"]["spl"] == pytest.approx(
+        s["overall"]["spl"]
+    )

@@ -38,13 +38,27 @@ def test_intervals():
 
 
 def _rec(success, spl, dtg, steps, mcr, vrt, cat="cabinet", diff="easy"):
-    return dict(success=success, spl=spl, soft_spl=spl, dtg=dtg, steps=steps, mcr=mcr, vrt=vrt,
-                object_category=cat, difficulty=diff, collisions=0, wall_time_s=1.0)
+    return dict(
+        success=success,
+        spl=spl,
+        soft_spl=spl,
+        dtg=dtg,
+        steps=steps,
+        mcr=mcr,
+        vrt=vrt,
+        object_category=cat,
+        difficulty=diff,
+        collisions=0,
+        wall_time_s=1.0,
+    )
 
 
 def test_aggregate_follows_section_4_2():
-    recs = [_rec(True, 0.8, 0.2, 10, 0.6, 0.0), _rec(False, 0.0, 3.0, 500, 0.3, 0.5, "refrigerator", "hard"),
-            _rec(True, 1.0, 0.1, 20, 0.9, 0.1)]
+    recs = [
+        _rec(True, 0.8, 0.2, 10, 0.6, 0.0),
+        _rec(False, 0.0, 3.0, 500, 0.3, 0.5, "refrigerator", "hard"),
+        _rec(True, 1.0, 0.1, 20, 0.9, 0.1),
+    ]
     a = aggregate(recs)
     assert a["sr"] == pytest.approx(200 / 3)
     assert a["spl"] == pytest.approx(0.6)

@@ -33,8 +33,14 @@ def test_frontier_reaches_goals_in_the_env():
     import biovln_ms  # noqa: F401
     from biovln_ms.agents.frontier import FrontierPolicy
 
-    env = gym.make("BioVLN-OpFace-v0", obs_mode="rgbd", camera_width=320, camera_height=240,
-                   sim_backend="physx_cpu", render_backend="cpu")
+    env = gym.make(
+        "BioVLN-OpFace-v0",
+        obs_mode="rgbd",
+        camera_width=320,
+        camera_height=240,
+        sim_backend="physx_cpu",
+        render_backend="cpu",
+    )
     pol = FrontierPolicy()
     wins = 0
     for k in range(3):

@@ -22,8 +22,15 @@ from biovln_ms.agents.frontier_planner import FrontierPlanner, Plan, PlanField, 
 from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EpisodeInfo, TaskSpec
 
 W, H, HFOV, CAM_Z = 160, 120, math.radians(79), 0.88
-TASK = TaskSpec(forward_step=0.25, turn_deg=30.0, hfov_deg=79.0, max_episode_steps=500,
-                goal_categories=("centrifuge", "refrigerator"), control_mode="discrete", robot_radius=0.2)
+TASK = TaskSpec(
+    forward_step=0.25,
+    turn_deg=30.0,
+    hfov_deg=79.0,
+    max_episode_steps=500,
+    goal_categories=("centrifuge", "refrigerator"),
+    control_mode="discrete",
+    robot_radius=0.2,
+)
 PARAMS = FrontierParams(robot_radius=TASK.robot_radius)  # what FrontierPolicy.reset fills in from the task
 
 
@@ -81,11 +88,19 @@ def _obs(pose, goal, wall_x: float) -> dict:
         d = np.asarray(goal) - np.asarray(pose[:2])
         phi = (math.atan2(d[1], d[0]) - pose[2] + math.pi) % (2 * math.pi) - math.pi
         extra["pointgoal_with_gps_compass"] = t([np.linalg.norm(d), phi])
-    return {"extra": extra,
-            "sensor_data": {"head": {"depth": t(depth_mm[..., None], torch.int16),
-                                     "rgb": t(np.zeros((H, W, 3)), torch.uint8)}},
-            "sensor_param": {"head": {"intrinsic_cv": t(_intrinsic()), "extrinsic_cv": t(_extrinsic(pose)),
-                                      "cam2world_gl": t(_cam2world_gl(pose))}}}
+    return {
+        "extra": extra,
+        "sensor_data": {
+            "head": {"depth": t(depth_mm[..., None], torch.int16), "rgb": t(np.zeros((H, W, 3)), torch.uint8)}
+        },
+        "sensor_param": {
+            "head": {
+                "intrinsic_cv": t(_intrinsic()),
+                "extrinsic_cv": t(_extrinsic(pose)),
+                "cam2world_gl": t(_cam2world_gl(pose)),
+            }
+        },
+    }
 
 
 def _episode() -> EpisodeInfo:
@@ -161,8 +176,10 @@ def test_planner_goes_to_the_nearest_frontier_cluster():
 
 def test_planner_tiles_a_long_frontier_into_cluster_diameter_pieces():
     # a 6 m room, walled except its north side, which is open to the unknown along its whole length
-    m = _grid(free=[(190, 210, 200, 320)],
-              occupied=[(185, 190, 195, 325), (190, 210, 195, 200), (190, 210, 320, 325)])
+    m = _grid(
+        free=[(190, 210, 200, 320)],
+        occupied=[(185, 190, 195, 325), (190, 210, 195, 200), (190, 210, 320, 325)],
+    )
     field = PlanField.compute(m, m.centre([200, 260]), PARAMS.inflate_cells)
     cands = FrontierPlanner(PARAMS, _goal_rules([0, 0])).candidates(field)
     cands.sort(key=lambda c: c.position[0])
@@ -172,8 +189,10 @@ def test_planner_tiles_a_long_frontier_into_cluster_diameter_pieces():
 
 
 def test_planner_goes_to_the_goal_once_its_cell_is_free_and_reachable():
-    m = _grid(free=[(185, 215, 180, 260), (230, 251, 190, 211)],  # the corridor and a room north of it
-              occupied=[(180, 185, 180, 260), (215, 220, 180, 260)])
+    m = _grid(
+        free=[(185, 215, 180, 260), (230, 251, 190, 211)],  # the corridor and a room north of it
+        occupied=[(180, 185, 180, 260), (215, 220, 180, 260)],
+    )
     walled_off = m.centre([240, 200])  # free and clear of obstacles, but beyond the unknown
     field = PlanField.compute(m, np.zeros(2), PARAMS.inflate_cells)
     assert goal_if_reachable(field, np.array([1.0, 0.0])) is not None
@@ -219,8 +238,9 @@ def _controller(mode: str, target, path) -> tuple[FrontierController, FixedPlann
     return FrontierController(PARAMS, 0.25, math.radians(30), m, planner), planner, m
 
 
-@pytest.mark.parametrize("bearing, action",
-                         [(40, TURN_LEFT), (-40, TURN_RIGHT), (14, FORWARD), (-14, FORWARD)])
+@pytest.mark.parametrize(
+    "bearing, action", [(40, TURN_LEFT), (-40, TURN_RIGHT), (14, FORWARD), (-14, FORWARD)]
+)
 def test_controller_turns_toward_a_waypoint_beyond_half_a_turn(bearing, action):
     wp = 2.0 * np.array([math.cos(math.radians(bearing)), math.sin(math.radians(bearing))])
     ctl, _, _ = _controller("explore", wp, [[0.0, 0.0], wp])

@@ -14,8 +14,13 @@ from biovln_ms.llm.client import JSONChatClient, LLMConfig, LLMConfigError
 SECRET = "sk-test-secret-123"
 
 
-CONTENT = {"choice1": '{"choice": 1}', "garbage": "I would go left", "out_of_range": '{"choice": 7}',
-           "slow": '{"choice": 0}', "zero": '{"choice": 0}'}
+CONTENT = {
+    "choice1": '{"choice": 1}',
+    "garbage": "I would go left",
+    "out_of_range": '{"choice": 7}',
+    "slow": '{"choice": 0}',
+    "zero": '{"choice": 0}',
+}
 
 
 @pytest.fixture
@@ -82,10 +87,28 @@ def test_no_endpoint_refuses_clearly(monkeypatch, tmp_path):
     monkeypatch.delenv("DEEPSEEK_API_KEY", raising=False)
     with pytest.raises(LLMConfigError, match="no LLM endpoint configured"):
         LLMConfig.from_env()
-    env = {k: v for k, v in __import__("os").environ.items()
-           if k not in ("BIOVLN_LLM_API_KEY", "DEEPSEEK_API_KEY")}
-    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "eval", "--method", "llm_frontier",
-                        "--split", "ms_val", "-o", str(tmp_path)], capture_output=True, text=True, env=env)
+    env = {
+        k: v
+        for k, v in __import__("os").environ.items()
+        if k not in ("BIOVLN_LLM_API_KEY", "DEEPSEEK_API_KEY")
+    }
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "biovln_ms.cli",
+            "eval",
+            "--method",
+            "llm_frontier",
+            "--split",
+            "ms_val",
+            "-o",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
     assert r.returncode == 2 and "LLM-Frontier numbers are not reported" in r.stderr
 
 
@@ -102,8 +125,12 @@ def test_choice_among_near_equidistant_frontiers():
     from biovln_ms.agents.frontier_planner import Candidate
     from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
 
-    cands = [Candidate(2.0, np.array([1.0, 1.0]), 20), Candidate(2.5, np.array([5.0, 1.0]), 30),
-             Candidate(2.9, np.array([1.0, 5.0]), 15), Candidate(6.0, np.array([9.0, 9.0]), 40)]
+    cands = [
+        Candidate(2.0, np.array([1.0, 1.0]), 20),
+        Candidate(2.5, np.array([5.0, 1.0]), 30),
+        Candidate(2.9, np.array([1.0, 5.0]), 15),
+        Candidate(6.0, np.array([9.0, 9.0]), 40),
+    ]
     pol = LLMFrontierPolicy(client=_Stub({"choice": 2}))
     pol.category = "refrigerator"
     assert np.allclose(pol.choose(cands, np.array([0.0, 0.0, 0.0])), [1.0, 5.0])
@@ -124,8 +151,14 @@ def test_llm_frontier_runs_an_episode_against_the_local_server(server):
     from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
 
     server.mode = "zero"
-    env = gym.make("BioVLN-OpFace-v0", obs_mode="rgbd", camera_width=320, camera_height=240,
-                   sim_backend="physx_cpu", render_backend="cpu")
+    env = gym.make(
+        "BioVLN-OpFace-v0",
+        obs_mode="rgbd",
+        camera_width=320,
+        camera_height=240,
+        sim_backend="physx_cpu",
+        render_backend="cpu",
+    )
     pol = LLMFrontierPolicy(client=client_for(server))
     obs, info = env.reset(seed=3)
     pol.reset(env.unwrapped.episode_info())

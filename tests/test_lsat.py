@@ -19,10 +19,19 @@ from biovln_ms.lsat.names import match_category, normalise
 from biovln_ms.scene.spec import parse_spec
 
 
-@pytest.mark.parametrize("name, category", [
-    ("target_refrigerater_2", "refrigerator"), ("target_centrifuge.001", "centrifuge"), ("Storage Cabinet.002", "cabinet"),
-    ("waste-bin_3", "waste_bin"), ("target_minicentrifuge", "mini_centrifuge"), ("Lab Bench", "lab_bench"),
-    ("target_Pipette Stand", "pipette"), ("INCUBATOR", "incubator")])
+@pytest.mark.parametrize(
+    "name, category",
+    [
+        ("target_refrigerater_2", "refrigerator"),
+        ("target_centrifuge.001", "centrifuge"),
+        ("Storage Cabinet.002", "cabinet"),
+        ("waste-bin_3", "waste_bin"),
+        ("target_minicentrifuge", "mini_centrifuge"),
+        ("Lab Bench", "lab_bench"),
+        ("target_Pipette Stand", "pipette"),
+        ("INCUBATOR", "incubator"),
+    ],
+)
 def test_fuzzy_names(name, category):
     m = match_category(name, "target_")
     assert m.category == category and m.distance <= 2
@@ -59,13 +68,22 @@ def test_target_import_is_byte_for_byte_unchanged(imported):
 def test_import_recovers_the_designers_layout(imported):
     spec, report = imported
     c = report.coverage()
-    assert c["instruments_found"] == 8 and c["goals_strategy1"] == 6 and c["goals_strategy2"] == 2 and not c["missing"]
+    assert (
+        c["instruments_found"] == 8
+        and c["goals_strategy1"] == 6
+        and c["goals_strategy2"] == 2
+        and not c["missing"]
+    )
     assert {o.category for o in spec.goal_objects()} == {row[1] for row in LAYOUT}
     by_cat = {o.category: o for o in spec.objects()}
     for name, category, x, y, yaw_deg, marker, _ in LAYOUT:
         o = by_cat[category]
-        assert o.position[:2] == pytest.approx((x, y), abs=1e-3), name  # Y-up -> Z-up and the footprint centre
-        assert abs(math.remainder(o.yaw - math.radians(yaw_deg), 2 * math.pi)) < 1e-3, name  # face from geometry/rotation
+        assert o.position[:2] == pytest.approx((x, y), abs=1e-3), (
+            name
+        )  # Y-up -> Z-up and the footprint centre
+        assert abs(math.remainder(o.yaw - math.radians(yaw_deg), 2 * math.pi)) < 1e-3, (
+            name
+        )  # face from geometry/rotation
         assert (o.goal_source == "marker") == (marker is not None)
     assert spec.template == "lsat"
     parse_spec(json.loads(spec.to_json()))  # the spec round-trips through validation
@@ -75,8 +93,21 @@ def test_import_cli_writes_spec_and_report(tmp_path):
     import subprocess
     import sys
 
-    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "lsat", "import", str(target_glb_path()), "-o", str(tmp_path / "lab.json")],
-                       capture_output=True, text=True, check=False)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "biovln_ms.cli",
+            "lsat",
+            "import",
+            str(target_glb_path()),
+            "-o",
+            str(tmp_path / "lab.json"),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert r.returncode == 0, r.stderr
     assert "from markers 6" in r.stdout and (tmp_path / "lab.report.md").read_text().count("strategy") >= 8
 
@@ -91,7 +122,11 @@ def test_exporters_goal_json_lsat_format_and_usd(imported, tmp_path):
     assert len(g["goals"]) == 8 and {x["source"] for x in g["goals"]} == {"marker", "eq1"}
     lj = lsat_json(spec, report)
     fridge = next(o for o in lj["objects"] if o["category"] == "refrigerator")
-    assert fridge["node"] == "Refrigerator" and fridge["goal"]["strategy"] == 1 and len(fridge["zones"]["zone3"]) == 4
+    assert (
+        fridge["node"] == "Refrigerator"
+        and fridge["goal"]["strategy"] == 1
+        and len(fridge["zones"]["zone3"]) == 4
+    )
     path = write_usd(spec, tmp_path / "lab.usda")
     stage = Usd.Stage.Open(str(path))
     assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.z
@@ -112,7 +147,9 @@ def test_harness_runs_on_the_lsat_target_split(tmp_path):
 
     root = tmp_path / "ds"
     write_dataset(root, [SplitPlan("lsat_target", [(lsat_target_scene(), 8, False)])], progress=False)
-    s = evaluate(EvalConfig("oracle", "lsat_target", str(tmp_path / "res"), str(root), workers=1), progress=False)
+    s = evaluate(
+        EvalConfig("oracle", "lsat_target", str(tmp_path / "res"), str(root), workers=1), progress=False
+    )
     assert s["overall"]["episodes"] == 8 and s["overall"]["sr"] > 50
     assert len(s["per_category"]) == 8
 
@@ -129,21 +166,47 @@ def _glb(doc: dict, binary: bytes = b"") -> bytes:
 
 
 def _mini_scene(**node_extra) -> dict:
-    return {"asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"name": "target_fridge", **node_extra}]}
+    return {
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"name": "target_fridge", **node_extra}],
+    }
 
 
-@pytest.mark.parametrize("data, message", [
-    (b"PK\x03\x04 not a glb at all", "not a GLB"),
-    (_glb(_mini_scene())[:-3], "header says"),
-    (struct.pack("<III", 0x46546C67, 2, 28) + struct.pack("<II", 8, 0x4E4F534A) + b"{bad jso", "malformed JSON chunk"),
-    (_glb({**_mini_scene(), "buffers": [{"uri": "../../etc/passwd", "byteLength": 10}]}), "external URI"),
-    (_glb({**_mini_scene(), "buffers": [{"uri": "https://example.com/x.bin", "byteLength": 10}]}), "external URI"),
-    (_glb(_mini_scene(translation=[0, float("nan"), 0])), "malformed transform|non-finite"),
-    (_glb({"asset": {"version": "2.0"}, "nodes": [{"name": "a", "children": [1]}, {"name": "b", "children": [0]}],
-           "scenes": [{"nodes": []}]}), "cycle|two parents"),
-    (_glb({"asset": {"version": "2.0"}, "nodes": [{"name": "a", "mesh": 7}], "scenes": [{"nodes": [0]}]}), "missing mesh"),
-    (_glb({"asset": {"version": "1.0"}, "nodes": []}), "asset.version"),
-])
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        (b"PK\x03\x04 not a glb at all", "not a GLB"),
+        (_glb(_mini_scene())[:-3], "header says"),
+        (
+            struct.pack("<III", 0x46546C67, 2, 28) + struct.pack("<II", 8, 0x4E4F534A) + b"{bad jso",
+            "malformed JSON chunk",
+        ),
+        (_glb({**_mini_scene(), "buffers": [{"uri": "../../etc/passwd", "byteLength": 10}]}), "external URI"),
+        (
+            _glb({**_mini_scene(), "buffers": [{"uri": "https://example.com/x.bin", "byteLength": 10}]}),
+            "external URI",
+        ),
+        (_glb(_mini_scene(translation=[0, float("nan"), 0])), "malformed transform|non-finite"),
+        (
+            _glb(
+                {
+                    "asset": {"version": "2.0"},
+                    "nodes": [{"name": "a", "children": [1]}, {"name": "b", "children": [0]}],
+                    "scenes": [{"nodes": []}],
+                }
+            ),
+            "cycle|two parents",
+        ),
+        (
+            _glb(
+                {"asset": {"version": "2.0"}, "nodes": [{"name": "a", "mesh": 7}], "scenes": [{"nodes": [0]}]}
+            ),
+            "missing mesh",
+        ),
+        (_glb({"asset": {"version": "1.0"}, "nodes": []}), "asset.version"),
+    ],
+)
 def test_hostile_glbs_are_refused_clearly(tmp_path, data, message):
     path = tmp_path / "bad.glb"
     path.write_bytes(data)
@@ -187,7 +250,10 @@ def seed_glb():
     return scene.export(file_type="glb")
 
 
-@settings(max_examples=int(os.environ.get("BIOVLN_FUZZ_EXAMPLES", "150")), suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@settings(
+    max_examples=int(os.environ.get("BIOVLN_FUZZ_EXAMPLES", "150")),
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 @given(st.data())
 def test_fuzzed_glbs_fail_only_with_clear_errors(tmp_path_factory, seed_glb, data):
     """Random byte flips, truncations and JSON-chunk edits: a BioVLNError (named file and problem) or a
@@ -202,13 +268,20 @@ def test_fuzzed_glbs_fail_only_with_clear_errors(tmp_path_factory, seed_glb, dat
         raw = raw[: data.draw(st.integers(0, len(raw) - 1))]
     else:
         jlen = struct.unpack_from("<I", raw, 12)[0]
-        doc = json.loads(bytes(raw[20:20 + jlen]))
+        doc = json.loads(bytes(raw[20 : 20 + jlen]))
         node = data.draw(st.integers(0, len(doc["nodes"]) - 1))
         field = data.draw(st.sampled_from(["translation", "rotation", "scale", "mesh", "children", "matrix"]))
-        value = data.draw(st.one_of(st.none(), st.integers(-5, 10 ** 6), st.floats(allow_nan=True, allow_infinity=True),
-                                    st.lists(st.floats(allow_nan=True, allow_infinity=True), max_size=17), st.text(max_size=5)))
+        value = data.draw(
+            st.one_of(
+                st.none(),
+                st.integers(-5, 10**6),
+                st.floats(allow_nan=True, allow_infinity=True),
+                st.lists(st.floats(allow_nan=True, allow_infinity=True), max_size=17),
+                st.text(max_size=5),
+            )
+        )
         doc["nodes"][node][field] = value
-        raw = bytearray(_glb(doc, bytes(raw[28 + jlen:])))
+        raw = bytearray(_glb(doc, bytes(raw[28 + jlen :])))
     path = tmp_path_factory.mktemp("fuzz") / "f.glb"
     path.write_bytes(bytes(raw))
     try:

@@ -44,8 +44,14 @@ def _scene(tmp_path, *nodes: dict) -> GLTFScene:
             zup = [(x, y, z) for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)]
             corners = np.array([(x, z, -y) for x, y, z in zup], "<f4")  # glTF is Y-up
             doc["bufferViews"].append({"buffer": 0, "byteOffset": len(blob), "byteLength": corners.nbytes})
-            doc["accessors"].append({"bufferView": len(doc["accessors"]), "componentType": 5126,
-                                     "type": "VEC3", "count": len(corners)})
+            doc["accessors"].append(
+                {
+                    "bufferView": len(doc["accessors"]),
+                    "componentType": 5126,
+                    "type": "VEC3",
+                    "count": len(corners),
+                }
+            )
             doc["meshes"].append({"primitives": [{"attributes": {"POSITION": len(doc["meshes"])}}]})
             node["mesh"] = len(doc["meshes"]) - 1
             blob += corners.tobytes()
@@ -55,8 +61,12 @@ def _scene(tmp_path, *nodes: dict) -> GLTFScene:
     for i, nd in enumerate(nodes):
         if "parent" in nd:
             doc["nodes"][nd["parent"]].setdefault("children", []).append(i)
-    doc["buffers"] = [{"uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode(),
-                       "byteLength": len(blob)}]
+    doc["buffers"] = [
+        {
+            "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode(),
+            "byteLength": len(blob),
+        }
+    ]
     (tmp_path / "hand.gltf").write_text(json.dumps(doc))
     return read_gltf(tmp_path / "hand.gltf")
 
@@ -64,15 +74,38 @@ def _scene(tmp_path, *nodes: dict) -> GLTFScene:
 def _object(obj_id: str, category: str, xy: tuple[float, float], yaw: float = 0.0) -> ObjectSpec:
     cat = load_catalog()
     a = cat.get(category)
-    return make_object(cat, obj_id, category, xy, a.dimensions[2] / 2, yaw, a.placement, "room_0", None, None,
-                       a.goal_category)
+    return make_object(
+        cat,
+        obj_id,
+        category,
+        xy,
+        a.dimensions[2] / 2,
+        yaw,
+        a.placement,
+        "room_0",
+        None,
+        None,
+        a.goal_category,
+    )
 
 
 def _placed(*objects: ObjectSpec) -> _Placed:
-    rows = {o.id: {"id": o.id, "node": o.id, "category": o.category, "is_goal": o.is_goal,
-                   "goal_strategy": None, "face_from": "node rotation (catalog face)"} for o in objects}
-    return _Placed([o for o in objects if o.placement == "furniture"],
-                   [o for o in objects if o.placement != "furniture"], rows)
+    rows = {
+        o.id: {
+            "id": o.id,
+            "node": o.id,
+            "category": o.category,
+            "is_goal": o.is_goal,
+            "goal_strategy": None,
+            "face_from": "node rotation (catalog face)",
+        }
+        for o in objects
+    }
+    return _Placed(
+        [o for o in objects if o.placement == "furniture"],
+        [o for o in objects if o.placement != "furniture"],
+        rows,
+    )
 
 
 def _marker(name: str, category: str, xy: tuple[float, float]) -> _Marker:
@@ -88,25 +121,31 @@ def test_classify_sorts_nodes_into_objects_markers_and_reported_names(tmp_path, 
         return match_category(name, strip_prefix)
 
     monkeypatch.setattr(importer, "match_category", match)
-    scene = _scene(tmp_path, FLOOR,
-                   {"name": "Wall_north", "box": (0, 4, 0, 6, 4.1, 3)},
-                   {"name": "Camera", "at": (3, 2)},
-                   {"name": "Refrigerator", "box": (0.1, 3.0, 0, 0.99, 3.91, 1.78)},
-                   {"name": "fridge door", "box": (0.1, 2.98, 0.1, 0.99, 3.0, 1.7), "parent": 3},  # a part
-                   {"name": "centrifuge.001", "box": (2, 2, 0.76, 2.49, 2.42, 1.39)},
-                   {"name": "Thing", "extras": {"category": "incubator"}, "box": (4, 3, 0, 5.35, 3.85, 1.9)},
-                   {"name": "target_refrigerator", "at": (0.5, 2.4)},
-                   {"name": "target_lamp", "at": (1, 1)},
-                   {"name": "Sofa", "box": (3, 0.5, 0, 4, 1, 0.5)},
-                   {"name": "Empty", "at": (1, 1)},  # no mesh, no category: silently left
-                   {"name": "cabinet", "at": (5, 1)},  # a category without mesh
-                   {"name": "Mystery Box", "box": (1, 1, 0, 1.5, 1.5, 0.5)},
-                   {"name": "mystery lid", "box": (1, 1, 0.5, 1.5, 1.5, 0.6), "parent": 12},
-                   {"name": "target_mystery", "at": (1, 0.5)})
+    scene = _scene(
+        tmp_path,
+        FLOOR,
+        {"name": "Wall_north", "box": (0, 4, 0, 6, 4.1, 3)},
+        {"name": "Camera", "at": (3, 2)},
+        {"name": "Refrigerator", "box": (0.1, 3.0, 0, 0.99, 3.91, 1.78)},
+        {"name": "fridge door", "box": (0.1, 2.98, 0.1, 0.99, 3.0, 1.7), "parent": 3},  # a part
+        {"name": "centrifuge.001", "box": (2, 2, 0.76, 2.49, 2.42, 1.39)},
+        {"name": "Thing", "extras": {"category": "incubator"}, "box": (4, 3, 0, 5.35, 3.85, 1.9)},
+        {"name": "target_refrigerator", "at": (0.5, 2.4)},
+        {"name": "target_lamp", "at": (1, 1)},
+        {"name": "Sofa", "box": (3, 0.5, 0, 4, 1, 0.5)},
+        {"name": "Empty", "at": (1, 1)},  # no mesh, no category: silently left
+        {"name": "cabinet", "at": (5, 1)},  # a category without mesh
+        {"name": "Mystery Box", "box": (1, 1, 0, 1.5, 1.5, 0.5)},
+        {"name": "mystery lid", "box": (1, 1, 0.5, 1.5, 1.5, 0.6), "parent": 12},
+        {"name": "target_mystery", "at": (1, 0.5)},
+    )
     report = ImportReport("hand")
     found, markers = _classify(scene, report)
     assert [(f.node.name, f.category, len(f.points)) for f in found] == [
-        ("Refrigerator", "refrigerator", 16), ("centrifuge.001", "centrifuge", 8), ("Thing", "incubator", 8)]
+        ("Refrigerator", "refrigerator", 16),
+        ("centrifuge.001", "centrifuge", 8),
+        ("Thing", "incubator", 8),
+    ]
     assert [(m.node.name, m.category) for m in markers] == [("target_refrigerator", "refrigerator")]
     assert report.unmatched == ["target_lamp", "Sofa"]  # "mystery lid" is claimed by its ambiguous parent
     assert [a["node"] for a in report.ambiguous] == ["Mystery Box", "target_mystery"]
@@ -114,10 +153,13 @@ def test_classify_sorts_nodes_into_objects_markers_and_reported_names(tmp_path, 
 
 
 def test_place_snaps_a_table_top_instrument_onto_its_support(tmp_path):
-    scene = _scene(tmp_path, FLOOR,
-                   {"name": "Lab Table", "box": (0.8, 1.5, 0, 3.2, 2.4, 0.78)},
-                   {"name": "Mini Centrifuge", "box": (1.67, 1.7, 0.83, 2.33, 2.2, 1.26)},  # 5 cm too high
-                   {"name": "display", "box": (2.33, 1.8, 0.9, 2.35, 2.1, 1.1), "parent": 2})  # its +x side
+    scene = _scene(
+        tmp_path,
+        FLOOR,
+        {"name": "Lab Table", "box": (0.8, 1.5, 0, 3.2, 2.4, 0.78)},
+        {"name": "Mini Centrifuge", "box": (1.67, 1.7, 0.83, 2.33, 2.2, 1.26)},  # 5 cm too high
+        {"name": "display", "box": (2.33, 1.8, 0.9, 2.35, 2.1, 1.1), "parent": 2},
+    )  # its +x side
     report = ImportReport("hand")
     rects, _ = _rooms(scene, report)
     placed = _place(scene, _classify(scene, report).found, rects, report)
@@ -147,8 +189,14 @@ def test_assign_markers_strategy_1_nearest_of_the_category_strategy_2_for_the_re
     waste_bin = _object("waste_bin_0", "waste_bin", (5.0, 1.0))
     placed = _placed(*fridges, waste_bin)
     report = ImportReport("hand")
-    out = _assign_markers(placed, [_marker("target_refrigerator", "refrigerator", (3.9, 2.9)),
-                                   _marker("target_refrigerator.001", "refrigerator", (1.1, 2.8))], report)
+    out = _assign_markers(
+        placed,
+        [
+            _marker("target_refrigerator", "refrigerator", (3.9, 2.9)),
+            _marker("target_refrigerator.001", "refrigerator", (1.1, 2.8)),
+        ],
+        report,
+    )
     got = {o.id: o for o in out.instruments}
     assert got["refrigerator_0"].goal == (1.1, 2.8) and got["refrigerator_1"].goal == (3.9, 2.9)
     assert got["refrigerator_0"].goal_source == "marker" and got["refrigerator_1"].goal_source == "marker"
@@ -161,9 +209,15 @@ def test_assign_markers_strategy_1_nearest_of_the_category_strategy_2_for_the_re
 def test_assign_markers_ignores_a_second_marker_and_one_without_instrument():
     fridge = _object("refrigerator_0", "refrigerator", (1.0, 3.5))
     report = ImportReport("hand")
-    out = _assign_markers(_placed(fridge), [_marker("target_refrigerator", "refrigerator", (1.1, 2.8)),
-                                            _marker("target_refrigerator.001", "refrigerator", (1.0, 2.9)),
-                                            _marker("target_incubator", "incubator", (3.0, 2.0))], report)
+    out = _assign_markers(
+        _placed(fridge),
+        [
+            _marker("target_refrigerator", "refrigerator", (1.1, 2.8)),
+            _marker("target_refrigerator.001", "refrigerator", (1.0, 2.9)),
+            _marker("target_incubator", "incubator", (3.0, 2.0)),
+        ],
+        report,
+    )
     assert out.instruments[0].goal == (1.1, 2.8)
     assert report.coverage()["markers_unassigned"] == ["target_refrigerator.001", "target_incubator"]
     ignored = "marker 'target_refrigerator.001': 'refrigerator_0' already has a marker; ignored"

@@ -9,7 +9,14 @@ import pytest
 import torch
 
 from biovln_ms.geometry.zones import PlacedInstrument
-from biovln_ms.metrics.measures import BatchContext, EpisodeContext, Measure, MeasureSet, StepState, register_measure
+from biovln_ms.metrics.measures import (
+    BatchContext,
+    EpisodeContext,
+    Measure,
+    MeasureSet,
+    StepState,
+    register_measure,
+)
 from biovln_ms.task_config import NavTaskConfig
 from biovln_ms.variants import VARIANTS
 
@@ -21,17 +28,28 @@ NAMES = NavTaskConfig().measures + ("nav_reward", "failed_stop")
 
 def ctx(goal=GOAL, radius=0.8, start_geodesic=4.0):
     g = np.asarray(goal)
-    return EpisodeContext(goal=g, success_radius=radius, target=BOX, instruments=[BOX],
-                          geodesic=lambda p: float(np.linalg.norm(np.asarray(p) - g)), start_geodesic=start_geodesic,
-                          hfov=math.radians(79))
+    return EpisodeContext(
+        goal=g,
+        success_radius=radius,
+        target=BOX,
+        instruments=[BOX],
+        geodesic=lambda p: float(np.linalg.norm(np.asarray(p) - g)),
+        start_geodesic=start_geodesic,
+        hfov=math.radians(79),
+    )
 
 
 def state(points, yaws, stopped=None, commanded=None, moved=None) -> StepState:
     """A batch of robots: one row per sub-env."""
     n = len(points)
     f = lambda v: torch.tensor(v, dtype=torch.float64)  # noqa: E731
-    return StepState(f(points), f(yaws), torch.tensor(stopped or [False] * n), f(commanded or [0.0] * n),
-                     f(moved or [0.0] * n))
+    return StepState(
+        f(points),
+        f(yaws),
+        torch.tensor(stopped or [False] * n),
+        f(commanded or [0.0] * n),
+        f(moved or [0.0] * n),
+    )
 
 
 def run(points, yaws=None, stop_last=True, commanded=None, moved=None, cfg=None):
@@ -45,8 +63,16 @@ def run(points, yaws=None, stop_last=True, commanded=None, moved=None, cfg=None)
     rewards = []
     for i, (p, y) in enumerate(zip(points[1:], yaws[1:]), 1):
         last = i == len(points) - 1
-        m.update(b, state([p], [y], [stop_last and last], [(commanded or [0.25] * len(points))[i]],
-                          [(moved or [0.25] * len(points))[i]]))
+        m.update(
+            b,
+            state(
+                [p],
+                [y],
+                [stop_last and last],
+                [(commanded or [0.25] * len(points))[i]],
+                [(moved or [0.25] * len(points))[i]],
+            ),
+        )
         rewards.append(float(m["nav_reward"][0]))
     return m, rewards
 
@@ -93,9 +119,13 @@ def test_collisions_count_blocked_forward_moves():
 
 
 def test_facing_uses_half_the_horizontal_fov():
-    m, _ = run([(0.0, -3.0), (0.0, -3.0)], yaws=[math.pi / 2, math.pi / 2 + math.radians(39)], stop_last=False)
+    m, _ = run(
+        [(0.0, -3.0), (0.0, -3.0)], yaws=[math.pi / 2, math.pi / 2 + math.radians(39)], stop_last=False
+    )
     assert v(m, "facing_instrument")
-    m, _ = run([(0.0, -3.0), (0.0, -3.0)], yaws=[math.pi / 2, math.pi / 2 + math.radians(41)], stop_last=False)
+    m, _ = run(
+        [(0.0, -3.0), (0.0, -3.0)], yaws=[math.pi / 2, math.pi / 2 + math.radians(41)], stop_last=False
+    )
     assert not v(m, "facing_instrument")
 
 
@@ -135,7 +165,9 @@ def test_flat_safety_penalty_below_half_a_metre():
     pts = [(1.5, -0.0), (0.9, 0.0), (0.8, 0.0), (1.1, 0.0)]
     d = [math.hypot(x, 1.1) for x, _ in pts]
     _, r = run(pts, stop_last=False)
-    assert r == pytest.approx([d[0] - d[1] - 0.01 - 0.05, d[1] - d[2] - 0.01 - 0.05, d[2] - d[3] - 0.01], abs=1e-12)
+    assert r == pytest.approx(
+        [d[0] - d[1] - 0.01 - 0.05, d[1] - d[2] - 0.01 - 0.05, d[2] - d[3] - 0.01], abs=1e-12
+    )
 
 
 def test_rl_variant_proportional_penalty_and_normalised_reward():
@@ -144,7 +176,9 @@ def test_rl_variant_proportional_penalty_and_normalised_reward():
     pts = [(1.5, 0.0), (0.9, 0.0), (0.6, 0.0)]  # clearance 1.0, 0.4, 0.1
     d = [math.hypot(x, 1.1) for x, _ in pts]
     _, r = run(pts, stop_last=False, cfg=cfg)
-    assert r == pytest.approx([d[0] - d[1] - 0.01 - (1 - 0.4 / 0.5), d[1] - d[2] - 0.01 - (1 - 0.1 / 0.5)], abs=1e-12)
+    assert r == pytest.approx(
+        [d[0] - d[1] - 0.01 - (1 - 0.4 / 0.5), d[1] - d[2] - 0.01 - (1 - 0.1 / 0.5)], abs=1e-12
+    )
     assert cfg.success_bonus == 10.0  # normalized_dense divides by it (tested in test_nav_env)
 
 
@@ -179,11 +213,19 @@ def test_batch_of_64_equals_64_single_runs(variant):
     cfg = VARIANTS[variant]
     pos, yaw, stop, cmd, moved = _random_trajectories(n, steps)
     radii = np.linspace(0.8, 1.3, n)
-    contexts = [replace(ctx(radius=float(radii[i]), start_geodesic=float(np.linalg.norm(pos[0][i] - GOAL)))) for i in range(n)]
+    contexts = [
+        replace(ctx(radius=float(radii[i]), start_geodesic=float(np.linalg.norm(pos[0][i] - GOAL))))
+        for i in range(n)
+    ]
 
     def st(t, rows):
-        return state(pos[t][rows].tolist(), yaw[t][rows].tolist(), stop[t][rows].tolist(), cmd[t][rows].tolist(),
-                     moved[t][rows].tolist())
+        return state(
+            pos[t][rows].tolist(),
+            yaw[t][rows].tolist(),
+            stop[t][rows].tolist(),
+            cmd[t][rows].tolist(),
+            moved[t][rows].tolist(),
+        )
 
     batch, bctx = MeasureSet(NAMES, n, cfg=cfg), BatchContext(n)
     for i in range(n):
@@ -209,7 +251,9 @@ def test_partial_reset_touches_only_the_named_rows():
     m, b = MeasureSet(NAMES, n), BatchContext(n)
     for i in range(n):
         b.set(i, ctx())
-    full = lambda t: state(pos[t].tolist(), yaw[t].tolist(), stop[t].tolist(), cmd[t].tolist(), moved[t].tolist())  # noqa: E731
+    full = lambda t: state(
+        pos[t].tolist(), yaw[t].tolist(), stop[t].tolist(), cmd[t].tolist(), moved[t].tolist()
+    )  # noqa: E731
     m.reset(b, full(0))
     for t in range(1, 6):
         m.update(b, full(t))
@@ -222,7 +266,9 @@ def test_partial_reset_touches_only_the_named_rows():
 
 def test_state_dict_round_trip_continues_identically():
     pos, yaw, stop, cmd, moved = _random_trajectories(2, 10, seed=5)
-    full = lambda t: state(pos[t].tolist(), yaw[t].tolist(), stop[t].tolist(), cmd[t].tolist(), moved[t].tolist())  # noqa: E731
+    full = lambda t: state(
+        pos[t].tolist(), yaw[t].tolist(), stop[t].tolist(), cmd[t].tolist(), moved[t].tolist()
+    )  # noqa: E731
     b = BatchContext(2)
     b.set(0, ctx()), b.set(1, ctx(radius=1.2))
     a, c = MeasureSet(NAMES, 2), MeasureSet(NAMES, 2)

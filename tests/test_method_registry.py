@@ -30,24 +30,55 @@ def _record(ep: dict, index: int, method: str, env_id: str, split: str, success:
     """One finished episode as the harness writes it (``harness._run``)."""
     start, goal = ep["start_position"][:2], ep["goals"][0]["position"][:2]
     positions = [start, [(s + g) / 2 for s, g in zip(start, goal)], goal]
-    return {"success": success, "spl": 0.8 * success, "soft_spl": 0.7, "dtg": 0.4 if success else 2.5,
-            "steps": 2, "mcr": 0.6, "vrt": 0.1, "collisions": 0, "path_length": 0.5, "stopped": True,
-            "truncated": False, "actions": [1, 0], "positions": positions, "headings": [0.0] * 3,
-            "clearance": [0.6] * 3, "zone2": [False] * 3, "method": method, "env_id": env_id, "split": split,
-            "index": index, "scene_id": ep["scene_id"], "episode_id": ep["episode_id"],
-            "object_category": ep["object_category"], "object_id": ep["object_id"],
-            "difficulty": ep["info"]["difficulty"], "geodesic_distance": ep["info"]["geodesic_distance"],
-            "goal": goal, "start": start, "wall_time_s": 0.1}
+    return {
+        "success": success,
+        "spl": 0.8 * success,
+        "soft_spl": 0.7,
+        "dtg": 0.4 if success else 2.5,
+        "steps": 2,
+        "mcr": 0.6,
+        "vrt": 0.1,
+        "collisions": 0,
+        "path_length": 0.5,
+        "stopped": True,
+        "truncated": False,
+        "actions": [1, 0],
+        "positions": positions,
+        "headings": [0.0] * 3,
+        "clearance": [0.6] * 3,
+        "zone2": [False] * 3,
+        "method": method,
+        "env_id": env_id,
+        "split": split,
+        "index": index,
+        "scene_id": ep["scene_id"],
+        "episode_id": ep["episode_id"],
+        "object_category": ep["object_category"],
+        "object_id": ep["object_id"],
+        "difficulty": ep["info"]["difficulty"],
+        "geodesic_distance": ep["info"]["geodesic_distance"],
+        "goal": goal,
+        "start": start,
+        "wall_time_s": 0.1,
+    }
 
 
-def _fake_run(dataset: str, results: Path, method: str, successes: list[bool], split: str = "ms_val",
-              env_id: str | None = None) -> Path:
+def _fake_run(
+    dataset: str,
+    results: Path,
+    method: str,
+    successes: list[bool],
+    split: str = "ms_val",
+    env_id: str | None = None,
+) -> Path:
     """An episodes.jsonl where `biovln-ms eval` would write it (the harness names the folder)."""
     cfg = EvalConfig(method=method, split=split, out=str(results), dataset=dataset, env_id=env_id)
     cfg.run_dir.mkdir(parents=True, exist_ok=True)
     eps = list(EpisodeDataset(dataset).episodes(split))
-    lines = [json.dumps(_record(eps[i], i, method, cfg.env_id, split, ok), separators=(",", ":"))
-             for i, ok in enumerate(successes)]
+    lines = [
+        json.dumps(_record(eps[i], i, method, cfg.env_id, split, ok), separators=(",", ":"))
+        for i, ok in enumerate(successes)
+    ]
     (cfg.run_dir / "episodes.jsonl").write_text("\n".join(lines) + "\n")
     return cfg.run_dir
 
@@ -67,19 +98,28 @@ def test_registry_fields_are_consistent():
     # every row of the paper's tables belongs to a registered method, and no two methods claim one row
     keys = [s.paper_key for s in METHODS.values() if s.paper_key]
     assert len(keys) == len(set(keys))
-    rows = {*paper.TABLE5, *paper.TABLE10, *paper.TABLE6, *paper.TABLE9, *paper.TABLE11, *paper.TABLE17,
-            *(k for a, b, _ in paper.TABLE16 for k in (a, b))}
+    rows = {
+        *paper.TABLE5,
+        *paper.TABLE10,
+        *paper.TABLE6,
+        *paper.TABLE9,
+        *paper.TABLE11,
+        *paper.TABLE17,
+        *(k for a, b, _ in paper.TABLE16 for k in (a, b)),
+    }
     assert rows <= set(keys)
 
 
 def test_a_registered_method_reaches_the_reports_tables(dataset, tmp_path, monkeypatch):
-    dummy = MethodSpec(lambda **_: None, "none", "walks straight to the goal", label="Dummy Walker",
-                       report_order=15)
+    dummy = MethodSpec(
+        lambda **_: None, "none", "walks straight to the goal", label="Dummy Walker", report_order=15
+    )
     monkeypatch.setitem(METHODS, "dummy", dummy)
     assert method_spec("dummy") is dummy and report_methods()[:3] == ["random", "dummy", "oracle"]
     _fake_run(dataset, tmp_path / "res", "dummy", [True, False, True, True])
-    md = write_report(tmp_path / "res", tmp_path / "rep", dataset=dataset, videos=0, hard_figures=0,
-                      echo=lambda *_: None).read_text()
+    md = write_report(
+        tmp_path / "res", tmp_path / "rep", dataset=dataset, videos=0, hard_figures=0, echo=lambda *_: None
+    ).read_text()
     t5 = _section(md, "(Table 5 layout)")
     assert "| Dummy Walker | – | – | – | – | 75.0 | 0.600 |" in t5
     assert t5.index("| Random |") < t5.index("| Dummy Walker |") < t5.index("| Oracle |")  # report_order 15
@@ -107,8 +147,9 @@ def test_learned_policies_appear_in_the_report_when_their_results_exist(dataset,
     _fake_run(dataset, res, "frontier", [True, True, True, False])
     _fake_run(dataset, res, "frontier", [False, True, True, False], env_id="BioVLN-Centroid-v0")
     assert {r["env_id"] for r in load_runs(res)[("ppo", "ms_val")]} == {RL_ENV}
-    md = write_report(res, tmp_path / "rep", dataset=dataset, videos=0, hard_figures=0,
-                      echo=lambda *_: None).read_text()
+    md = write_report(
+        res, tmp_path / "rep", dataset=dataset, videos=0, hard_figures=0, echo=lambda *_: None
+    ).read_text()
     assert "ppo on ms_val (4 episodes)" in md and "frontier@centroid on ms_val (4 episodes)" in md
     t5, t10 = _section(md, "(Table 5 layout)"), _section(md, "(Table 10 layout)")
     for label, sr in (("PPO", "50.0"), ("A2C", "0.0"), ("SAC", "100.0")):
@@ -117,8 +158,11 @@ def test_learned_policies_appear_in_the_report_when_their_results_exist(dataset,
     order = [t5.index(f"| {label} |") for label in ("VLFM (GT detector)", "PPO", "A2C", "SAC")]
     assert order == sorted(order)  # report_order
     mc = _section(md, "Pairwise McNemar")
-    for pair in ("| Frontier | PPO | MS VAL | 4 |", "| PPO | A2C | MS VAL | 4 |",
-                 "| A2C | SAC | MS VAL | 4 |"):
+    for pair in (
+        "| Frontier | PPO | MS VAL | 4 |",
+        "| PPO | A2C | MS VAL | 4 |",
+        "| A2C | SAC | MS VAL | 4 |",
+    ):
         assert pair in mc, pair
     assert "| MS VAL (4) | 50.0 | 75.0 |" in _section(md, "(Table 9 layout)")  # centroid: a run of its own
     figs = {p.name for p in (tmp_path / "rep" / "figures").iterdir()}

@@ -28,13 +28,19 @@ def dataset(tmp_path_factory):
     root = tmp_path_factory.mktemp("data") / "ds"
     a = generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES)
     b = generate_scene("single_room", 155, required_categories=FOUR_CATEGORIES)
-    write_dataset(root, [SplitPlan("ms_val", [(a, 6, False), (b, 4, False)]), SplitPlan("train", [(a, 5, False)])], progress=False)
+    write_dataset(
+        root,
+        [SplitPlan("ms_val", [(a, 6, False), (b, 4, False)]), SplitPlan("train", [(a, 5, False)])],
+        progress=False,
+    )
     return root
 
 
 @pytest.fixture(scope="module")
 def env(dataset):
-    e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="state", reward_mode="dense", **CPU)
+    e = gym.make(
+        "BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="state", reward_mode="dense", **CPU
+    )
     yield e
     e.close()
 
@@ -49,7 +55,9 @@ def test_registered_on_import_and_by_module_prefix():
     from mani_skill.utils.registration import REGISTERED_ENVS
 
     assert "biovln_base" in REGISTERED_AGENTS
-    assert {"BioVLN-OpFace-v0", "BioVLN-Centroid-v0", "BioVLN-OpFace-RL-v0", "BioVLN-LabScene-v0"} <= set(REGISTERED_ENVS)
+    assert {"BioVLN-OpFace-v0", "BioVLN-Centroid-v0", "BioVLN-OpFace-RL-v0", "BioVLN-LabScene-v0"} <= set(
+        REGISTERED_ENVS
+    )
 
 
 def test_actions_are_exact_and_stop_terminates(env):
@@ -129,8 +137,21 @@ def test_episode_selection_and_scene_rebuilds(env):
 def test_info_has_every_metric(env):
     _, info = env.reset(options={"episode_index": 0})
     _, _, _, _, info = env.step(1)
-    for key in ("success", "distance_to_goal", "geodesic_distance_to_goal", "clearance", "zone2_violation", "in_zone3",
-                "facing_instrument", "collisions", "spl", "soft_spl", "mcr", "vrt", "steps"):
+    for key in (
+        "success",
+        "distance_to_goal",
+        "geodesic_distance_to_goal",
+        "clearance",
+        "zone2_violation",
+        "in_zone3",
+        "facing_instrument",
+        "collisions",
+        "spl",
+        "soft_spl",
+        "mcr",
+        "vrt",
+        "steps",
+    ):
         assert key in info, key
     assert float(info["geodesic_distance_to_goal"]) >= float(info["distance_to_goal"]) - 1e-6
 
@@ -150,15 +171,24 @@ def test_bad_input_is_named(dataset, env):
 
 
 def test_rgbd_and_segmentation_observations(dataset):
-    e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="rgb+depth+segmentation",
-                 camera_width=96, camera_height=72, **CPU)
+    e = gym.make(
+        "BioVLN-OpFace-v0",
+        dataset=str(dataset),
+        split="ms_val",
+        obs_mode="rgb+depth+segmentation",
+        camera_width=96,
+        camera_height=72,
+        **CPU,
+    )
     obs, _ = e.reset(options={"episode_index": 0})
     cam = obs["sensor_data"]["head"]
     assert cam["rgb"].shape == (1, 72, 96, 3) and cam["depth"].shape == (1, 72, 96, 1)
     assert (cam["depth"] > 0).float().mean() > 0.95  # the ceiling closes the room: depth everywhere
     extra = obs["extra"]
     assert extra["pointgoal_with_gps_compass"].shape == (1, 2) and extra["objectgoal"].sum() == 1
-    assert extra["gps"].abs().max() < 1e-5 and extra["compass"].abs().max() < 1e-5  # the episode frame starts at 0
+    assert (
+        extra["gps"].abs().max() < 1e-5 and extra["compass"].abs().max() < 1e-5
+    )  # the episode frame starts at 0
     # the semantic sensor: 1 + goal-category index where a goal-category object is seen, 0 elsewhere
     u = e.unwrapped
     sem, seg = extra["semantic_category"][0, ..., 0], cam["segmentation"][0, ..., 0]
@@ -194,7 +224,9 @@ def test_rl_variant_and_conformance(dataset):
     obs, _ = w.reset(seed=0)
     assert obs.dtype == np.float32 and obs.ndim == 1
     p = pose(u)
-    assert obs[0] == pytest.approx(p[0] / 4.0, abs=1e-5) and obs[2] ** 2 + obs[3] ** 2 == pytest.approx(1.0, abs=1e-5)
+    assert obs[0] == pytest.approx(p[0] / 4.0, abs=1e-5) and obs[2] ** 2 + obs[3] ** 2 == pytest.approx(
+        1.0, abs=1e-5
+    )
     u.agent.reset(torch.tensor([[4.0, 2.6, 0.0]]))
     w.step(2)
     assert math.degrees(pose(u)[2]) == pytest.approx(10.0, abs=0.5)
@@ -236,7 +268,14 @@ def test_pointcloud_obs_mode():
 
 
 def test_control_mode_is_the_robots_controller(dataset):
-    e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="none", control_mode="continuous", **CPU)
+    e = gym.make(
+        "BioVLN-OpFace-v0",
+        dataset=str(dataset),
+        split="ms_val",
+        obs_mode="none",
+        control_mode="continuous",
+        **CPU,
+    )
     u = e.unwrapped
     assert u.control_mode == "continuous" and u.agent.control_mode == "continuous"
     assert e.action_space == gym.spaces.Box(-1.0, 1.0, (3,), np.float32)
@@ -265,8 +304,15 @@ def test_every_action_form_is_accepted(env):
 
 @pytest.mark.parametrize("obs_mode", ["depth+rgb", "rgb+normal", "rgb+depth", "state_dict", "sensor_data"])
 def test_maniskill_obs_modes(dataset, obs_mode):
-    e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode=obs_mode, camera_width=32,
-                 camera_height=24, **CPU)
+    e = gym.make(
+        "BioVLN-OpFace-v0",
+        dataset=str(dataset),
+        split="ms_val",
+        obs_mode=obs_mode,
+        camera_width=32,
+        camera_height=24,
+        **CPU,
+    )
     obs, _ = e.reset(options={"episode_index": 0})
     e.step(1)
     if "normal" in obs_mode:
@@ -301,7 +347,9 @@ def test_state_dict_replay_gives_the_same_rewards_and_infos(env):
     again = [env.step(a) for a in actions[5:]]
     for (o1, r1, t1, tr1, i1), (o2, r2, t2, tr2, i2) in zip(first, again):
         assert torch.equal(r1, r2) and torch.equal(t1, t2) and torch.equal(tr1, tr2) and torch.equal(o1, o2)
-        assert i1.keys() == i2.keys() and all(torch.equal(torch.as_tensor(i1[k]), torch.as_tensor(i2[k])) for k in i1)
+        assert i1.keys() == i2.keys() and all(
+            torch.equal(torch.as_tensor(i1[k]), torch.as_tensor(i2[k])) for k in i1
+        )
     env.reset(options={"episode_index": 2})
     with pytest.raises(BioVLNError, match="another episode"):
         u.set_state_dict(state)
@@ -310,7 +358,9 @@ def test_state_dict_replay_gives_the_same_rewards_and_infos(env):
 def test_normalized_and_sparse_rewards(dataset):
     rewards = {}
     for mode in ("dense", "normalized_dense", "sparse"):
-        e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="none", reward_mode=mode, **CPU)
+        e = gym.make(
+            "BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="none", reward_mode=mode, **CPU
+        )
         e.reset(options={"episode_index": 2})
         g = np.asarray(e.unwrapped.current_episode["goals"][0]["position"][:2])
         rewards[mode] = [float(e.step(1)[1])]
@@ -329,8 +379,14 @@ def test_gpu_backend_without_cuda_is_one_line(dataset):
 def test_render_shows_the_room_and_the_robot(dataset):
     """The follow camera sits inside the room with the ceiling hidden: the frame is the lit floor, walls and
     robot, not the grey underside of the ceiling box (the bug: one colour over the whole frame)."""
-    e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="none", render_mode="rgb_array",
-                 **CPU)
+    e = gym.make(
+        "BioVLN-OpFace-v0",
+        dataset=str(dataset),
+        split="ms_val",
+        obs_mode="none",
+        render_mode="rgb_array",
+        **CPU,
+    )
     e.reset(options={"episode_index": 0})
     frame = e.render()[0].cpu().numpy()
     assert frame.shape == (720, 960, 3)
@@ -340,8 +396,10 @@ def test_render_shows_the_room_and_the_robot(dataset):
 
 
 def test_no_cuda_fallback_warning_on_a_cpu_machine(dataset):
-    code = ("import gymnasium as gym, biovln_ms; e = gym.make('BioVLN-OpFace-v0', dataset=%r, split='ms_val', "
-            "obs_mode='state'); e.reset(); e.step(1); print('ok')" % str(dataset))
+    code = (
+        "import gymnasium as gym, biovln_ms; e = gym.make('BioVLN-OpFace-v0', dataset=%r, split='ms_val', "
+        "obs_mode='state'); e.reset(); e.step(1); print('ok')" % str(dataset)
+    )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
     assert r.returncode == 0 and "ok" in r.stdout, r.stderr[-2000:]
     if not torch.cuda.is_available():

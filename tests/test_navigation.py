@@ -31,14 +31,19 @@ def grid_geodesic(nav: NavGeometry, s, g) -> float:
         ok = (y2 >= 0) & (y2 < h) & (x2 >= 0) & (x2 < w)
         ok[ok] &= mask[y2[ok], x2[ok]]
         if abs(dx) + abs(dy) == 3:  # knight move: both cells it passes must be free too
-            ya, xa = ys + (dy if abs(dy) == 2 else 0) // (2 if abs(dy) == 2 else 1), xs + (dx if abs(dx) == 2 else 0) // (2 if abs(dx) == 2 else 1)
+            ya, xa = (
+                ys + (dy if abs(dy) == 2 else 0) // (2 if abs(dy) == 2 else 1),
+                xs + (dx if abs(dx) == 2 else 0) // (2 if abs(dx) == 2 else 1),
+            )
             ok2 = (ya >= 0) & (ya < h) & (xa >= 0) & (xa < w)
             ok &= ok2
             ok[ok] &= mask[ya[ok], xa[ok]]
         rows.append(idx[ys[ok], xs[ok]])
         cols.append(idx[y2[ok], x2[ok]])
         wts.append(np.full(ok.sum(), math.hypot(dx, dy) * grid.resolution))
-    graph = coo_matrix((np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))), shape=(mask.sum(),) * 2).tocsr()
+    graph = coo_matrix(
+        (np.concatenate(wts), (np.concatenate(rows), np.concatenate(cols))), shape=(mask.sum(),) * 2
+    ).tocsr()
     centres = grid.cell_centres()[mask]
 
     def nearest(p):
@@ -49,7 +54,10 @@ def grid_geodesic(nav: NavGeometry, s, g) -> float:
     return d + np.linalg.norm(centres[a] - s) + np.linalg.norm(centres[b] - g)
 
 
-@pytest.mark.parametrize("template,seed", [("single_room", 150), ("single_room", 4), ("two_room", 1), ("suite", 2), ("open_plan", 5)])
+@pytest.mark.parametrize(
+    "template,seed",
+    [("single_room", 150), ("single_room", 4), ("two_room", 1), ("suite", 2), ("open_plan", 5)],
+)
 def test_exact_geodesic_agrees_with_grid_and_is_never_longer(template, seed):
     spec = generate_scene(template, seed)
     nav = scene_navigation(spec)
@@ -71,7 +79,9 @@ def test_exact_geodesic_agrees_with_grid_and_is_never_longer(template, seed):
 
 
 def test_paths_keep_the_robot_radius_from_every_obstacle():
-    spec = generate_scene("single_room", 151, required_categories=("cabinet", "centrifuge", "refrigerator", "waste_bin"))
+    spec = generate_scene(
+        "single_room", 151, required_categories=("cabinet", "centrifuge", "refrigerator", "waste_bin")
+    )
     nav = scene_navigation(spec)
     floor = floor_polygon(spec)
     rng = np.random.default_rng(0)
@@ -85,7 +95,11 @@ def test_paths_keep_the_robot_radius_from_every_obstacle():
         wall = np.array([floor.exterior.distance(Point(p)) for p in pts])
         assert clear.min() >= nav.radius - 1e-6
         assert wall.min() >= nav.radius - 1e-6
-        assert math.isclose(np.linalg.norm(np.diff(path, axis=0), axis=1).sum(), nav.geodesic_distance(s, nav.snap(o.goal)), rel_tol=1e-9)
+        assert math.isclose(
+            np.linalg.norm(np.diff(path, axis=0), axis=1).sum(),
+            nav.geodesic_distance(s, nav.snap(o.goal)),
+            rel_tol=1e-9,
+        )
 
 
 def test_open_room_geodesic_is_straight_and_obstacle_detour_is_exact():
@@ -100,7 +114,7 @@ def test_open_room_geodesic_is_straight_and_obstacle_detour_is_exact():
     # along the top, and the mirror image down to the goal.
     r, c = 0.2, np.array([1.9, 3.0])
     dist_c = np.linalg.norm(s - c)
-    tangent = math.sqrt(dist_c ** 2 - r ** 2)
+    tangent = math.sqrt(dist_c**2 - r**2)
     theta_s = math.atan2(*(s - c)[::-1])
     theta_t = theta_s - math.acos(r / dist_c) + 2 * math.pi
     exact = 2 * (tangent + r * (theta_t - math.pi / 2)) + 0.2

@@ -22,8 +22,11 @@ STEPS = 12
 
 
 def _is_policy_module(name: str) -> bool:
-    return name.startswith("biovln_ms.agents") and not name.startswith("biovln_ms.agents.robots") or \
-        name.startswith("biovln_ms.perception")
+    return (
+        name.startswith("biovln_ms.agents")
+        and not name.startswith("biovln_ms.agents.robots")
+        or name.startswith("biovln_ms.perception")
+    )
 
 
 @pytest.fixture
@@ -34,7 +37,11 @@ def guarded(monkeypatch):
     real = BaseEnv.__getattribute__
 
     def getattribute(self, name):
-        if name.startswith("_") and not name.startswith("__") and _is_policy_module(sys._getframe(1).f_globals.get("__name__", "")):
+        if (
+            name.startswith("_")
+            and not name.startswith("__")
+            and _is_policy_module(sys._getframe(1).f_globals.get("__name__", ""))
+        ):
             raise AttributeError(f"policy code read the env's private attribute {name!r}")
         return real(self, name)
 
@@ -85,13 +92,26 @@ def _policies(tmp_path):
 
     torch.manual_seed(0)
     bc = tmp_path / "bc.pt"
-    torch.save({"arch": ARCH, "config": json.dumps(BCConfig(image_size=32).__dict__),
-                "meta": json.dumps({"frame_size": [96, 72]}), "state_dict": BCNet().state_dict()}, bc)
+    torch.save(
+        {
+            "arch": ARCH,
+            "config": json.dumps(BCConfig(image_size=32).__dict__),
+            "meta": json.dumps({"frame_size": [96, 72]}),
+            "state_dict": BCNet().state_dict(),
+        },
+        bc,
+    )
     env = make_gym_env("BioVLN-OpFace-RL-v0", split="ms_val", dataset=str(_dataset(tmp_path)))
     PPO("MlpPolicy", env, n_steps=16, batch_size=16, device="cpu").save(tmp_path / "ppo.zip")
     env.close()
-    return {"random": RandomPolicy(), "frontier": FrontierPolicy(), "llm_frontier": LLMFrontierPolicy(client=_Answer()),
-            "vlfm": VLFMPolicy(), "bc": BCPolicy(str(bc)), "ppo": SB3Policy(str(tmp_path / "ppo.zip"))}
+    return {
+        "random": RandomPolicy(),
+        "frontier": FrontierPolicy(),
+        "llm_frontier": LLMFrontierPolicy(client=_Answer()),
+        "vlfm": VLFMPolicy(),
+        "bc": BCPolicy(str(bc)),
+        "ppo": SB3Policy(str(tmp_path / "ppo.zip")),
+    }
 
 
 _DATA: dict = {}
@@ -104,8 +124,16 @@ def _dataset(tmp_path):
         from biovln_ms.scene.generator import generate_scene
 
         root = tmp_path / "ds"
-        write_dataset(root, [SplitPlan("ms_val", [(generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES),
-                                                   2, False)])], progress=False)
+        write_dataset(
+            root,
+            [
+                SplitPlan(
+                    "ms_val",
+                    [(generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES), 2, False)],
+                )
+            ],
+            progress=False,
+        )
         _DATA["root"] = root
     return _DATA["root"]
 
@@ -115,8 +143,16 @@ def test_non_privileged_methods_run_from_observations_alone(tmp_path, guarded):
     assert set(policies) | {"a2c", "sac"} == {m for m, s in METHODS.items() if not s.privileged}
     for name, policy in policies.items():
         spec = METHODS[name]
-        env = gym.make(spec.env_id or "BioVLN-OpFace-v0", split="ms_val", dataset=str(_dataset(tmp_path)),
-                       obs_mode=spec.obs_mode, camera_width=96, camera_height=72, **spec.env_kwargs, **CPU)
+        env = gym.make(
+            spec.env_id or "BioVLN-OpFace-v0",
+            split="ms_val",
+            dataset=str(_dataset(tmp_path)),
+            obs_mode=spec.obs_mode,
+            camera_width=96,
+            camera_height=72,
+            **spec.env_kwargs,
+            **CPU,
+        )
         try:
             steps = 0
             for st in rollout(env, policy, 0, privileged=spec.privileged):
@@ -130,7 +166,9 @@ def test_non_privileged_methods_run_from_observations_alone(tmp_path, guarded):
 
 
 def test_only_oracles_get_the_read_only_privileged_view(tmp_path):
-    env = gym.make("BioVLN-OpFace-v0", split="ms_val", dataset=str(_dataset(tmp_path)), obs_mode="none", **CPU)
+    env = gym.make(
+        "BioVLN-OpFace-v0", split="ms_val", dataset=str(_dataset(tmp_path)), obs_mode="none", **CPU
+    )
     try:
         env.reset(options={"episode_index": 0})
         u = env.unwrapped
@@ -152,7 +190,9 @@ def test_the_guard_catches_a_policy_reading_env_internals(tmp_path, guarded):
     """A policy module that reads ``env._measures`` is stopped (so the guard above is real)."""
     ns = {"__name__": "biovln_ms.agents.cheat"}
     exec("def peek(env):\n    return env._measures\n", ns)
-    env = gym.make("BioVLN-OpFace-v0", split="ms_val", dataset=str(_dataset(tmp_path)), obs_mode="none", **CPU)
+    env = gym.make(
+        "BioVLN-OpFace-v0", split="ms_val", dataset=str(_dataset(tmp_path)), obs_mode="none", **CPU
+    )
     try:
         env.reset(options={"episode_index": 0})
         with pytest.raises(AttributeError, match="private attribute '_measures'"):

@@ -14,8 +14,21 @@ ROOT = Path(__file__).resolve().parents[1]
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory):
     out = tmp_path_factory.mktemp("wheel")
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(out), str(ROOT)],
-                   check=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--no-deps",
+            "--no-build-isolation",
+            "-q",
+            "-w",
+            str(out),
+            str(ROOT),
+        ],
+        check=True,
+    )
     (whl,) = out.glob("biovln_ms-*.whl")
     return whl
 
@@ -29,7 +42,11 @@ def test_wheel_maps_tasks_and_agents_into_the_package(wheel):
     assert "biovln_ms/assets/refrigerator.glb" in names
     assert "biovln_ms/assets/collision/waste_bin.obj" in names
     # every module and data file of the source tree is in the wheel (no package forgotten)
-    for folder, prefix in (("biovln_ms", "biovln_ms"), ("tasks", "biovln_ms/tasks"), ("agents", "biovln_ms/agents")):
+    for folder, prefix in (
+        ("biovln_ms", "biovln_ms"),
+        ("tasks", "biovln_ms/tasks"),
+        ("agents", "biovln_ms/agents"),
+    ):
         for f in (ROOT / folder).rglob("*"):
             if f.is_file() and f.suffix in {".py", ".json", ".urdf"} and "__pycache__" not in f.parts:
                 rel = f"{prefix}/{f.relative_to(ROOT / folder).as_posix()}"
@@ -43,17 +60,41 @@ def test_wheel_installs_and_works_from_another_directory(wheel, tmp_path):
     # Dependencies come from the running environment (a plain path entry: its .pth files, such as
     # an editable install's finder, are not processed), biovln_ms only from the wheel.
     purelib = sysconfig.get_paths()["purelib"]
-    new_purelib = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
-                                 capture_output=True, text=True, check=True).stdout.strip()
+    new_purelib = subprocess.run(
+        [str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
     Path(new_purelib, "deps.pth").write_text(purelib + "\n")
-    subprocess.run([str(py), "-m", "pip", "install", "-q", "--no-deps", "--force-reinstall", str(wheel)], check=True)
-    code = ("import biovln_ms, biovln_ms.paths as p; from biovln_ms.assetgen.generate import verify_assets; "
-            "assert 'site-packages' in biovln_ms.__file__, biovln_ms.__file__; "
-            "assert verify_assets(p.ASSET_DIR) == [], verify_assets(p.ASSET_DIR); print('ok', p.ASSET_DIR)")
+    subprocess.run(
+        [str(py), "-m", "pip", "install", "-q", "--no-deps", "--force-reinstall", str(wheel)], check=True
+    )
+    code = (
+        "import biovln_ms, biovln_ms.paths as p; from biovln_ms.assetgen.generate import verify_assets; "
+        "assert 'site-packages' in biovln_ms.__file__, biovln_ms.__file__; "
+        "assert verify_assets(p.ASSET_DIR) == [], verify_assets(p.ASSET_DIR); print('ok', p.ASSET_DIR)"
+    )
     r = subprocess.run([str(py), "-c", code], cwd=tmp_path, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    r = subprocess.run([str(venv / "bin" / "biovln-ms"), "catalog", "--json"], cwd=tmp_path, capture_output=True, text=True)
+    r = subprocess.run(
+        [str(venv / "bin" / "biovln-ms"), "catalog", "--json"], cwd=tmp_path, capture_output=True, text=True
+    )
     assert r.returncode == 0 and '"refrigerator"' in r.stdout, r.stderr
-    r = subprocess.run([str(venv / "bin" / "biovln-ms"), "scene", "generate", "--template", "two_room", "--seed", "1", "-o",
-                        str(tmp_path / "s.json")], cwd=tmp_path, capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            str(venv / "bin" / "biovln-ms"),
+            "scene",
+            "generate",
+            "--template",
+            "two_room",
+            "--seed",
+            "1",
+            "-o",
+            str(tmp_path / "s.json"),
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 0, r.stderr

@@ -42,12 +42,29 @@ README = (ROOT / "README.md").read_text()
 PYTHON_TIMEOUT_S = 300
 CLI_TIMEOUT_S = 180
 PLACEHOLDERS: dict[str, list[str]] = {
-    "CAT": ["refrigerator", "centrifuge"], "N": ["1000"], "M": ["frontier"], "S": ["ms_val"], "ID": ["0"],
-    "NAME": ["refrigerator"], "F": ["model.zip"]}
-EXECUTED = {("catalog",), ("scene", "templates"), ("scene", "generate"), ("scene", "validate"),
-            ("scene", "map"), ("scene", "export"), ("dataset", "build"), ("dataset", "stats"),
-            ("dataset", "show"), ("lsat", "import"), ("lsat", "export"), ("lsat", "blender-addon"),
-            ("assets", "verify")}
+    "CAT": ["refrigerator", "centrifuge"],
+    "N": ["1000"],
+    "M": ["frontier"],
+    "S": ["ms_val"],
+    "ID": ["0"],
+    "NAME": ["refrigerator"],
+    "F": ["model.zip"],
+}
+EXECUTED = {
+    ("catalog",),
+    ("scene", "templates"),
+    ("scene", "generate"),
+    ("scene", "validate"),
+    ("scene", "map"),
+    ("scene", "export"),
+    ("dataset", "build"),
+    ("dataset", "stats"),
+    ("dataset", "show"),
+    ("lsat", "import"),
+    ("lsat", "export"),
+    ("lsat", "blender-addon"),
+    ("assets", "verify"),
+}
 
 
 @dataclass(frozen=True)
@@ -163,15 +180,23 @@ def test_readme_has_what_this_file_checks() -> None:
     assert len(table_usages()) >= 20 and len(prose_spans()) >= 5
 
 
-@pytest.mark.parametrize("block", [b for b in fenced_blocks(README) if b.lang == "python"],
-                         ids=lambda b: f"L{b.line}")
+@pytest.mark.parametrize(
+    "block", [b for b in fenced_blocks(README) if b.lang == "python"], ids=lambda b: f"L{b.line}"
+)
 def test_python_snippet_runs(block: Block, tmp_path: Path) -> None:
     script = tmp_path / "snippet.py"
     script.write_text(block.code)
-    r = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True,
-                       timeout=PYTHON_TIMEOUT_S, check=False)
-    assert r.returncode == 0, (f"README.md line {block.line}:\n{block.code}\n"
-                               f"{r.stdout[-2000:]}{r.stderr[-4000:]}")
+    r = subprocess.run(
+        [sys.executable, str(script)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=PYTHON_TIMEOUT_S,
+        check=False,
+    )
+    assert r.returncode == 0, (
+        f"README.md line {block.line}:\n{block.code}\n{r.stdout[-2000:]}{r.stderr[-4000:]}"
+    )
 
 
 @pytest.mark.parametrize(("line", "argv"), DOCUMENTED, ids=[_id(n, a) for n, a in DOCUMENTED])
@@ -185,8 +210,11 @@ def test_documented_command_parses(line: int, argv: list[str]) -> None:
     assert path, f"README.md line {line}: no subcommand in `biovln-ms {shlex.join(argv)}`"
 
 
-@pytest.mark.parametrize("line, command", [c for c in bash_commands() if not c[1].startswith("biovln-ms ")],
-                         ids=lambda v: str(v) if isinstance(v, int) else v[:40])
+@pytest.mark.parametrize(
+    "line, command",
+    [c for c in bash_commands() if not c[1].startswith("biovln-ms ")],
+    ids=lambda v: str(v) if isinstance(v, int) else v[:40],
+)
 def test_other_bash_lines_name_real_tools(line: int, command: str) -> None:
     words = shlex.split(command)
     if words[0] == "bash":
@@ -224,11 +252,21 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A folder where the README's placeholder inputs are real files (see the module docstring)."""
     ws = tmp_path_factory.mktemp("readme")
     cli = _console_script()
-    subprocess.run([*cli, "dataset", "build", "--out", "DIR"], cwd=ws, check=True, capture_output=True,
-                   timeout=CLI_TIMEOUT_S)
+    subprocess.run(
+        [*cli, "dataset", "build", "--out", "DIR"],
+        cwd=ws,
+        check=True,
+        capture_output=True,
+        timeout=CLI_TIMEOUT_S,
+    )
     shutil.copy(ws / "DIR" / "scenes" / "lab_s154_v0.json", ws / "SPEC.json")
-    subprocess.run([*cli, "scene", "export", "SPEC.json", "-o", "scene.glb"], cwd=ws, check=True,
-                   capture_output=True, timeout=CLI_TIMEOUT_S)
+    subprocess.run(
+        [*cli, "scene", "export", "SPEC.json", "-o", "scene.glb"],
+        cwd=ws,
+        check=True,
+        capture_output=True,
+        timeout=CLI_TIMEOUT_S,
+    )
     shutil.copy(ws / "scene.glb", ws / "my_lab.glb")
     for name in ("lab.json", "my_lab.json"):
         shutil.copy(ws / "SPEC.json", ws / name)
@@ -250,7 +288,14 @@ def _executed() -> list:
 
 @pytest.mark.parametrize(("line", "argv"), _executed())
 def test_cheap_documented_command_runs(line: int, argv: list[str], workspace: Path) -> None:
-    r = subprocess.run([*_console_script(), *argv], cwd=workspace, capture_output=True, text=True,
-                       timeout=CLI_TIMEOUT_S, check=False)
-    assert r.returncode == 0, (f"README.md line {line}: `biovln-ms {shlex.join(argv)}`:\n"
-                               f"{r.stdout[-2000:]}{r.stderr[-3000:]}")
+    r = subprocess.run(
+        [*_console_script(), *argv],
+        cwd=workspace,
+        capture_output=True,
+        text=True,
+        timeout=CLI_TIMEOUT_S,
+        check=False,
+    )
+    assert r.returncode == 0, (
+        f"README.md line {line}: `biovln-ms {shlex.join(argv)}`:\n{r.stdout[-2000:]}{r.stderr[-3000:]}"
+    )

@@ -16,9 +16,23 @@ def dataset(held_out_dataset):
 @pytest.mark.parametrize("mode", ["full", "trace"])
 def test_recorder_through_the_harness(dataset, tmp_path, mode):
     rec_dir = tmp_path / "rec"
-    evaluate(EvalConfig("oracle", "ms_val", str(tmp_path / "res"), dataset, workers=1, camera=(160, 120),
-                        record_dir=str(rec_dir), record_mode=mode), progress=False)
-    results = {(r["scene_id"], r["episode_id"]): r for r in load_records(tmp_path / "res" / "oracle" / "ms_val" / "episodes.jsonl")}
+    evaluate(
+        EvalConfig(
+            "oracle",
+            "ms_val",
+            str(tmp_path / "res"),
+            dataset,
+            workers=1,
+            camera=(160, 120),
+            record_dir=str(rec_dir),
+            record_mode=mode,
+        ),
+        progress=False,
+    )
+    results = {
+        (r["scene_id"], r["episode_id"]): r
+        for r in load_records(tmp_path / "res" / "oracle" / "ms_val" / "episodes.jsonl")
+    }
     (path,) = rec_dir.glob("trajectories-*.jsonl.gz")
     entries = list(read_recordings(path))
     assert len(entries) == 3
@@ -49,9 +63,22 @@ def test_full_recordings_feed_the_trajectory_dataset(dataset, tmp_path):
     from biovln_ms.learning.dataset import TrajectoryDataset, Transforms
 
     rec_dir = tmp_path / "rec"
-    evaluate(EvalConfig("oracle", "ms_val", str(tmp_path / "res"), dataset, workers=1, camera=(160, 120),
-                        record_dir=str(rec_dir), record_mode="full"), progress=False)
-    ds = TrajectoryDataset(rec_dir, Transforms(hflip_p=0.5, brightness=0.05, position_noise=0.02), drop_stop=True)
+    evaluate(
+        EvalConfig(
+            "oracle",
+            "ms_val",
+            str(tmp_path / "res"),
+            dataset,
+            workers=1,
+            camera=(160, 120),
+            record_dir=str(rec_dir),
+            record_mode="full",
+        ),
+        progress=False,
+    )
+    ds = TrajectoryDataset(
+        rec_dir, Transforms(hflip_p=0.5, brightness=0.05, position_noise=0.02), drop_stop=True
+    )
     item = ds[0]
     assert item["image"].shape == (3, 224, 224) and abs(float(item["image"].mean())) < 3
     assert item["goal"].shape == (4,) and int(item["action"]) in (1, 2, 3)

@@ -18,8 +18,15 @@ def dataset(held_out_dataset):
 @pytest.mark.parametrize("algo", ["ppo", "sac"])
 def test_train_writes_logs_checkpoints_curve_and_evaluates(dataset, tmp_path, algo):
     hp = {"n_steps": 64, "batch_size": 32} if algo == "ppo" else {"learning_starts": 32, "batch_size": 32}
-    cfg = RLConfig(algo=algo, timesteps=128, n_envs=1, dataset=dataset, checkpoint_every=64, eval_episodes=2,
-                   hyperparams=hp)
+    cfg = RLConfig(
+        algo=algo,
+        timesteps=128,
+        n_envs=1,
+        dataset=dataset,
+        checkpoint_every=64,
+        eval_episodes=2,
+        hyperparams=hp,
+    )
     r = train_and_evaluate(cfg, tmp_path, echo=lambda s: None, progress=False)
     assert r.timesteps >= 128 and r.model.is_file()
     assert any((tmp_path / "tb").rglob("events.out.tfevents.*"))
@@ -51,7 +58,9 @@ def test_ray_vec_env_trains_sb3_on_a_local_ray_instance(dataset):
     from biovln_ms.learning.ray_vec_env import RayVecEnv
     from biovln_ms.wrappers import make_gym_env
 
-    venv = RayVecEnv([partial(make_gym_env, "BioVLN-OpFace-RL-v0", split="train", dataset=dataset)] * 2, address="local")
+    venv = RayVecEnv(
+        [partial(make_gym_env, "BioVLN-OpFace-RL-v0", split="train", dataset=dataset)] * 2, address="local"
+    )
     try:
         venv.seed(3)
         obs = venv.reset()

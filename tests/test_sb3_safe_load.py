@@ -20,8 +20,11 @@ from biovln_ms.errors import BioVLNError
 from biovln_ms.learning import sb3_safe
 from biovln_ms.learning.sb3_safe import load_sb3_model, pickled_globals
 
-ALGOS = {"ppo": (PPO, {"n_steps": 16, "batch_size": 16, "n_epochs": 1}), "a2c": (A2C, {"n_steps": 8}),
-         "sac": (SAC, {"learning_starts": 8, "batch_size": 8, "buffer_size": 64})}
+ALGOS = {
+    "ppo": (PPO, {"n_steps": 16, "batch_size": 16, "n_epochs": 1}),
+    "a2c": (A2C, {"n_steps": 8}),
+    "sac": (SAC, {"learning_starts": 8, "batch_size": 8, "buffer_size": 64}),
+}
 
 
 class StateEnv(gym.Env):
@@ -30,7 +33,9 @@ class StateEnv(gym.Env):
     observation_space = gym.spaces.Box(-np.inf, np.inf, (19,), np.float32)
 
     def __init__(self, continuous: bool) -> None:
-        self.action_space = gym.spaces.Box(-1.0, 1.0, (3,), np.float32) if continuous else gym.spaces.Discrete(4)
+        self.action_space = (
+            gym.spaces.Box(-1.0, 1.0, (3,), np.float32) if continuous else gym.spaces.Discrete(4)
+        )
         self.t = 0
 
     def reset(self, *, seed=None, options=None):
@@ -98,8 +103,10 @@ def predictions(model, n=50):
 
 def test_pickled_payload_in_data_is_refused_and_sb3_would_run_it(models, tmp_path):
     marker = tmp_path / "pwned"
-    payload = {":type:": "<class 'numpy.ndarray'>", ":serialized:": __import__("base64").b64encode(
-        cloudpickle.dumps(Touch(marker))).decode()}
+    payload = {
+        ":type:": "<class 'numpy.ndarray'>",
+        ":serialized:": __import__("base64").b64encode(cloudpickle.dumps(Touch(marker))).decode(),
+    }
     evil = with_data(models["ppo"], tmp_path / "evil.zip", lambda d: d.update(_last_obs=payload))
     with pytest.raises(BioVLNError, match="would import posix.system") as e:
         load_sb3_model(evil, "ppo")
@@ -110,13 +117,25 @@ def test_pickled_payload_in_data_is_refused_and_sb3_would_run_it(models, tmp_pat
         SB3Policy(str(evil), "ppo")
     assert not marker.exists()
     # the test is real: SB3's own loader runs the payload
-    subprocess.run([sys.executable, "-c", "import sys; from stable_baselines3 import PPO; PPO.load(sys.argv[1])",
-                    str(evil)], check=False, cwd=tmp_path, capture_output=True, timeout=120,
-                   env={**os.environ, "OMP_NUM_THREADS": "1"})
+    subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from stable_baselines3 import PPO; PPO.load(sys.argv[1])",
+            str(evil),
+        ],
+        check=False,
+        cwd=tmp_path,
+        capture_output=True,
+        timeout=120,
+        env={**os.environ, "OMP_NUM_THREADS": "1"},
+    )
     assert marker.exists()
 
 
-@pytest.mark.parametrize("dump", [torch.save, lambda obj, f: pickle.dump(obj, f, protocol=2)], ids=["torch.save", "pickle"])
+@pytest.mark.parametrize(
+    "dump", [torch.save, lambda obj, f: pickle.dump(obj, f, protocol=2)], ids=["torch.save", "pickle"]
+)
 def test_pickled_payload_in_policy_pth_is_refused(models, tmp_path, dump):
     marker = tmp_path / "pwned"
     buf = io.BytesIO()
@@ -132,9 +151,13 @@ def test_static_pickle_scan_sees_through_memo_and_refuses_hidden_operands():
     def s(text: str) -> bytes:  # SHORT_BINUNICODE
         return b"\x8c" + bytes([len(text)]) + text.encode()
 
-    memo = b"\x80\x04" + s("posix") + b"\x94" + s("system") + b"\x94" + b"h\x00h\x01\x93."  # BINGET 0, 1, STACK_GLOBAL
+    memo = (
+        b"\x80\x04" + s("posix") + b"\x94" + s("system") + b"\x94" + b"h\x00h\x01\x93."
+    )  # BINGET 0, 1, STACK_GLOBAL
     assert pickled_globals(memo) == {("posix", "system")}
-    hidden = b"\x80\x04" + s("posix") + s("system") + s("numpy") + s("dtype") + b"00\x93."  # POP POP STACK_GLOBAL
+    hidden = (
+        b"\x80\x04" + s("posix") + s("system") + s("numpy") + s("dtype") + b"00\x93."
+    )  # POP POP STACK_GLOBAL
     assert pickled_globals(hidden) == {("?", "STACK_GLOBAL")}
 
 
@@ -156,7 +179,9 @@ def test_spaces_come_from_the_env_spec_without_their_plain_fields(models, tmp_pa
 
     for algo in ("ppo", "sac"):
         bare = with_data(models[algo], tmp_path / f"{algo}.zip", strip)
-        assert np.array_equal(predictions(load_sb3_model(bare, algo)), predictions(load_sb3_model(models[algo], algo)))
+        assert np.array_equal(
+            predictions(load_sb3_model(bare, algo)), predictions(load_sb3_model(models[algo], algo))
+        )
 
 
 def junk_zip(tmp_path, entries):
@@ -167,12 +192,23 @@ def junk_zip(tmp_path, entries):
     return path
 
 
-@pytest.mark.parametrize("case, match", [
-    ("not_zip", "not a zip file"), ("cut_end", "truncated"), ("cut_half", "truncated"), ("no_data", "no 'data' entry"),
-    ("bad_json", "'data' entry is not JSON"), ("dotdot", "points outside the archive"),
-    ("absolute", "points outside the archive"), ("too_many", "entries in the zip"), ("too_big", "unpacks to"),
-    ("corrupt", "Bad CRC-32"), ("huge_net", "larger than 4096"), ("wrong_algo", "not a Stable-Baselines3 PPO model"),
-])
+@pytest.mark.parametrize(
+    "case, match",
+    [
+        ("not_zip", "not a zip file"),
+        ("cut_end", "truncated"),
+        ("cut_half", "truncated"),
+        ("no_data", "no 'data' entry"),
+        ("bad_json", "'data' entry is not JSON"),
+        ("dotdot", "points outside the archive"),
+        ("absolute", "points outside the archive"),
+        ("too_many", "entries in the zip"),
+        ("too_big", "unpacks to"),
+        ("corrupt", "Bad CRC-32"),
+        ("huge_net", "larger than 4096"),
+        ("wrong_algo", "not a Stable-Baselines3 PPO model"),
+    ],
+)
 def test_junk_files_are_refused_with_one_clear_error(models, tmp_path, monkeypatch, case, match):
     ppo = models["ppo"]
     if case == "not_zip":

@@ -14,8 +14,15 @@ pytestmark = pytest.mark.render
 @pytest.fixture(scope="module")
 def env_and_spec():
     spec = generate_scene("two_room", 2)
-    env = gym.make("BioVLN-LabScene-v0", specs=[spec], obs_mode="none", sim_backend="physx_cpu", render_backend="cpu",
-                   render_mode="rgb_array", render_size=(320, 240))
+    env = gym.make(
+        "BioVLN-LabScene-v0",
+        specs=[spec],
+        obs_mode="none",
+        sim_backend="physx_cpu",
+        render_backend="cpu",
+        render_mode="rgb_array",
+        render_size=(320, 240),
+    )
     env.reset(seed=0)
     yield env.unwrapped, spec
     env.close()
@@ -73,8 +80,23 @@ def test_cli_render(tmp_path):
 
     out = tmp_path / "lab.json"
     png = tmp_path / "view.png"
-    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "scene", "generate", "--seed", "5", "-o", str(out),
-                        "--render", str(png)], capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "biovln_ms.cli",
+            "scene",
+            "generate",
+            "--seed",
+            "5",
+            "-o",
+            str(out),
+            "--render",
+            str(png),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 0, r.stderr
     from PIL import Image
 

@@ -33,7 +33,7 @@ def test_export_has_a_node_per_object_with_extras_and_semantic_colours(tmp_path)
             acc = gltf["accessors"][prim["attributes"]["COLOR_0"]]
             view = gltf["bufferViews"][acc["bufferView"]]
             assert acc["count"] == gltf["accessors"][prim["attributes"]["POSITION"]]["count"]
-            rgba = np.frombuffer(bytes(binary[view["byteOffset"]: view["byteOffset"] + 4]), np.uint8)
+            rgba = np.frombuffer(bytes(binary[view["byteOffset"] : view["byteOffset"] + 4]), np.uint8)
             assert tuple(rgba) == colors[owner[mi]]
     scene = trimesh.load(path, force="scene")  # the file re-opens
     lo, hi = scene.bounds
@@ -43,7 +43,10 @@ def test_export_has_a_node_per_object_with_extras_and_semantic_colours(tmp_path)
 def test_cli_export(tmp_path):
     spec_path = save_spec(generate_scene("single_room", 3), tmp_path / "s.json")
     out = tmp_path / "lab.glb"
-    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "scene", "export", str(spec_path), "-o", str(out)],
-                       capture_output=True, text=True)
+    r = subprocess.run(
+        [sys.executable, "-m", "biovln_ms.cli", "scene", "export", str(spec_path), "-o", str(out)],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 0, r.stderr
     assert out.read_bytes()[:4] == b"glTF"

@@ -9,7 +9,13 @@ from biovln_ms.geometry.zones import zone2_disjoint
 from biovln_ms.scene.generator import GenerationError, generate_scene
 from biovln_ms.scene.rules import check_consistency, check_layout, scene_free_space
 from biovln_ms.scene.spec import SceneSpecError, load_spec, parse_spec, save_spec
-from biovln_ms.scene.templates import TemplateError, get_template, parse_template, register_template, template_names
+from biovln_ms.scene.templates import (
+    TemplateError,
+    get_template,
+    parse_template,
+    register_template,
+    template_names,
+)
 
 FOUR = ("cabinet", "centrifuge", "refrigerator", "waste_bin")
 
@@ -110,8 +116,24 @@ def test_unsatisfiable_seed_names_rule_and_instruments():
     t["rooms"] = [{"id": "lab", "kind": "room", "rect": [0, 0, 1.6, 2.6]}]
     t["furniture"] = []
     t["slots"] = [
-        {"id": "a", "placement": "wall", "room": "lab", "wall": "S", "span": [0.0, 1.6], "categories": ["refrigerator"], "fixed": True},
-        {"id": "b", "placement": "wall", "room": "lab", "wall": "N", "span": [0.0, 1.6], "categories": ["refrigerator"], "fixed": True},
+        {
+            "id": "a",
+            "placement": "wall",
+            "room": "lab",
+            "wall": "S",
+            "span": [0.0, 1.6],
+            "categories": ["refrigerator"],
+            "fixed": True,
+        },
+        {
+            "id": "b",
+            "placement": "wall",
+            "room": "lab",
+            "wall": "N",
+            "span": [0.0, 1.6],
+            "categories": ["refrigerator"],
+            "fixed": True,
+        },
     ]
     t["active_slots"] = [2, 2]
     t["max_attempts"] = 20
@@ -145,15 +167,22 @@ def _spec_obj(seed=150):
     return json.loads(generate_scene("single_room", seed, required_categories=FOUR).to_json())
 
 
-@pytest.mark.parametrize("edit, field, rule", [
-    (lambda o: o["instruments"][0].update(position=[4.0, 3.0, o["instruments"][0]["position"][2]]), "instruments[0]", None),
-    (lambda o: o["instruments"][0].update(goal=[0.0, 0.0]), "instruments[0].goal", "Eq. 1"),
-    (lambda o: o["instruments"][0].update(category="fridge"), "instruments[0].category", "catalog"),
-    (lambda o: o["instruments"][0].pop("yaw"), "instruments[0].yaw", None),
-    (lambda o: o["instruments"][0].update(size=[1, 1, "tall"]), "instruments[0].size", None),
-    (lambda o: o.update(schema_version=7), "schema_version", None),
-    (lambda o: o["instruments"][1].update(support="no_such_table"), "instruments[1].support", None),
-])
+@pytest.mark.parametrize(
+    "edit, field, rule",
+    [
+        (
+            lambda o: o["instruments"][0].update(position=[4.0, 3.0, o["instruments"][0]["position"][2]]),
+            "instruments[0]",
+            None,
+        ),
+        (lambda o: o["instruments"][0].update(goal=[0.0, 0.0]), "instruments[0].goal", "Eq. 1"),
+        (lambda o: o["instruments"][0].update(category="fridge"), "instruments[0].category", "catalog"),
+        (lambda o: o["instruments"][0].pop("yaw"), "instruments[0].yaw", None),
+        (lambda o: o["instruments"][0].update(size=[1, 1, "tall"]), "instruments[0].size", None),
+        (lambda o: o.update(schema_version=7), "schema_version", None),
+        (lambda o: o["instruments"][1].update(support="no_such_table"), "instruments[1].support", None),
+    ],
+)
 def test_hand_edited_spec_errors_name_field_and_rule(edit, field, rule, tmp_path):
     obj = _spec_obj()
     edit(obj)
@@ -181,14 +210,36 @@ def test_moving_an_instrument_onto_another_is_refused():
 def test_cli_generate_and_map(tmp_path):
     out = tmp_path / "lab_s150_v0.json"
     png = tmp_path / "map.png"
-    cmd = [sys.executable, "-m", "biovln_ms.cli", "scene", "generate", "--template", "single_room", "--seed", "150",
-           "--require", "cabinet", "--require", "centrifuge", "--require", "refrigerator", "--require", "waste_bin",
-           "-o", str(out), "--map", str(png)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "biovln_ms.cli",
+        "scene",
+        "generate",
+        "--template",
+        "single_room",
+        "--seed",
+        "150",
+        "--require",
+        "cabinet",
+        "--require",
+        "centrifuge",
+        "--require",
+        "refrigerator",
+        "--require",
+        "waste_bin",
+        "-o",
+        str(out),
+        "--map",
+        str(png),
+    ]
     r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert out.read_text() == generate_scene("single_room", 150, required_categories=FOUR).to_json()
     assert png.stat().st_size > 20_000
-    r = subprocess.run([sys.executable, "-m", "biovln_ms.cli", "scene", "validate", str(out)], capture_output=True, text=True)
+    r = subprocess.run(
+        [sys.executable, "-m", "biovln_ms.cli", "scene", "validate", str(out)], capture_output=True, text=True
+    )
     assert r.returncode == 0 and "valid" in r.stdout
 
 

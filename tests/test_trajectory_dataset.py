@@ -1,4 +1,3 @@
-
 import numpy as np
 import pytest
 import torch
@@ -10,8 +9,16 @@ from biovln_ms.learning.recorder import TrajectoryRecorder
 def _record(root, episodes, mode="trace", success=True):
     rec = TrajectoryRecorder(root, mode)
     for e in range(episodes):
-        rec.start({"scene_id": "s", "episode_id": str(e), "object_category": "cabinet", "object_id": "cabinet_0",
-                   "info": {"difficulty": "easy"}}, (3.0, 0.0))
+        rec.start(
+            {
+                "scene_id": "s",
+                "episode_id": str(e),
+                "object_category": "cabinet",
+                "object_id": "cabinet_0",
+                "info": {"difficulty": "easy"},
+            },
+            (3.0, 0.0),
+        )
         for k, a in enumerate([2, 1, 3, 0]):
             rec.step(k, a, (0.0, 0.0, 0.0), (3.0, 0.0), 3.0)
         rec.finish(success)

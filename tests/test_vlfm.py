@@ -65,8 +65,15 @@ def test_frontier_choice_follows_the_value_map():
 def test_gt_detector_reads_the_semantic_sensor():
     import torch
 
-    task = TaskSpec(forward_step=0.25, turn_deg=30.0, hfov_deg=79.0, max_episode_steps=500,
-                    goal_categories=("refrigerator", "centrifuge"), control_mode="discrete", robot_radius=0.2)
+    task = TaskSpec(
+        forward_step=0.25,
+        turn_deg=30.0,
+        hfov_deg=79.0,
+        max_episode_steps=500,
+        goal_categories=("refrigerator", "centrifuge"),
+        control_mode="discrete",
+        robot_radius=0.2,
+    )
     det = make_detector("gt")
     assert isinstance(det, GTSegmentationDetector)
     det.reset(task)
@@ -102,9 +109,18 @@ def test_clip_scorer_loads_from_a_local_directory(tmp_path):
     image_processor = CLIPImageProcessorPil(size={"shortest_edge": 32}, crop_size={"height": 32, "width": 32})
     proc = CLIPProcessor(image_processor=image_processor, tokenizer=CLIPTokenizer(vocab=vocab, merges=[]))
     small = {"hidden_size": 32, "intermediate_size": 64, "num_hidden_layers": 1, "num_attention_heads": 2}
-    cfg = CLIPConfig(text_config=dict(vocab_size=len(vocab), max_position_embeddings=77, bos_token_id=0,
-                                      eos_token_id=1, pad_token_id=1, **small),
-                     vision_config=dict(image_size=32, patch_size=8, **small), projection_dim=16)
+    cfg = CLIPConfig(
+        text_config=dict(
+            vocab_size=len(vocab),
+            max_position_embeddings=77,
+            bos_token_id=0,
+            eos_token_id=1,
+            pad_token_id=1,
+            **small,
+        ),
+        vision_config=dict(image_size=32, patch_size=8, **small),
+        projection_dim=16,
+    )
     torch.manual_seed(0)
     CLIPModel(cfg).save_pretrained(tmp_path)  # a tiny random CLIP: the loading path, not the accuracy
     proc.save_pretrained(tmp_path)

@@ -34,8 +34,10 @@ def _side_by_side(cat, gap: float) -> tuple[PlacedInstrument, PlacedInstrument]:
     """Two waste bins of ``cat`` whose bodies are ``gap`` apart along x."""
     a = cat.get("waste_bin")
     sx = a.dimensions[0]
-    return (PlacedInstrument.from_asset(a, (0.0, 0.0, 0.0), 0.0),
-            PlacedInstrument.from_asset(a, (sx + gap, 0.0, 0.0), 0.0))
+    return (
+        PlacedInstrument.from_asset(a, (0.0, 0.0, 0.0), 0.0),
+        PlacedInstrument.from_asset(a, (sx + gap, 0.0, 0.0), 0.0),
+    )
 
 
 @pytest.mark.parametrize("yaw", [0.0, math.pi / 2, 0.7])
@@ -47,7 +49,9 @@ def test_zone2_is_zone1_grown_by_the_catalogs_clearance(wide_catalog, name, yaw)
     z1, z2 = p.zone1(), p.zone2()
     grown = z1.buffer(WIDE, join_style="mitre")
     assert z2.area == pytest.approx(grown.area, rel=1e-9)
-    assert z2.area == pytest.approx((asset.dimensions[0] + 2 * WIDE) * (asset.dimensions[1] + 2 * WIDE), rel=1e-9)
+    assert z2.area == pytest.approx(
+        (asset.dimensions[0] + 2 * WIDE) * (asset.dimensions[1] + 2 * WIDE), rel=1e-9
+    )
     assert grown.symmetric_difference(z2).area < 1e-6
 
 
@@ -55,7 +59,9 @@ def test_zone2_violation_follows_the_catalog(wide_catalog, catalog):
     point = np.array([0.0, 0.0])
     for cat, inside in ((catalog, False), (wide_catalog, True)):
         a = cat.get("waste_bin")
-        p = PlacedInstrument.from_asset(a, (a.dimensions[0] / 2 + 0.30, 0.0, 0.0), 0.0)  # body 0.30 m from the point
+        p = PlacedInstrument.from_asset(
+            a, (a.dimensions[0] / 2 + 0.30, 0.0, 0.0), 0.0
+        )  # body 0.30 m from the point
         assert InstrumentArray([p]).in_zone2(point) is inside
 
 

@@ -21,7 +21,12 @@ from biovln_ms.geometry.zones import (
     zone2_disjoint,
 )
 
-WALL_INTERIORS = {"south wall": (0.0, 1.0), "north wall": (0.0, -1.0), "west wall": (1.0, 0.0), "east wall": (-1.0, 0.0)}
+WALL_INTERIORS = {
+    "south wall": (0.0, 1.0),
+    "north wall": (0.0, -1.0),
+    "west wall": (1.0, 0.0),
+    "east wall": (-1.0, 0.0),
+}
 coord = st.floats(-10, 10, allow_nan=False)
 size = st.floats(0.04, 3.0, allow_nan=False)
 angle = st.floats(-math.pi, math.pi, allow_nan=False)
@@ -97,7 +102,18 @@ def test_eq2_equals_sat_for_axis_aligned(x1, y1, r1, sx1, sy1, x2, y2, r2, sx2, 
 
 
 @settings(max_examples=300)
-@given(st.floats(-3, 3), st.floats(-3, 3), angle, size, size, st.floats(-3, 3), st.floats(-3, 3), angle, size, size)
+@given(
+    st.floats(-3, 3),
+    st.floats(-3, 3),
+    angle,
+    size,
+    size,
+    st.floats(-3, 3),
+    st.floats(-3, 3),
+    angle,
+    size,
+    size,
+)
 def test_rotated_zone2_test_matches_polygon_overlap(x1, y1, r1, sx1, sy1, x2, y2, r2, sx2, sy2):
     a, b = inst(x1, y1, r1, sx1, sy1), inst(x2, y2, r2, sx2, sy2)
     overlap = a.zone2().intersection(b.zone2()).area
@@ -119,7 +135,9 @@ def test_rotated_instruments_caught_where_axis_aligned_eq2_would_miss():
 @given(coord, coord, angle, size, size, st.floats(-12, 12), st.floats(-12, 12))
 def test_clearance_matches_shapely_distance(x, y, yaw, sx, sy, px, py):
     i = inst(x, y, yaw, sx, sy)
-    assert i.clearance(np.array([px, py])) == pytest.approx(Polygon(i.zone1_corners()).distance(Point(px, py)), abs=1e-7)
+    assert i.clearance(np.array([px, py])) == pytest.approx(
+        Polygon(i.zone1_corners()).distance(Point(px, py)), abs=1e-7
+    )
 
 
 def test_clearance_3d_accounts_for_height():
@@ -145,7 +163,11 @@ def test_furniture_without_face_has_no_goal():
         i.zone3()
 
 
-@given(st.lists(st.tuples(coord, coord, angle, size, size), min_size=1, max_size=6), st.floats(-12, 12), st.floats(-12, 12))
+@given(
+    st.lists(st.tuples(coord, coord, angle, size, size), min_size=1, max_size=6),
+    st.floats(-12, 12),
+    st.floats(-12, 12),
+)
 def test_instrument_array_matches_the_scalar_geometry(items, px, py):
     from biovln_ms.geometry.zones import InstrumentArray
 

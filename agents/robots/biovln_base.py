@@ -79,7 +79,9 @@ class NavBaseController(PDJointPosController):
             self.set_motion(self.config.forward_step, self.config.turn_deg)
         n = self.scene.num_envs
         zeros = torch.zeros(n, dtype=torch.float64, device=self.device)
-        self.command = NavCommand(self.qpos.clone(), torch.zeros(n, dtype=torch.bool, device=self.device), zeros, zeros)
+        self.command = NavCommand(
+            self.qpos.clone(), torch.zeros(n, dtype=torch.bool, device=self.device), zeros, zeros
+        )
 
     def _decode(self, action: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """(stop, forward metres, turn radians) per sub-env, or an ActionError naming the action."""
@@ -87,25 +89,38 @@ class NavBaseController(PDJointPosController):
         if self.config.mode == "discrete":
             a = action.reshape(-1)
             if a.numel() != n or a.is_complex() or not torch.equal(a, torch.round(a.double()).to(a.dtype)):
-                raise ActionError(f"action {action.tolist()} is not {n} integer(s)", field="action", fix=action_help())
+                raise ActionError(
+                    f"action {action.tolist()} is not {n} integer(s)", field="action", fix=action_help()
+                )
             k = a.long()
             if ((k < 0) | (k >= len(ACTIONS))).any():
-                raise ActionError(f"action {k.tolist()} is outside Discrete(4)", field="action", fix=action_help())
+                raise ActionError(
+                    f"action {k.tolist()} is outside Discrete(4)", field="action", fix=action_help()
+                )
             f64 = dict(dtype=torch.float64, device=self.device)
-            turn = torch.where(k == 2, torch.tensor(self.turn, **f64),
-                               torch.where(k == 3, torch.tensor(-self.turn, **f64), torch.tensor(0.0, **f64)))
+            turn = torch.where(
+                k == 2,
+                torch.tensor(self.turn, **f64),
+                torch.where(k == 3, torch.tensor(-self.turn, **f64), torch.tensor(0.0, **f64)),
+            )
             return k == 0, (k == 1).double() * self.forward_step, turn
         a = action.reshape(n, -1).double()
         if a.shape[1] != 3 or not torch.isfinite(a).all() or a.abs().max() > 1.0 + 1e-6:
-            raise ActionError(f"action {a.tolist()} is outside Box(-1, 1, (3,))", field="action",
-                              fix="continuous actions are [forward, turn, stop] in [-1, 1]: forward (a0+1)/2 * step, "
-                                  "turn a1 * turn angle, stop when a2 > 0")
+            raise ActionError(
+                f"action {a.tolist()} is outside Box(-1, 1, (3,))",
+                field="action",
+                fix="continuous actions are [forward, turn, stop] in [-1, 1]: forward (a0+1)/2 * step, "
+                "turn a1 * turn angle, stop when a2 > 0",
+            )
         return a[:, 2] > 0, (a[:, 0] + 1) / 2 * self.forward_step, a[:, 1] * self.turn
 
     def set_action(self, action: torch.Tensor):
         stop, forward, turn = self._decode(torch.as_tensor(action, device=self.device))
         pose = self.qpos.clone()
-        forward, turn = forward * ~stop, turn * ~stop  # float64: targets are computed as exactly as the pose allows
+        forward, turn = (
+            forward * ~stop,
+            turn * ~stop,
+        )  # float64: targets are computed as exactly as the pose allows
         p = pose.double()
         delta = torch.stack([forward * torch.cos(p[:, 2]), forward * torch.sin(p[:, 2]), turn], dim=1)
         target = (p + delta).to(pose.dtype)
@@ -135,15 +150,26 @@ class BioVLNBase(BaseAgent):
     keyframes = dict(rest=Keyframe(pose=sapien.Pose(), qpos=np.zeros(3)))
     # Frictionless body: contact with a wall stops the base (and lets it slide along the wall, as
     # Habitat's agents do) without friction torques twisting its heading.
-    urdf_config = dict(_materials=dict(body=dict(static_friction=0.0, dynamic_friction=0.0, restitution=0.0)),
-                       link=dict(base_link=dict(material="body")))
+    urdf_config = dict(
+        _materials=dict(body=dict(static_friction=0.0, dynamic_friction=0.0, restitution=0.0)),
+        link=dict(base_link=dict(material="body")),
+    )
 
     @property
     def _controller_configs(self):
-        return {mode: NavBaseControllerConfig(list(BASE_JOINTS), lower=None, upper=None, stiffness=DRIVE_STIFFNESS,
-                                              damping=DRIVE_DAMPING, force_limit=DRIVE_FORCE_LIMIT,
-                                              normalize_action=False, mode=mode)
-                for mode in CONTROL_MODES}
+        return {
+            mode: NavBaseControllerConfig(
+                list(BASE_JOINTS),
+                lower=None,
+                upper=None,
+                stiffness=DRIVE_STIFFNESS,
+                damping=DRIVE_DAMPING,
+                force_limit=DRIVE_FORCE_LIMIT,
+                normalize_action=False,
+                mode=mode,
+            )
+            for mode in CONTROL_MODES
+        }
 
     def _after_init(self):
         self.base_link = self.robot.links_map["base_link"]

@@ -52,8 +52,11 @@ def plans(catalog: Catalog) -> list[AssetPlan]:
 def build_scene(plan: AssetPlan) -> trimesh.Scene:
     """Assemble one asset in model space (origin at the bbox centre, face per the catalog)."""
     if plan.name not in BUILDERS:
-        raise AssetError(f"no builder for asset '{plan.name}'", field="name",
-                         fix="add a builder to biovln_ms/assetgen/instruments.py")
+        raise AssetError(
+            f"no builder for asset '{plan.name}'",
+            field="name",
+            fix="add a builder to biovln_ms/assetgen/instruments.py",
+        )
     sx, sy, sz = plan.dimensions
     across_x = abs(plan.model_face[0]) > 0.5
     width, depth = (sy, sx) if across_x else (sx, sy)
@@ -63,9 +66,16 @@ def build_scene(plan: AssetPlan) -> trimesh.Scene:
     lo, hi = scene.bounds
     size = hi - lo
     centre = (hi + lo) / 2
-    if np.abs(size - np.array(plan.dimensions)).max() > BOUNDS_TOLERANCE or np.abs(centre).max() > BOUNDS_TOLERANCE:
-        raise AssetError(f"generated bounds {np.round(size, 4).tolist()} centred at {np.round(centre, 4).tolist()} do not "
-                         f"match the catalog dimensions {list(plan.dimensions)}", source=plan.name, field="dimensions")
+    if (
+        np.abs(size - np.array(plan.dimensions)).max() > BOUNDS_TOLERANCE
+        or np.abs(centre).max() > BOUNDS_TOLERANCE
+    ):
+        raise AssetError(
+            f"generated bounds {np.round(size, 4).tolist()} centred at {np.round(centre, 4).tolist()} do not "
+            f"match the catalog dimensions {list(plan.dimensions)}",
+            source=plan.name,
+            field="dimensions",
+        )
     return scene
 
 
@@ -75,7 +85,11 @@ def merged_mesh(scene: trimesh.Scene) -> trimesh.Trimesh:
     for node in scene.graph.nodes_geometry:
         transform, geom = scene.graph[node]
         m = scene.geometry[geom]
-        meshes.append(trimesh.Trimesh(vertices=trimesh.transform_points(m.vertices, transform), faces=m.faces, process=False))
+        meshes.append(
+            trimesh.Trimesh(
+                vertices=trimesh.transform_points(m.vertices, transform), faces=m.faces, process=False
+            )
+        )
     return trimesh.util.concatenate(meshes)
 
 
@@ -88,7 +102,9 @@ def convex_decomposition(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
     import coacd
 
     coacd.set_log_level("error")
-    parts = coacd.run_coacd(coacd.Mesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, int)), **COACD_PARAMS)
+    parts = coacd.run_coacd(
+        coacd.Mesh(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, int)), **COACD_PARAMS
+    )
     return [trimesh.Trimesh(vertices=np.round(v, 6), faces=f, process=False) for v, f in parts]
 
 
@@ -104,8 +120,9 @@ def hulls_to_obj(hulls: list[trimesh.Trimesh]) -> bytes:
     return ("\n".join(lines) + "\n").encode()
 
 
-def generate_assets(out_dir: Path, catalog: Catalog | None = None, names: list[str] | None = None,
-                    progress: bool = True) -> dict:
+def generate_assets(
+    out_dir: Path, catalog: Catalog | None = None, names: list[str] | None = None, progress: bool = True
+) -> dict:
     """Generate GLBs (and coacd collision caches) into ``out_dir``; returns the manifest."""
     from tqdm import tqdm
 
@@ -114,7 +131,12 @@ def generate_assets(out_dir: Path, catalog: Catalog | None = None, names: list[s
     manifest_path = out_dir / "manifest.json"
     old = json.loads(manifest_path.read_text()) if manifest_path.exists() else {}
     old_collision = old.get("collision", {})
-    manifest: dict = {"generator_version": GENERATOR_VERSION, "catalog_sha256": catalog.sha256, "files": {}, "collision": {}}
+    manifest: dict = {
+        "generator_version": GENERATOR_VERSION,
+        "catalog_sha256": catalog.sha256,
+        "files": {},
+        "collision": {},
+    }
     todo = [p for p in plans(catalog) if names is None or p.name in names]
     for plan in tqdm(todo, desc="assets", disable=not progress):
         scene = build_scene(plan)
@@ -123,8 +145,11 @@ def generate_assets(out_dir: Path, catalog: Catalog | None = None, names: list[s
         manifest["files"][f"{plan.name}.glb"] = _sha(glb)
         if plan.collision == "coacd":
             mesh = merged_mesh(scene)
-            key = _sha(np.ascontiguousarray(mesh.vertices).tobytes() + np.ascontiguousarray(mesh.faces).tobytes()
-                       + json.dumps(COACD_PARAMS, sort_keys=True).encode())
+            key = _sha(
+                np.ascontiguousarray(mesh.vertices).tobytes()
+                + np.ascontiguousarray(mesh.faces).tobytes()
+                + json.dumps(COACD_PARAMS, sort_keys=True).encode()
+            )
             rel = f"collision/{plan.name}.obj"
             cached = old_collision.get(plan.name)
             if cached and cached.get("input_sha256") == key and (out_dir / rel).exists():
@@ -162,7 +187,9 @@ def verify_assets(asset_dir: Path, catalog: Catalog | None = None) -> list[str]:
     entries.update({v["file"]: v["sha256"] for v in manifest.get("collision", {}).values()})
     for plan in plans(catalog):
         if f"{plan.name}.glb" not in entries:
-            problems.append(f"{asset_dir / (plan.name + '.glb')}: not in the manifest (run `biovln-ms assets generate`)")
+            problems.append(
+                f"{asset_dir / (plan.name + '.glb')}: not in the manifest (run `biovln-ms assets generate`)"
+            )
         if plan.collision == "coacd" and plan.name not in manifest.get("collision", {}):
             problems.append(f"{asset_dir}/collision/{plan.name}.obj: not in the manifest")
     for rel, sha in entries.items():
@@ -182,5 +209,8 @@ def load_glb(path: Path) -> trimesh.Scene:
     try:
         return trimesh.load(io.BytesIO(path.read_bytes()), file_type="glb", force="scene")
     except Exception as e:  # trimesh raises many types for malformed input
-        raise AssetError(f"not a readable GLB ({type(e).__name__}: {e})", source=str(path),
-                         fix="regenerate it with `biovln-ms assets generate`") from None
+        raise AssetError(
+            f"not a readable GLB ({type(e).__name__}: {e})",
+            source=str(path),
+            fix="regenerate it with `biovln-ms assets generate`",
+        ) from None

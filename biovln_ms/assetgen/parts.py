@@ -23,7 +23,12 @@ CANONICAL_FACE = (0.0, -1.0)
 
 # Per face of an axis-aligned box: (outward axis, sign, u axis, v axis).
 _BOX_FACES = [
-    (0, +1, 1, 2), (0, -1, 1, 2), (1, +1, 0, 2), (1, -1, 0, 2), (2, +1, 0, 1), (2, -1, 0, 1),
+    (0, +1, 1, 2),
+    (0, -1, 1, 2),
+    (1, +1, 0, 2),
+    (1, -1, 0, 2),
+    (2, +1, 0, 1),
+    (2, -1, 0, 1),
 ]
 
 
@@ -77,7 +82,9 @@ def _uv_box(extents: np.ndarray, tile: float | None) -> tuple[np.ndarray, np.nda
     return np.array(verts), np.array(faces), np.array(uvs)
 
 
-def _mesh_with(material: Material, verts: np.ndarray, faces: np.ndarray, uv: np.ndarray | None) -> trimesh.Trimesh:
+def _mesh_with(
+    material: Material, verts: np.ndarray, faces: np.ndarray, uv: np.ndarray | None
+) -> trimesh.Trimesh:
     mesh = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
     mesh.visual = TextureVisuals(uv=uv, material=material.pbr())
     return mesh
@@ -118,18 +125,32 @@ class Kit:
             self._materials[key] = Material(name=f"{self.name}_{key}", **kwargs)
         return self._materials[key]
 
-    def box(self, name: str, size: tuple[float, float, float], center: tuple[float, float, float],
-            mat: Material) -> None:
+    def box(
+        self, name: str, size: tuple[float, float, float], center: tuple[float, float, float], mat: Material
+    ) -> None:
         ext = np.asarray(size, float)
         v, f, uv = _uv_box(ext, mat.tile if mat.texture is not None else 1.0)
-        self.parts.append((name, _mesh_with(mat, v + np.asarray(center, float), f, uv if mat.texture is not None else None)))
+        self.parts.append(
+            (name, _mesh_with(mat, v + np.asarray(center, float), f, uv if mat.texture is not None else None))
+        )
 
-    def box_span(self, name: str, lo: tuple[float, float, float], hi: tuple[float, float, float], mat: Material) -> None:
+    def box_span(
+        self, name: str, lo: tuple[float, float, float], hi: tuple[float, float, float], mat: Material
+    ) -> None:
         lo_a, hi_a = np.asarray(lo, float), np.asarray(hi, float)
         self.box(name, tuple(hi_a - lo_a), tuple((hi_a + lo_a) / 2), mat)
 
-    def cylinder(self, name: str, radius: float, height: float, center: tuple[float, float, float], mat: Material,
-                 axis: str = "z", sections: int = 32, scale_xy: tuple[float, float] = (1.0, 1.0)) -> None:
+    def cylinder(
+        self,
+        name: str,
+        radius: float,
+        height: float,
+        center: tuple[float, float, float],
+        mat: Material,
+        axis: str = "z",
+        sections: int = 32,
+        scale_xy: tuple[float, float] = (1.0, 1.0),
+    ) -> None:
         m = trimesh.creation.cylinder(radius=radius, height=height, sections=sections)
         m.apply_scale([scale_xy[0], scale_xy[1], 1.0])
         if axis == "x":
@@ -139,8 +160,15 @@ class Kit:
         m.apply_translation(center)
         self.parts.append((name, _mesh_with(mat, m.vertices, m.faces, None)))
 
-    def decal(self, name: str, image: Image.Image, center: tuple[float, float, float], width: float, height: float,
-              facing: str = "-Y") -> None:
+    def decal(
+        self,
+        name: str,
+        image: Image.Image,
+        center: tuple[float, float, float],
+        width: float,
+        height: float,
+        facing: str = "-Y",
+    ) -> None:
         """A flat textured quad (label, display, keypad) on a surface facing ``facing``."""
         mat = self.material(f"decal_{name}", texture=image, tile=None, roughness=0.4)
         hw, hh = width / 2, height / 2

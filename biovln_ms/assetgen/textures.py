@@ -25,12 +25,16 @@ def _to_image(arr: np.ndarray) -> Image.Image:
     return Image.fromarray(np.clip(np.rint(arr), 0, 255).astype(np.uint8), "RGB")
 
 
-def powder_coat(color: tuple[float, float, float], seed: int, size: int = 128, amount: float = 10.0) -> Image.Image:
+def powder_coat(
+    color: tuple[float, float, float], seed: int, size: int = 128, amount: float = 10.0
+) -> Image.Image:
     """Painted-metal look: fine speckle over a soft mottle."""
     rng = np.random.default_rng(seed)
     speckle = rng.normal(0.0, amount, (size, size, 1))
     coarse = rng.normal(0.0, amount * 0.5, (size // 16, size // 16))
-    mottle = np.asarray(Image.fromarray(coarse.astype(np.float32), "F").resize((size, size), Image.BICUBIC))[..., None]
+    mottle = np.asarray(Image.fromarray(coarse.astype(np.float32), "F").resize((size, size), Image.BICUBIC))[
+        ..., None
+    ]
     tint = rng.normal(0.0, amount * 0.25, (size, size, 3))
     return _to_image(_rgb(color) + speckle + mottle + tint)
 
@@ -77,7 +81,7 @@ def grille(color: tuple[float, float, float], seed: int, size: int = 128, slots:
     period = size // slots
     for k in range(slots):
         y0 = k * period + period // 4
-        img[y0:y0 + period // 2, size // 10: size - size // 10] *= 0.25
+        img[y0 : y0 + period // 2, size // 10 : size - size // 10] *= 0.25
     return _to_image(img)
 
 
@@ -85,8 +89,15 @@ def _font(size: int) -> ImageFont.ImageFont:
     return ImageFont.load_default(size=size)
 
 
-def label(lines: list[str], bg: tuple[float, float, float], fg: tuple[float, float, float], seed: int,
-          width: int = 256, height: int = 128, stripe: tuple[float, float, float] | None = None) -> Image.Image:
+def label(
+    lines: list[str],
+    bg: tuple[float, float, float],
+    fg: tuple[float, float, float],
+    seed: int,
+    width: int = 256,
+    height: int = 128,
+    stripe: tuple[float, float, float] | None = None,
+) -> Image.Image:
     """A printed label: text lines, an optional colour stripe, paper grain."""
     rng = np.random.default_rng(seed)
     base = _rgb(bg) + rng.normal(0.0, 4.0, (height, width, 3))
@@ -103,8 +114,13 @@ def label(lines: list[str], bg: tuple[float, float, float], fg: tuple[float, flo
     return img
 
 
-def display(text: str, seed: int, glow: tuple[float, float, float] = (0.3, 1.0, 0.5), width: int = 256,
-            height: int = 96) -> Image.Image:
+def display(
+    text: str,
+    seed: int,
+    glow: tuple[float, float, float] = (0.3, 1.0, 0.5),
+    width: int = 256,
+    height: int = 96,
+) -> Image.Image:
     """An LCD: dark glass, glowing digits, scanlines."""
     rng = np.random.default_rng(seed)
     base = _rgb((0.04, 0.07, 0.08)) + rng.normal(0.0, 3.0, (height, width, 3))
@@ -143,7 +159,14 @@ def keypad(seed: int, rows: int = 3, cols: int = 4, width: int = 128, height: in
         for j in range(cols):
             shade = int(150 + rng.integers(0, 40))
             x0, y0 = j * kw + 3, i * kh + 3
-            draw.rounded_rectangle([x0, y0, x0 + kw - 6, y0 + kh - 6], radius=4, fill=(shade, shade, shade + 10))
-            draw.text((x0 + kw / 3, y0 + kh / 5), symbols[k % len(symbols)], fill=(20, 20, 30), font=_font(int(kh * 0.45)))
+            draw.rounded_rectangle(
+                [x0, y0, x0 + kw - 6, y0 + kh - 6], radius=4, fill=(shade, shade, shade + 10)
+            )
+            draw.text(
+                (x0 + kw / 3, y0 + kh / 5),
+                symbols[k % len(symbols)],
+                fill=(20, 20, 30),
+                font=_font(int(kh * 0.45)),
+            )
             k += 1
     return img

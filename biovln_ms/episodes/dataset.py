@@ -60,7 +60,9 @@ class SplitPlan:
     view_of: str | None = None  # reuse these scenes' episode files from another split
 
 
-def write_dataset(out: Path, splits: list[SplitPlan], progress: bool = True, radius: float = ROBOT_RADIUS) -> dict:
+def write_dataset(
+    out: Path, splits: list[SplitPlan], progress: bool = True, radius: float = ROBOT_RADIUS
+) -> dict:
     """Build every split's episodes and write the dataset atomically; returns the manifest."""
     from tqdm import tqdm
 
@@ -72,9 +74,15 @@ def write_dataset(out: Path, splits: list[SplitPlan], progress: bool = True, rad
         shutil.rmtree(tmp)
     (tmp / "scenes").mkdir(parents=True)
     cat = load_catalog()
-    manifest: dict = {"format_version": DATASET_FORMAT_VERSION, "agent_radius": radius, "catalog_sha256": cat.sha256,
-                      "scene_generator_version": SCENE_GENERATOR_VERSION,
-                      "episode_generator_version": EPISODE_GENERATOR_VERSION, "scenes": {}, "splits": {}}
+    manifest: dict = {
+        "format_version": DATASET_FORMAT_VERSION,
+        "agent_radius": radius,
+        "catalog_sha256": cat.sha256,
+        "scene_generator_version": SCENE_GENERATOR_VERSION,
+        "episode_generator_version": EPISODE_GENERATOR_VERSION,
+        "scenes": {},
+        "splits": {},
+    }
     samplers: dict[str, EpisodeSampler] = {}
     total = sum(len(s.scenes) for s in splits if not s.view_of)
     bar = tqdm(total=total, desc="dataset scenes", disable=not progress)
@@ -93,12 +101,18 @@ def write_dataset(out: Path, splits: list[SplitPlan], progress: bool = True, rad
             continue
         for spec, n, cross in split.scenes:
             if spec.robot_radius != radius:
-                raise DatasetError(f"scene '{spec.name}' was checked for a {spec.robot_radius} m robot, the dataset is for {radius} m")
+                raise DatasetError(
+                    f"scene '{spec.name}' was checked for a {spec.robot_radius} m robot, the dataset is for {radius} m"
+                )
             if spec.name not in manifest["scenes"]:
                 data = spec.to_json().encode()
                 (tmp / "scenes" / f"{spec.name}.json").write_bytes(data)
-                manifest["scenes"][spec.name] = {"template": spec.template, "seed": spec.seed, "sha256": sha256(data),
-                                                 "file": f"scenes/{spec.name}.json"}
+                manifest["scenes"][spec.name] = {
+                    "template": spec.template,
+                    "seed": spec.seed,
+                    "sha256": sha256(data),
+                    "file": f"scenes/{spec.name}.json",
+                }
                 samplers[spec.name] = EpisodeSampler(spec)
             eps = samplers[spec.name].episodes(n, seed=stable_split_seed(split.name), cross_room=cross)
             blob = gz_json({"episodes": eps})
@@ -132,13 +146,19 @@ def stable_split_seed(name: str) -> int:
 class EpisodeDataset:
     """A validated dataset folder: splits, scene specs and episodes."""
 
-    def __init__(self, root: str | Path, agent_radius: float | None = ROBOT_RADIUS, verify: bool = True) -> None:
+    def __init__(
+        self, root: str | Path, agent_radius: float | None = ROBOT_RADIUS, verify: bool = True
+    ) -> None:
         self.root = Path(root)
         mpath = self.root / "manifest.json"
         if not mpath.exists():
             partial = list(self.root.parent.glob(f".{self.root.name}.partial-*"))
             hint = " (an interrupted build left a partial folder: run the build again)" if partial else ""
-            raise DatasetError(f"no manifest.json{hint}", source=str(self.root), fix="build it: biovln-ms dataset build --out DIR")
+            raise DatasetError(
+                f"no manifest.json{hint}",
+                source=str(self.root),
+                fix="build it: biovln-ms dataset build --out DIR",
+            )
         try:
             self.manifest = json.loads(mpath.read_text())
         except json.JSONDecodeError as e:
@@ -147,21 +167,40 @@ class EpisodeDataset:
         if not m.get("complete"):
             raise DatasetError("the dataset is incomplete", source=str(mpath), fix="rebuild it")
         if m.get("format_version") != DATASET_FORMAT_VERSION:
-            raise DatasetError(f"format_version {m.get('format_version')} is not {DATASET_FORMAT_VERSION}", source=str(mpath),
-                               field="format_version", fix="rebuild it with this version of biovln-ms")
+            raise DatasetError(
+                f"format_version {m.get('format_version')} is not {DATASET_FORMAT_VERSION}",
+                source=str(mpath),
+                field="format_version",
+                fix="rebuild it with this version of biovln-ms",
+            )
         if agent_radius is not None and abs(m.get("agent_radius", -1) - agent_radius) > 1e-9:
-            raise DatasetError(f"built for a {m.get('agent_radius')} m agent, not the {agent_radius} m agent in use: its "
-                               f"geodesic distances (hence SPL) would be wrong", source=str(mpath), field="agent_radius",
-                               fix="rebuild the dataset for this radius, or use the robot it was built for")
-        versions = {"scene_generator_version": SCENE_GENERATOR_VERSION, "episode_generator_version": EPISODE_GENERATOR_VERSION}
+            raise DatasetError(
+                f"built for a {m.get('agent_radius')} m agent, not the {agent_radius} m agent in use: its "
+                f"geodesic distances (hence SPL) would be wrong",
+                source=str(mpath),
+                field="agent_radius",
+                fix="rebuild the dataset for this radius, or use the robot it was built for",
+            )
+        versions = {
+            "scene_generator_version": SCENE_GENERATOR_VERSION,
+            "episode_generator_version": EPISODE_GENERATOR_VERSION,
+        }
         for key, want in versions.items():
             if m.get(key) != want:
-                raise DatasetError(f"made by {key.replace('_', ' ')} {m.get(key)}, this build is {want}: its scenes or "
-                                   f"episodes differ from what this version generates", source=str(mpath), field=key,
-                                   fix="rebuild it: biovln-ms dataset build --out DIR")
+                raise DatasetError(
+                    f"made by {key.replace('_', ' ')} {m.get(key)}, this build is {want}: its scenes or "
+                    f"episodes differ from what this version generates",
+                    source=str(mpath),
+                    field=key,
+                    fix="rebuild it: biovln-ms dataset build --out DIR",
+                )
         if m.get("catalog_sha256") != load_catalog().sha256:
-            raise DatasetError("built from another instrument catalog (goals and radii may differ)", source=str(mpath),
-                               field="catalog_sha256", fix="rebuild the dataset with the installed catalog")
+            raise DatasetError(
+                "built from another instrument catalog (goals and radii may differ)",
+                source=str(mpath),
+                field="catalog_sha256",
+                fix="rebuild the dataset with the installed catalog",
+            )
         if verify:
             for name, info in m["scenes"].items():
                 self._check(info["file"], info["sha256"])
@@ -173,10 +212,15 @@ class EpisodeDataset:
     def _check(self, rel: str, digest: str) -> None:
         p = self.root / rel
         if not p.exists():
-            raise DatasetError("file listed in the manifest is missing", source=str(p), fix="rebuild the dataset")
+            raise DatasetError(
+                "file listed in the manifest is missing", source=str(p), fix="rebuild the dataset"
+            )
         if sha256(p.read_bytes()) != digest:
-            raise DatasetError("file does not match its hash in the manifest (corrupt or edited)", source=str(p),
-                               fix="rebuild the dataset")
+            raise DatasetError(
+                "file does not match its hash in the manifest (corrupt or edited)",
+                source=str(p),
+                fix="rebuild the dataset",
+            )
 
     @property
     def agent_radius(self) -> float:
@@ -187,7 +231,9 @@ class EpisodeDataset:
 
     def split_info(self, split: str) -> dict:
         if split not in self.manifest["splits"]:
-            raise DatasetError(f"unknown split '{split}'", field="split", fix=f"use one of: {', '.join(self.split_names())}")
+            raise DatasetError(
+                f"unknown split '{split}'", field="split", fix=f"use one of: {', '.join(self.split_names())}"
+            )
         info = self.manifest["splits"][split]
         if info.get("missing") and not info["files"]:
             raise DatasetError(f"split '{split}' is not built: {info['missing']}", field="split")
@@ -210,7 +256,10 @@ class EpisodeDataset:
         eps = list(self.episodes(split))
         diff = Counter(e["info"]["difficulty"] for e in eps)
         n = max(len(eps), 1)
-        return {"scenes": len(self.split_info(split)["scenes"]), "episodes": len(eps),
-                "categories": sorted({e["object_category"] for e in eps}),
-                "difficulty": {k: round(100 * diff.get(k, 0) / n, 1) for k in ("easy", "medium", "hard")},
-                "start_fallback": sum(e["info"]["start_clearance_fallback"] for e in eps)}
+        return {
+            "scenes": len(self.split_info(split)["scenes"]),
+            "episodes": len(eps),
+            "categories": sorted({e["object_category"] for e in eps}),
+            "difficulty": {k: round(100 * diff.get(k, 0) / n, 1) for k in ("easy", "medium", "hard")},
+            "start_fallback": sum(e["info"]["start_clearance_fallback"] for e in eps),
+        }

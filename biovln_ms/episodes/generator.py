@@ -56,7 +56,12 @@ def _r6(v):
 class EpisodeSampler:
     """Samples episodes in one scene; all randomness from ``numpy.random.default_rng(seed)``."""
 
-    def __init__(self, spec: SceneSpec, nav: NavGeometry | None = None, min_start_clearance: float = MIN_START_CLEARANCE):
+    def __init__(
+        self,
+        spec: SceneSpec,
+        nav: NavGeometry | None = None,
+        min_start_clearance: float = MIN_START_CLEARANCE,
+    ):
         self.spec = spec
         self.nav = nav or scene_navigation(spec)
         self.min_start_clearance = min_start_clearance
@@ -68,8 +73,10 @@ class EpisodeSampler:
         self._targets = {o.id: self._target(o) for o in spec.goal_objects()}
         bad = [k for k, v in goals.items() if v != self.island]
         if bad:
-            raise EpisodeError(f"scene '{spec.name}': goals of {bad} are not on the island of the other goals",
-                               fix="regenerate the scene (the generator guarantees mutually reachable goals)")
+            raise EpisodeError(
+                f"scene '{spec.name}': goals of {bad} are not on the island of the other goals",
+                fix="regenerate the scene (the generator guarantees mutually reachable goals)",
+            )
 
     # --- goals ----------------------------------------------------------------------------------
     def _target(self, o: ObjectSpec) -> dict:
@@ -78,13 +85,19 @@ class EpisodeSampler:
         z3 = o.placed().zone3()
         reach = z3.intersection(isl_poly)
         if reach.is_empty or reach.area < 1e-6:
-            raise EpisodeError(f"scene '{self.spec.name}': Zone 3 of '{o.id}' ({o.category}) has no navigable floor for a "
-                               f"{nav.radius} m robot, so its goal cannot be reached", field=o.id,
-                               fix="move the instrument or shrink the robot radius")
+            raise EpisodeError(
+                f"scene '{self.spec.name}': Zone 3 of '{o.id}' ({o.category}) has no navigable floor for a "
+                f"{nav.radius} m robot, so its goal cannot be reached",
+                field=o.id,
+                fix="move the instrument or shrink the robot radius",
+            )
         goal = nav.snap(o.goal, self.island)
         if np.linalg.norm(goal - np.asarray(o.goal)) > o.success_radius:
-            raise EpisodeError(f"scene '{self.spec.name}': the navigable point nearest the goal of '{o.id}' is "
-                               f"{np.linalg.norm(goal - np.asarray(o.goal)):.2f} m away, beyond its success radius", field=o.id)
+            raise EpisodeError(
+                f"scene '{self.spec.name}': the navigable point nearest the goal of '{o.id}' is "
+                f"{np.linalg.norm(goal - np.asarray(o.goal)):.2f} m away, beyond its success radius",
+                field=o.id,
+            )
         c = np.asarray(o.position[:2])
         # View points: a grid over Zone 3 within the success radius, navigable, facing the instrument.
         minx, miny, maxx, maxy = z3.bounds
@@ -96,18 +109,33 @@ class EpisodeSampler:
         pts = np.stack([gx[ok], gy[ok]], axis=1)
         pts = pts[np.argsort(np.linalg.norm(pts - goal, axis=1), kind="stable")][: MAX_VIEW_POINTS - 1]
         view = [goal, *pts]
-        view_points = [{"agent_state": {"position": _r6([p[0], p[1], 0.0]),
-                                        "rotation": _r6(yaw_to_quat(math.atan2(c[1] - p[1], c[0] - p[0])))}}
-                       for p in view]
-        return {"position": _r6([goal[0], goal[1], 0.0]), "radius": o.success_radius, "object_id": o.id,
-                "object_category": o.category, "eq1_goal": _r6(o.goal), "view_points": view_points}
+        view_points = [
+            {
+                "agent_state": {
+                    "position": _r6([p[0], p[1], 0.0]),
+                    "rotation": _r6(yaw_to_quat(math.atan2(c[1] - p[1], c[0] - p[0]))),
+                }
+            }
+            for p in view
+        ]
+        return {
+            "position": _r6([goal[0], goal[1], 0.0]),
+            "radius": o.success_radius,
+            "object_id": o.id,
+            "object_category": o.category,
+            "eq1_goal": _r6(o.goal),
+            "view_points": view_points,
+        }
 
     # --- starts ---------------------------------------------------------------------------------
     def start_region(self, rooms: Sequence[str] | None = None) -> tuple[Polygon, float]:
         """Region for starts and the clearance it guarantees (fallback: the best available)."""
         isl = self.nav.islands[self.island]
-        allowed = isl if rooms is None else isl.intersection(unary_union(
-            [Polygon(r.polygon) for r in self.spec.rooms if r.id in rooms]))
+        allowed = (
+            isl
+            if rooms is None
+            else isl.intersection(unary_union([Polygon(r.polygon) for r in self.spec.rooms if r.id in rooms]))
+        )
         outside = self._floor.envelope.buffer(2.0).difference(self._floor)
         blocked = unary_union([outside, self._obstacles])
         region = allowed.difference(grow(blocked, self.min_start_clearance))
@@ -162,15 +190,27 @@ class EpisodeSampler:
             goal = np.asarray(target["position"][:2])
             geo = self.nav.geodesic_distance(start, goal)
             if not np.isfinite(geo):
-                raise EpisodeError(f"scene '{self.spec.name}': start {start.round(3).tolist()} cannot reach '{o.id}'")
+                raise EpisodeError(
+                    f"scene '{self.spec.name}': start {start.round(3).tolist()} cannot reach '{o.id}'"
+                )
             euc = float(np.linalg.norm(goal - start))
-            out.append({
-                "episode_id": str(id_offset + k), "scene_id": self.spec.name,
-                "start_position": _r6([start[0], start[1], 0.0]), "start_rotation": _r6(yaw_to_quat(yaw)),
-                "object_category": o.category, "object_id": o.id, "goals": [target],
-                "info": {"geodesic_distance": round(geo, 6), "euclidean_distance": round(euc, 6),
-                         "difficulty": difficulty(geo), "start_clearance": round(clearance, 6),
-                         "start_clearance_fallback": clearance < self.min_start_clearance,
-                         "cross_room": cross_room},
-            })
+            out.append(
+                {
+                    "episode_id": str(id_offset + k),
+                    "scene_id": self.spec.name,
+                    "start_position": _r6([start[0], start[1], 0.0]),
+                    "start_rotation": _r6(yaw_to_quat(yaw)),
+                    "object_category": o.category,
+                    "object_id": o.id,
+                    "goals": [target],
+                    "info": {
+                        "geodesic_distance": round(geo, 6),
+                        "euclidean_distance": round(euc, 6),
+                        "difficulty": difficulty(geo),
+                        "start_clearance": round(clearance, 6),
+                        "start_clearance_fallback": clearance < self.min_start_clearance,
+                        "cross_room": cross_room,
+                    },
+                }
+            )
         return out

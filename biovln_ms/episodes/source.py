@@ -27,9 +27,12 @@ class EpisodeSource:
             if e["episode_id"] == str(episode_id) and (scene_id is None or e["scene_id"] == scene_id):
                 return i
         scenes = sorted({e["scene_id"] for e in self.episodes})
-        raise DatasetError(f"no episode '{episode_id}'" + (f" in scene '{scene_id}'" if scene_id else ""), field="episode_id",
-                           fix=f"episode ids are '0'..; scenes: {', '.join(scenes)}; or pass options={{'episode_index': k}} "
-                               f"with 0 <= k < {len(self.episodes)}")
+        raise DatasetError(
+            f"no episode '{episode_id}'" + (f" in scene '{scene_id}'" if scene_id else ""),
+            field="episode_id",
+            fix=f"episode ids are '0'..; scenes: {', '.join(scenes)}; or pass options={{'episode_index': k}} "
+            f"with 0 <= k < {len(self.episodes)}",
+        )
 
 
 class EpisodeCursor:
@@ -63,9 +66,14 @@ class EpisodeCursor:
         same seed gives the same episode and the same ones after it. Consumes those option keys."""
         if "episode_index" in options:
             k = options.pop("episode_index")
-            if not (isinstance(k, (int, np.integer)) and not isinstance(k, bool) and 0 <= k < len(self.source)):
-                raise DatasetError(f"episode_index {k!r} is out of range", field="episode_index",
-                                   fix=f"use 0 <= episode_index < {len(self.source)}")
+            if not (
+                isinstance(k, (int, np.integer)) and not isinstance(k, bool) and 0 <= k < len(self.source)
+            ):
+                raise DatasetError(
+                    f"episode_index {k!r} is out of range",
+                    field="episode_index",
+                    fix=f"use 0 <= episode_index < {len(self.source)}",
+                )
             return int(k)
         if "episode_id" in options:
             return self.source.find(options.pop("episode_id"), options.pop("scene_id", None))
@@ -92,8 +100,13 @@ class DatasetEpisodes(EpisodeSource):
 class GeneratedEpisodes(EpisodeSource):
     """One scene generated from ``template``/``scene_seed``; ``n`` episodes sampled in it."""
 
-    def __init__(self, template: str = "single_room", scene_seed: int = 0, n: int = 100,
-                 required_categories: tuple[str, ...] = ()) -> None:
+    def __init__(
+        self,
+        template: str = "single_room",
+        scene_seed: int = 0,
+        n: int = 100,
+        required_categories: tuple[str, ...] = (),
+    ) -> None:
         from biovln_ms.episodes.generator import EpisodeSampler
         from biovln_ms.scene.generator import generate_scene
 

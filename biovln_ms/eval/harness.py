@@ -34,12 +34,16 @@ class EvalConfig:
     split: str
     out: str
     dataset: str | None = None
-    env_id: str | None = None  # None: the method's env (the RL variant for ppo/a2c/sac), else BioVLN-OpFace-v0
+    env_id: str | None = (
+        None  # None: the method's env (the RL variant for ppo/a2c/sac), else BioVLN-OpFace-v0
+    )
     workers: int | None = None
     camera: tuple[int, int] = (640, 480)
     max_episodes: int | None = None
     method_kwargs: dict = field(default_factory=dict)
-    ray_address: str | None = None  # "local" starts a local Ray instance; "auto" or "ray://host:port" joins one
+    ray_address: str | None = (
+        None  # "local" starts a local Ray instance; "auto" or "ray://host:port" joins one
+    )
     record_dir: str | None = None  # TrajectoryRecorder output (learning from the runs)
     record_mode: str = "full"  # "full" (PNG frames + depth) or "trace" (positions, actions, goals only)
     name: str | None = None  # results folder name (default: the method, plus the variant when not OpFace)
@@ -52,7 +56,11 @@ class EvalConfig:
     def run_name(self) -> str:
         if self.name:
             return self.name
-        suffix = "" if self.env_id == DEFAULT_ENV else "@" + self.env_id.removeprefix("BioVLN-").removesuffix("-v0").lower()
+        suffix = (
+            ""
+            if self.env_id == DEFAULT_ENV
+            else "@" + self.env_id.removeprefix("BioVLN-").removesuffix("-v0").lower()
+        )
         return self.method + suffix
 
     @property
@@ -79,13 +87,16 @@ def load_records(path: Path, repair: bool = True) -> list[dict]:
             out.append(json.loads(line))
             good_end += len(line) + 1
         except json.JSONDecodeError:
-            if i == len(lines) - 1 or all(not x.strip() for x in lines[i + 1:]):
+            if i == len(lines) - 1 or all(not x.strip() for x in lines[i + 1 :]):
                 if repair:
                     with open(path, "r+b") as f:
                         f.truncate(min(good_end, len(data)))
                 break
-            raise ResultsError(f"line {i + 1} is not valid JSON", source=str(path),
-                               fix="delete that line (the episode will be run again) or the file") from None
+            raise ResultsError(
+                f"line {i + 1} is not valid JSON",
+                source=str(path),
+                fix="delete that line (the episode will be run again) or the file",
+            ) from None
     return out
 
 
@@ -110,9 +121,24 @@ def _init_worker(cfg: dict) -> None:
         recorder = TrajectoryRecorder(cfg["record_dir"], cfg.get("record_mode", "full"))
         if recorder.needs_images and obs_mode == "none":
             obs_mode = "rgbd"
-    env = gym.make(cfg["env_id"], split=cfg["split"], dataset=cfg["dataset"], obs_mode=obs_mode,
-                   camera_width=w, camera_height=h, sim_backend="physx_cpu", render_backend="cpu", **spec.env_kwargs)
-    _W.update(env=env, policy=spec.factory(**cfg["method_kwargs"]), cfg=cfg, recorder=recorder, privileged=spec.privileged)
+    env = gym.make(
+        cfg["env_id"],
+        split=cfg["split"],
+        dataset=cfg["dataset"],
+        obs_mode=obs_mode,
+        camera_width=w,
+        camera_height=h,
+        sim_backend="physx_cpu",
+        render_backend="cpu",
+        **spec.env_kwargs,
+    )
+    _W.update(
+        env=env,
+        policy=spec.factory(**cfg["method_kwargs"]),
+        cfg=cfg,
+        recorder=recorder,
+        privileged=spec.privileged,
+    )
 
 
 def _r4(v) -> float:
@@ -136,8 +162,14 @@ def _run(index: int) -> dict:
             else:
                 if recorder is not None:  # the pose, distance and frame the policy acted on
                     before = st.info_before["agent_pose"][0].cpu().numpy()
-                    recorder.step(len(actions), st.action, before, goal, float(st.info_before["distance_to_goal"]),
-                                  st.obs_before)
+                    recorder.step(
+                        len(actions),
+                        st.action,
+                        before,
+                        goal,
+                        float(st.info_before["distance_to_goal"]),
+                        st.obs_before,
+                    )
                 actions.append(st.action if isinstance(st.action, int) else [_r4(v) for v in st.action])
             positions.append([_r4(pose[0]), _r4(pose[1])])
             headings.append(_r4(pose[2]))
@@ -145,11 +177,22 @@ def _run(index: int) -> dict:
             zone2.append(bool(st.info["zone2_violation"]))
             info, trunc = st.info, st.truncated
         rec = {
-            "success": bool(info["success"]), "spl": float(info["spl"]), "soft_spl": float(info["soft_spl"]),
-            "dtg": float(info["distance_to_goal"]), "steps": int(info["steps"]), "mcr": float(info["mcr"]),
-            "vrt": float(info["vrt"]), "collisions": int(info["collisions"]), "path_length": float(info["path_length"]),
-            "stopped": bool(info["stopped"]), "truncated": bool(trunc),
-            "actions": actions, "positions": positions, "headings": headings, "clearance": clearance, "zone2": zone2,
+            "success": bool(info["success"]),
+            "spl": float(info["spl"]),
+            "soft_spl": float(info["soft_spl"]),
+            "dtg": float(info["distance_to_goal"]),
+            "steps": int(info["steps"]),
+            "mcr": float(info["mcr"]),
+            "vrt": float(info["vrt"]),
+            "collisions": int(info["collisions"]),
+            "path_length": float(info["path_length"]),
+            "stopped": bool(info["stopped"]),
+            "truncated": bool(trunc),
+            "actions": actions,
+            "positions": positions,
+            "headings": headings,
+            "clearance": clearance,
+            "zone2": zone2,
         }
         if hasattr(policy, "episode_stats"):
             rec["policy_stats"] = policy.episode_stats()
@@ -158,11 +201,23 @@ def _run(index: int) -> dict:
     except Exception as e:  # recorded; the run goes on with the next episode
         rec = {"error": f"{type(e).__name__}: {e}"}
         ep = ep or u.source.episodes[index]
-    rec.update({"method": cfg["method"], "env_id": cfg["env_id"], "split": cfg["split"], "index": index,
-                "scene_id": ep["scene_id"], "episode_id": ep["episode_id"], "object_category": ep["object_category"],
-                "object_id": ep["object_id"], "difficulty": ep["info"]["difficulty"],
-                "geodesic_distance": ep["info"]["geodesic_distance"], "goal": ep["goals"][0]["position"][:2],
-                "start": ep["start_position"][:2], "wall_time_s": round(time.perf_counter() - t0, 3)})
+    rec.update(
+        {
+            "method": cfg["method"],
+            "env_id": cfg["env_id"],
+            "split": cfg["split"],
+            "index": index,
+            "scene_id": ep["scene_id"],
+            "episode_id": ep["episode_id"],
+            "object_category": ep["object_category"],
+            "object_id": ep["object_id"],
+            "difficulty": ep["info"]["difficulty"],
+            "geodesic_distance": ep["info"]["geodesic_distance"],
+            "goal": ep["goals"][0]["position"][:2],
+            "start": ep["start_position"][:2],
+            "wall_time_s": round(time.perf_counter() - t0, 3),
+        }
+    )
     return rec
 
 
@@ -178,11 +233,17 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
     if spec.preflight:
         spec.preflight(**cfg.method_kwargs)
     if cfg.record_dir and spec.env_kwargs.get("control_mode") == "continuous":
-        raise BioVLNError(f"the recorder stores the discrete actions of the appendix; '{cfg.method}' acts continuously",
-                          field="record_dir", fix="record a discrete-action method (ppo, a2c, frontier, ...)")
+        raise BioVLNError(
+            f"the recorder stores the discrete actions of the appendix; '{cfg.method}' acts continuously",
+            field="record_dir",
+            fix="record a discrete-action method (ppo, a2c, frontier, ...)",
+        )
     if cfg.record_dir and cfg.record_mode == "full" and spec.obs_mode == "state":
-        raise BioVLNError(f"'{cfg.method}' runs on state observations: there are no frames to record", field="record_mode",
-                          fix="use --record-mode trace")
+        raise BioVLNError(
+            f"'{cfg.method}' runs on state observations: there are no frames to record",
+            field="record_mode",
+            fix="use --record-mode trace",
+        )
     source = DatasetEpisodes(cfg.split, dataset_root(cfg.dataset))
     episodes = source.episodes[: cfg.max_episodes] if cfg.max_episodes else source.episodes
     run_dir = cfg.run_dir
@@ -195,7 +256,9 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
         echo(f"resuming {cfg.run_name} on {cfg.split}: {len(done)} done, {len(todo)} to go")
     workers = max(1, min(cfg.workers or os.cpu_count() or 1, len(todo) or 1))
     wcfg = {k: v for k, v in asdict(cfg).items()}
-    bar = tqdm(total=len(episodes), initial=len(done), desc=f"{cfg.run_name} {cfg.split}", disable=not progress)
+    bar = tqdm(
+        total=len(episodes), initial=len(done), desc=f"{cfg.run_name} {cfg.split}", disable=not progress
+    )
     n_ok = sum(1 for r in previous if r.get("success"))
     with open(path, "a") as f:
 
@@ -243,7 +306,9 @@ def _run_on_ray(address: str, wcfg: dict, todo: list[int], workers: int, write) 
     try:
         import ray
     except ImportError:
-        raise BioVLNError("--ray-address needs Ray", field="ray_address", fix="pip install 'biovln-ms[cluster]'") from None
+        raise BioVLNError(
+            "--ray-address needs Ray", field="ray_address", fix="pip install 'biovln-ms[cluster]'"
+        ) from None
     started = not ray.is_initialized()
     if started:
         if address == "local":
@@ -274,11 +339,22 @@ def write_summary(cfg: EvalConfig, expected: int) -> dict:
     keys = [episode_key(r) for r in records if not r.get("error")]
     if len(keys) != len(set(keys)):
         raise ResultsError("an episode appears twice", source=str(cfg.run_dir / "episodes.jsonl"))
-    summary = {"method": cfg.method, "env_id": cfg.env_id, "split": cfg.split, "run": cfg.run_name,
-               "expected_episodes": expected, **aggregate_all(records),
-               "failed_episodes": [{"key": f"{r['scene_id']}/{r['episode_id']}", "error": r["error"]}
-                                   for r in records if r.get("error")]}
-    atomic_write_text(cfg.run_dir / "summary.json", json.dumps(_finite(summary), indent=1, sort_keys=True) + "\n")
+    summary = {
+        "method": cfg.method,
+        "env_id": cfg.env_id,
+        "split": cfg.split,
+        "run": cfg.run_name,
+        "expected_episodes": expected,
+        **aggregate_all(records),
+        "failed_episodes": [
+            {"key": f"{r['scene_id']}/{r['episode_id']}", "error": r["error"]}
+            for r in records
+            if r.get("error")
+        ],
+    }
+    atomic_write_text(
+        cfg.run_dir / "summary.json", json.dumps(_finite(summary), indent=1, sort_keys=True) + "\n"
+    )
     return summary
 
 

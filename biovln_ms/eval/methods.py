@@ -44,8 +44,11 @@ def _bc_preflight(checkpoint: str | None = None, **_) -> None:
     from biovln_ms.learning.bc import CheckpointError, load_bc
 
     if not checkpoint:
-        raise CheckpointError("the bc method needs a checkpoint", field="checkpoint",
-                              fix="pass --checkpoint ckpt/bc.pt (train one with `biovln-ms train bc`)")
+        raise CheckpointError(
+            "the bc method needs a checkpoint",
+            field="checkpoint",
+            fix="pass --checkpoint ckpt/bc.pt (train one with `biovln-ms train bc`)",
+        )
     load_bc(checkpoint)
 
 
@@ -63,54 +66,107 @@ def _lazy(module: str, cls: str, **fixed) -> Callable:
 
 def _sb3_preflight(checkpoint: str | None = None, **_) -> None:
     if not checkpoint:
-        raise BioVLNError("a learned method needs a checkpoint", field="checkpoint",
-                          fix="pass --checkpoint DIR/model.zip (train one with `biovln-ms train ppo`)")
+        raise BioVLNError(
+            "a learned method needs a checkpoint",
+            field="checkpoint",
+            fix="pass --checkpoint DIR/model.zip (train one with `biovln-ms train ppo`)",
+        )
 
 
 def _sb3_spec(algo: str, control_mode: str, report_order: int) -> MethodSpec:
-    return MethodSpec(_lazy("sb3_policy", "SB3Policy", algo=algo), "state",
-                      f"Stable-Baselines3 {algo.upper()} on the RL variant (--checkpoint)",
-                      label=algo.upper(), report_order=report_order, preflight=_sb3_preflight,
-                      options=("checkpoint", "deterministic"), env_id=RL_ENV,
-                      env_kwargs={"control_mode": control_mode})
+    return MethodSpec(
+        _lazy("sb3_policy", "SB3Policy", algo=algo),
+        "state",
+        f"Stable-Baselines3 {algo.upper()} on the RL variant (--checkpoint)",
+        label=algo.upper(),
+        report_order=report_order,
+        preflight=_sb3_preflight,
+        options=("checkpoint", "deterministic"),
+        env_id=RL_ENV,
+        env_kwargs={"control_mode": control_mode},
+    )
 
 
-_VLFM_NOTE = ("VLFM here uses the simulator's segmentation as its detector (\"VLFM (GT detector)\": a "
-              "perfect Grounding-DINO + SAM stage) and a packaged-weights scorer instead of "
-              "BLIP-2/GPT-4o, so it never misses a visible target; the paper's VLM stack failed on "
-              "rendered assets (its Table 8). It still fails where the target's visible side is not its "
-              "operational face (it stops next to the object's point cloud: the bench from behind), and "
-              "stands closer to instruments than the other methods (lower MCR, higher VRT).")
-_BC_NOTE = ("BC: trained from scratch on the CPU (no ImageNet ResNet-18 weights ship offline; `--pretrained` "
-            "takes them when you have them); the paper fine-tuned ImageNet weights at 224 px for up to 500 "
-            "epochs on a GPU. The budget of a run is in its `history.json` (README: the budget of ours).")
+_VLFM_NOTE = (
+    "VLFM here uses the simulator's segmentation as its detector (\"VLFM (GT detector)\": a "
+    "perfect Grounding-DINO + SAM stage) and a packaged-weights scorer instead of "
+    "BLIP-2/GPT-4o, so it never misses a visible target; the paper's VLM stack failed on "
+    "rendered assets (its Table 8). It still fails where the target's visible side is not its "
+    "operational face (it stops next to the object's point cloud: the bench from behind), and "
+    "stands closer to instruments than the other methods (lower MCR, higher VRT)."
+)
+_BC_NOTE = (
+    "BC: trained from scratch on the CPU (no ImageNet ResNet-18 weights ship offline; `--pretrained` "
+    "takes them when you have them); the paper fine-tuned ImageNet weights at 224 px for up to 500 "
+    "epochs on a GPU. The budget of a run is in its `history.json` (README: the budget of ours)."
+)
 
 # The one registry: a new method is its policy file plus one entry here.
 METHODS: dict[str, MethodSpec] = {
-    "random": MethodSpec(_lazy("random_policy", "RandomPolicy"), "none",
-                         "uniform forward/left/right, 5 % stop per step",
-                         label="Random", report_order=10, paper_key="Random"),
-    "oracle": MethodSpec(_lazy("oracle", "OraclePolicy"), "none", "exact geodesic path to the snapped goal",
-                         label="Oracle", report_order=20, paper_key="Oracle", privileged=True),
-    "zone3_oracle": MethodSpec(_lazy("zone3_oracle", "Zone3OraclePolicy"), "none",
-                               "up to 8 Zone-3 approach points, centroid fallback",
-                               label="3-Zone Oracle", report_order=50, paper_key="3-Zone Oracle",
-                               privileged=True),
-    "frontier": MethodSpec(_lazy("frontier", "FrontierPolicy"), "rgbd",
-                           "depth-only occupancy grid, nearest-frontier exploration",
-                           label="Frontier", report_order=30, paper_key="Frontier"),
-    "llm_frontier": MethodSpec(_lazy("llm_frontier", "LLMFrontierPolicy"), "rgbd",
-                               "frontier + LLM choice among near-equidistant frontiers",
-                               label="LLM-Frontier", report_order=40, paper_key="LLM-Frontier",
-                               preflight=_llm_preflight),
-    "vlfm": MethodSpec(_lazy("vlfm", "VLFMPolicy"), "rgb+depth+segmentation",
-                       "frontier + image-text value map + detector (default: GT segmentation)",
-                       label="VLFM (GT detector)", report_order=60, paper_key="VLFM",
-                       options=("detector", "scorer", "detect_every", "score_every"), report_note=_VLFM_NOTE),
-    "bc": MethodSpec(_lazy("bc_policy", "BCPolicy"), "rgb",
-                     "behavioural cloning: ResNet-18 + 4-d goal vector (--checkpoint)",
-                     label="BC", report_order=70, paper_key="BC", preflight=_bc_preflight,
-                     options=("checkpoint", "sample", "seed"), report_note=_BC_NOTE),
+    "random": MethodSpec(
+        _lazy("random_policy", "RandomPolicy"),
+        "none",
+        "uniform forward/left/right, 5 % stop per step",
+        label="Random",
+        report_order=10,
+        paper_key="Random",
+    ),
+    "oracle": MethodSpec(
+        _lazy("oracle", "OraclePolicy"),
+        "none",
+        "exact geodesic path to the snapped goal",
+        label="Oracle",
+        report_order=20,
+        paper_key="Oracle",
+        privileged=True,
+    ),
+    "zone3_oracle": MethodSpec(
+        _lazy("zone3_oracle", "Zone3OraclePolicy"),
+        "none",
+        "up to 8 Zone-3 approach points, centroid fallback",
+        label="3-Zone Oracle",
+        report_order=50,
+        paper_key="3-Zone Oracle",
+        privileged=True,
+    ),
+    "frontier": MethodSpec(
+        _lazy("frontier", "FrontierPolicy"),
+        "rgbd",
+        "depth-only occupancy grid, nearest-frontier exploration",
+        label="Frontier",
+        report_order=30,
+        paper_key="Frontier",
+    ),
+    "llm_frontier": MethodSpec(
+        _lazy("llm_frontier", "LLMFrontierPolicy"),
+        "rgbd",
+        "frontier + LLM choice among near-equidistant frontiers",
+        label="LLM-Frontier",
+        report_order=40,
+        paper_key="LLM-Frontier",
+        preflight=_llm_preflight,
+    ),
+    "vlfm": MethodSpec(
+        _lazy("vlfm", "VLFMPolicy"),
+        "rgb+depth+segmentation",
+        "frontier + image-text value map + detector (default: GT segmentation)",
+        label="VLFM (GT detector)",
+        report_order=60,
+        paper_key="VLFM",
+        options=("detector", "scorer", "detect_every", "score_every"),
+        report_note=_VLFM_NOTE,
+    ),
+    "bc": MethodSpec(
+        _lazy("bc_policy", "BCPolicy"),
+        "rgb",
+        "behavioural cloning: ResNet-18 + 4-d goal vector (--checkpoint)",
+        label="BC",
+        report_order=70,
+        paper_key="BC",
+        preflight=_bc_preflight,
+        options=("checkpoint", "sample", "seed"),
+        report_note=_BC_NOTE,
+    ),
     **{algo: _sb3_spec(algo, mode, 80 + 10 * i) for i, (algo, mode) in enumerate(SB3_CONTROL_MODES.items())},
 }
 
@@ -132,6 +188,9 @@ def method_spec(name: str, kwargs: dict | None = None) -> MethodSpec:
     spec = METHODS[name]
     extra = sorted(set(kwargs or {}) - set(spec.options))
     if extra:
-        raise BioVLNError(f"method '{name}' takes no option {', '.join(extra)}", field=extra[0],
-                          fix=f"it accepts: {', '.join(spec.options) or 'no options'}")
+        raise BioVLNError(
+            f"method '{name}' takes no option {', '.join(extra)}",
+            field=extra[0],
+            fix=f"it accepts: {', '.join(spec.options) or 'no options'}",
+        )
     return spec

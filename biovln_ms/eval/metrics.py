@@ -57,6 +57,8 @@ def aggregate_all(records: list[dict]) -> dict:
         by_diff[r["difficulty"]].append(r)
     overall = aggregate(ok)
     overall["errors"] = len(records) - len(ok)
-    return {"overall": overall,
-            "per_category": {c: aggregate(v) for c, v in sorted(by_cat.items())},
-            "per_difficulty": {d: aggregate(by_diff[d]) for d in ("easy", "medium", "hard") if d in by_diff}}
+    return {
+        "overall": overall,
+        "per_category": {c: aggregate(v) for c, v in sorted(by_cat.items())},
+        "per_difficulty": {d: aggregate(by_diff[d]) for d in ("easy", "medium", "hard") if d in by_diff},
+    }

@@ -69,8 +69,13 @@ def _cell(ours, theirs, nd):
 
 
 def table5(runs) -> list[str]:
-    metrics = {"ms_dev": ("sr", "spl", "mcr", "vrt"), "ms_val": ("sr", "spl"), "ms_test": ("sr", "spl"),
-               "two_room": ("sr", "spl", "mcr", "vrt"), "lsat_target": ("sr", "mcr", "vrt")}
+    metrics = {
+        "ms_dev": ("sr", "spl", "mcr", "vrt"),
+        "ms_val": ("sr", "spl"),
+        "ms_test": ("sr", "spl"),
+        "two_room": ("sr", "spl", "mcr", "vrt"),
+        "lsat_target": ("sr", "mcr", "vrt"),
+    }
     nd = {"sr": 1, "spl": 3, "mcr": 3, "vrt": 1}
     head = ["Method"] + [f"{paper.SPLIT_LABELS[s]} {m.upper()}" for s in SPLITS for m in metrics[s]]
     rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -84,13 +89,20 @@ def table5(runs) -> list[str]:
             for k in metrics[s]:
                 cells.append(_cell(agg.get(k), ref.get(s, {}).get(k), nd[k]))
         rows.append("| " + " | ".join(cells) + " |")
-    return ["## Navigation and safety (Table 5 layout): ours (paper)", "",
-            "SR %, SPL, MCR m (robot centre to the nearest instrument body), VRT % of poses within 0.5 m.", "", *rows]
+    return [
+        "## Navigation and safety (Table 5 layout): ours (paper)",
+        "",
+        "SR %, SPL, MCR m (robot centre to the nearest instrument body), VRT % of poses within 0.5 m.",
+        "",
+        *rows,
+    ]
 
 
 def table10(runs) -> list[str]:
-    rows = ["| Method | DEV SR | DEV DTG | DEV Steps | VAL SR | VAL DTG | VAL Steps | TEST SR | TEST DTG | TEST Steps |",
-            "|---|---|---|---|---|---|---|---|---|---|"]
+    rows = [
+        "| Method | DEV SR | DEV DTG | DEV Steps | VAL SR | VAL DTG | VAL Steps | TEST SR | TEST DTG | TEST Steps |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for m in report_methods():
         if not any((m, s) in runs for s in ("ms_dev", "ms_val", "ms_test")):
             continue
@@ -98,7 +110,11 @@ def table10(runs) -> list[str]:
         for s in ("ms_dev", "ms_val", "ms_test"):
             a = aggregate(runs[(m, s)]) if (m, s) in runs else {}
             p = _paper_row(paper.TABLE10, m).get(s, (None, None, None))
-            cells += [_cell(a.get("sr"), p[0], 1), _cell(a.get("dtg"), p[1], 2), _cell(a.get("steps_success"), p[2], 1)]
+            cells += [
+                _cell(a.get("sr"), p[0], 1),
+                _cell(a.get("dtg"), p[1], 2),
+                _cell(a.get("steps_success"), p[2], 1),
+            ]
         rows.append("| " + " | ".join(cells) + " |")
     return ["## Detailed metrics (Table 10 layout): ours (paper)", "", *rows]
 
@@ -113,8 +129,15 @@ def table6(runs) -> list[str]:
         cats = sorted(set(ref) | {c for v in per.values() for c in v})
         rows = ["| Category | " + " | ".join(paper.SPLIT_LABELS[s] for s in cols) + " |", "|---|---|---|---|"]
         for c in cats:
-            rows.append("| " + c + " | " + " | ".join(
-                _cell(per.get(s, {}).get(c, {}).get("sr"), ref.get(c, {}).get(s), 1) for s in cols) + " |")
+            rows.append(
+                "| "
+                + c
+                + " | "
+                + " | ".join(
+                    _cell(per.get(s, {}).get(c, {}).get("sr"), ref.get(c, {}).get(s), 1) for s in cols
+                )
+                + " |"
+            )
         title = f"## {_label(m)} SR by category (Table 6 layout): ours (paper)"
         out += [*([""] if out else []), title, "", *rows]
     return out
@@ -134,8 +157,10 @@ def table17(runs) -> list[str]:
         sa, sb = got[a].get("sr"), got[b].get("sr")
         delta = None if sa is None or sb is None else sa - sb
         ref_delta = None if pa is None else pa - pb
-        rows.append(f"| {c} | {got[b].get('episodes', '-')} ({_fmt(paper.TABLE17_EPISODES.get(c), 0)}) | "
-                    f"{_cell(sa, pa, 1)} | {_cell(sb, pb, 1)} | {_cell(delta, ref_delta, 1)} |")
+        rows.append(
+            f"| {c} | {got[b].get('episodes', '-')} ({_fmt(paper.TABLE17_EPISODES.get(c), 0)}) | "
+            f"{_cell(sa, pa, 1)} | {_cell(sb, pb, 1)} | {_cell(delta, ref_delta, 1)} |"
+        )
     return [f"## {_label(a)} vs {_label(b)} on MS VAL by category (Table 17 layout): ours (paper)", "", *rows]
 
 
@@ -151,8 +176,13 @@ def table9(runs) -> list[str]:
     out: list[str] = []
     for m in _with_paper_rows(paper.TABLE9):
         ref, centroid = _paper_row(paper.TABLE9, m), _run_name(m, CENTROID_ENV)
-        rows = [("| Split (n) | Centroid | Op-Face | Δ | p (McNemar) | Cent. wins | OpF. wins | "
-                 "paper (C / O / Δ / p) |"), "|---|---|---|---|---|---|---|---|"]
+        rows = [
+            (
+                "| Split (n) | Centroid | Op-Face | Δ | p (McNemar) | Cent. wins | OpF. wins | "
+                "paper (C / O / Δ / p) |"
+            ),
+            "|---|---|---|---|---|---|---|---|",
+        ]
         for s in ("ms_dev", "ms_val", "ms_test"):
             if (centroid, s) not in runs or (m, s) not in runs:
                 continue
@@ -160,11 +190,15 @@ def table9(runs) -> list[str]:
             r = mcnemar(c, o)
             sc, so = 100 * np.mean(c), 100 * np.mean(o)
             p = ref[s]
-            rows.append(f"| {paper.SPLIT_LABELS[s]} ({len(c)}) | {sc:.1f} | {so:.1f} | {sc - so:+.1f} | "
-                        f"{r.p_value:.3f} | {r.n10} | {r.n01} | {p[0]} / {p[1]} / {p[2]:+} / {p[3]} |")
+            rows.append(
+                f"| {paper.SPLIT_LABELS[s]} ({len(c)}) | {sc:.1f} | {so:.1f} | {sc - so:+.1f} | "
+                f"{r.p_value:.3f} | {r.n10} | {r.n01} | {p[0]} / {p[1]} / {p[2]:+} / {p[3]} |"
+            )
         if len(rows) == 2:
-            rows.append(f"| (run `biovln-ms eval --method {m} --env {CENTROID_ENV}` and the op-face run on "
-                        "the same split) |||||||")
+            rows.append(
+                f"| (run `biovln-ms eval --method {m} --env {CENTROID_ENV}` and the op-face run on "
+                "the same split) |||||||"
+            )
         title = f"## Centroid vs operational-face goals, {_label(m)} (Table 9 layout)"
         out += [*([""] if out else []), title, "", *rows]
     return out
@@ -187,8 +221,10 @@ def table11(runs) -> list[str]:
 
 
 def mcnemar_table(runs) -> list[str]:
-    rows = ["| Method A | Method B | Split | n | n01 | n10 | test | p | paper (n01, n10, p) |",
-            "|---|---|---|---|---|---|---|---|---|"]
+    rows = [
+        "| Method A | Method B | Split | n | n01 | n10 | test | p | paper (n01, n10, p) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     methods = [m for m in report_methods() if any((m, s) in runs for s in SPLITS)]
     for s in SPLITS:
         for a, b in combinations(methods, 2):
@@ -197,10 +233,17 @@ def mcnemar_table(runs) -> list[str]:
             x, y = _paired(runs[(a, s)], runs[(b, s)])
             r = mcnemar(x, y)
             p = paper.TABLE16.get((METHODS[a].paper_key, METHODS[b].paper_key, s))
-            rows.append(f"| {_label(a)} | {_label(b)} | {paper.SPLIT_LABELS[s]} | {len(x)} | {r.n01} | "
-                        f"{r.n10} | {'exact' if r.exact else 'χ² (cc)'} | {r.p_value:.3f} | {p if p else '–'} |")
-    return ["## Pairwise McNemar tests (two-sided; exact binomial when n01 + n10 < 10)", "",
-            "n01: A fails and B succeeds; n10: A succeeds and B fails.", "", *rows]
+            rows.append(
+                f"| {_label(a)} | {_label(b)} | {paper.SPLIT_LABELS[s]} | {len(x)} | {r.n01} | "
+                f"{r.n10} | {'exact' if r.exact else 'χ² (cc)'} | {r.p_value:.3f} | {p if p else '–'} |"
+            )
+    return [
+        "## Pairwise McNemar tests (two-sided; exact binomial when n01 + n10 < 10)",
+        "",
+        "n01: A fails and B succeeds; n10: A succeeds and B fails.",
+        "",
+        *rows,
+    ]
 
 
 def differences(runs) -> list[str]:
@@ -211,38 +254,59 @@ def differences(runs) -> list[str]:
         if ref is not None:
             ours = aggregate(recs)["sr"]
             if abs(ours - ref) >= 10:
-                flagged.append(f"- {_label(m)} on {paper.SPLIT_LABELS[s]}: SR {ours:.1f} % vs {ref} % in the "
-                               "paper.")
+                flagged.append(
+                    f"- {_label(m)} on {paper.SPLIT_LABELS[s]}: SR {ours:.1f} % vs {ref} % in the paper."
+                )
     out += flagged or ["- No SR differs from the paper's by 10 points or more."]
-    out += ["", "Known causes (nothing here is tuned to the paper's numbers):",
-            ("- Motion is exact here (SAPIEN physics with a stiff drive: 0.2500 m, 30.00°), and the oracles "
-             "stop within half a step of the snapped goal, so discretisation costs them little; the "
-             "paper's Habitat oracle lost 20-30 % to it."),
-            ("- Our episodes are shorter (MS DEV 75 % easy vs 11.9 %): the start rule (>= 1.0 m from every "
-             "body and wall) leaves only the middle of an 8 x 6 m room, close to every goal; see README."),
-            ("- Success radii and approach distances are our documented choices within the paper's ranges "
-             "(0.8-1.3 m, 0.5-0.9 m)."),
-            ("- Random: the paper states a 5 % STOP probability per step, which ends episodes after ~20 "
-             "steps on average, yet its Table 10 reports 382-427 steps for successful random episodes; we "
-             "follow the stated rule, so our random episodes are short and succeed less often."),
-            ("- Safety across layouts: our Two-Room rooms are compact (a 3.5 x 3.5 m room holds an "
-             "incubator, a biosafety cabinet and a lab table), so paths pass closer to instruments there "
-             "than in the single room; the paper found the opposite because its corridor kept paths away "
-             "from instruments."),
-            ("- MCR/VRT: clearance from the robot's centre to instrument bodies (Zone 1), planar; the paper "
-             "does not say whether its MCR subtracts the agent radius.")]
+    out += [
+        "",
+        "Known causes (nothing here is tuned to the paper's numbers):",
+        (
+            "- Motion is exact here (SAPIEN physics with a stiff drive: 0.2500 m, 30.00°), and the oracles "
+            "stop within half a step of the snapped goal, so discretisation costs them little; the "
+            "paper's Habitat oracle lost 20-30 % to it."
+        ),
+        (
+            "- Our episodes are shorter (MS DEV 75 % easy vs 11.9 %): the start rule (>= 1.0 m from every "
+            "body and wall) leaves only the middle of an 8 x 6 m room, close to every goal; see README."
+        ),
+        (
+            "- Success radii and approach distances are our documented choices within the paper's ranges "
+            "(0.8-1.3 m, 0.5-0.9 m)."
+        ),
+        (
+            "- Random: the paper states a 5 % STOP probability per step, which ends episodes after ~20 "
+            "steps on average, yet its Table 10 reports 382-427 steps for successful random episodes; we "
+            "follow the stated rule, so our random episodes are short and succeed less often."
+        ),
+        (
+            "- Safety across layouts: our Two-Room rooms are compact (a 3.5 x 3.5 m room holds an "
+            "incubator, a biosafety cabinet and a lab table), so paths pass closer to instruments there "
+            "than in the single room; the paper found the opposite because its corridor kept paths away "
+            "from instruments."
+        ),
+        (
+            "- MCR/VRT: clearance from the robot's centre to instrument bodies (Zone 1), planar; the paper "
+            "does not say whether its MCR subtracts the agent radius."
+        ),
+    ]
     methods = {m for m, _ in runs}
-    out += [f"- {METHODS[m].report_note}" for m in report_methods()
-            if m in methods and METHODS[m].report_note]
+    out += [
+        f"- {METHODS[m].report_note}" for m in report_methods() if m in methods and METHODS[m].report_note
+    ]
     if any(s == "lsat_target" for _, s in runs):
-        out.append("- LSAT: our designer scene is an 8 x 6 m room with a bench island and 1 m aisles; the "
-                   "paper's LSAT layout was denser (VRT 55-70 %), so our VRT there is far lower.")
+        out.append(
+            "- LSAT: our designer scene is an 8 x 6 m room with a bench island and 1 m aisles; the "
+            "paper's LSAT layout was denser (VRT 55-70 %), so our VRT there is far lower."
+        )
     if any(m.endswith("@centroid") for m in methods):
-        out.append("- Centroid goals (Table 9): success is judged within the radius r of the floor "
-                   "projection of the body's centre, which lies inside the body; the nearest standing "
-                   "points are half the body depth plus the robot radius away, beyond r for the deep "
-                   "instruments (cabinet, refrigerator) on most sides, and the frontier agent stops at the "
-                   "reachable cell nearest that point, so fewer episodes succeed than with Eq. 1 goals.")
+        out.append(
+            "- Centroid goals (Table 9): success is judged within the radius r of the floor "
+            "projection of the body's centre, which lies inside the body; the nearest standing "
+            "points are half the body depth plus the robot radius away, beyond r for the deep "
+            "instruments (cabinet, refrigerator) on most sides, and the frontier agent stops at the "
+            "reachable cell nearest that point, so fewer episodes succeed than with Eq. 1 goals."
+        )
     return out
 
 
@@ -294,7 +358,15 @@ def plot_trajectories(recs: list[dict], specs, out: Path, title: str, limit: int
         draw_map(specs(scene), ax, show_free=False, title=f"{title}: {scene}")
         for r in by_scene[scene][:limit]:
             p = np.asarray(r["positions"])
-            ax.plot(p[:, 0], p[:, 1], "-", color="#2ca02c" if r["success"] else "#d62728", lw=1.6, alpha=0.85, zorder=9)
+            ax.plot(
+                p[:, 0],
+                p[:, 1],
+                "-",
+                color="#2ca02c" if r["success"] else "#d62728",
+                lw=1.6,
+                alpha=0.85,
+                zorder=9,
+            )
             ax.plot(*p[0], "o", color="#1f77b4", ms=5, zorder=10)
     fig.tight_layout()
     fig.savefig(out, dpi=110)
@@ -311,8 +383,14 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
     from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.topdown import draw_map
 
-    env = gym.make("BioVLN-OpFace-v0", split=rec["split"], dataset=dataset, obs_mode="rgbd", sim_backend="physx_cpu",
-                   render_backend="cpu")
+    env = gym.make(
+        "BioVLN-OpFace-v0",
+        split=rec["split"],
+        dataset=dataset,
+        obs_mode="rgbd",
+        sim_backend="physx_cpu",
+        render_backend="cpu",
+    )
     try:
         pol = FrontierPolicy()
         traj = []
@@ -324,7 +402,7 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
         fig, ax = plt.subplots(figsize=(9, 7))
         draw_map(spec, ax, show_free=False)
         lo, hi = pol.map.lo, pol.map.hi
-        g = pol.map.grid[lo[0]:hi[0], lo[1]:hi[1]]
+        g = pol.map.grid[lo[0] : hi[0], lo[1] : hi[1]]
         img = np.zeros((*g.shape, 4))
         img[g == FREE] = (0.2, 0.6, 1.0, 0.25)
         img[g == OCCUPIED] = (0.1, 0.1, 0.1, 0.8)
@@ -334,11 +412,21 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
         path = nav.shortest_path(rec["start"], rec["goal"])
         ax.plot(path[:, 0], path[:, 1], "--", color="#ff7f0e", lw=2, zorder=9, label="geodesic shortest path")
         t = np.asarray(traj)
-        ax.plot(t[:, 0], t[:, 1], "-", color="#2ca02c" if bool(info["success"]) else "#d62728", lw=2, zorder=10, label="frontier")
+        ax.plot(
+            t[:, 0],
+            t[:, 1],
+            "-",
+            color="#2ca02c" if bool(info["success"]) else "#d62728",
+            lw=2,
+            zorder=10,
+            label="frontier",
+        )
         ax.plot(*rec["start"], "o", color="#1f77b4", ms=9, zorder=11)
         ax.plot(*rec["goal"], "X", color="#d62728", ms=11, zorder=11)
-        ax.set_title(f"Hard episode {rec['scene_id']}/{rec['episode_id']} (geodesic {rec['geodesic_distance']:.1f} m): "
-                     f"{'success' if bool(info['success']) else 'failure'}; blue = free, black = occupied on the agent's map")
+        ax.set_title(
+            f"Hard episode {rec['scene_id']}/{rec['episode_id']} (geodesic {rec['geodesic_distance']:.1f} m): "
+            f"{'success' if bool(info['success']) else 'failure'}; blue = free, black = occupied on the agent's map"
+        )
         ax.legend(loc="upper left", fontsize=8)
         fig.tight_layout()
         fig.savefig(out, dpi=110)
@@ -350,38 +438,70 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
 
 def tables(runs) -> list[list[str]]:
     """The report's Markdown sections, in order (one list of lines each)."""
-    return [table5(runs), table10(runs), table6(runs), table9(runs), table11(runs), table17(runs),
-            mcnemar_table(runs), differences(runs)]
+    return [
+        table5(runs),
+        table10(runs),
+        table6(runs),
+        table9(runs),
+        table11(runs),
+        table17(runs),
+        mcnemar_table(runs),
+        differences(runs),
+    ]
 
 
-def write_report(results: Path, out: Path, dataset: str | None = None, videos: int = 1, hard_figures: int = 2,
-                 echo=print) -> Path:
+def write_report(
+    results: Path, out: Path, dataset: str | None = None, videos: int = 1, hard_figures: int = 2, echo=print
+) -> Path:
     from biovln_ms.episodes.dataset import EpisodeDataset
     from biovln_ms.benchmark import ensure_default_dataset
     from biovln_ms.errors import BioVLNError
 
     runs = load_runs(Path(results))
     if not runs:
-        raise BioVLNError(f"no results under {results}", fix="run `biovln-ms eval --method M --split S --out DIR` first")
+        raise BioVLNError(
+            f"no results under {results}", fix="run `biovln-ms eval --method M --split S --out DIR` first"
+        )
     out = Path(out)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     ds = EpisodeDataset(dataset or ensure_default_dataset(echo))
-    lines = ["# BioVLN-MS evaluation report", "", f"Results: `{results}`. Runs: " +
-             ", ".join(f"{m} on {s} ({len(r)} episodes)" for (m, s), r in sorted(runs.items())), ""]
+    lines = [
+        "# BioVLN-MS evaluation report",
+        "",
+        f"Results: `{results}`. Runs: "
+        + ", ".join(f"{m} on {s} ({len(r)} episodes)" for (m, s), r in sorted(runs.items())),
+        "",
+    ]
     for block in tables(runs):
         lines += block + [""]
-    figs = [plot_sr(runs, out / "figures" / "sr_by_method.png"), plot_safety(runs, out / "figures" / "safety.png")]
+    figs = [
+        plot_sr(runs, out / "figures" / "sr_by_method.png"),
+        plot_safety(runs, out / "figures" / "safety.png"),
+    ]
     for (m, s), recs in sorted(runs.items()):
-        figs.append(plot_trajectories(recs, ds.spec, out / "figures" / f"trajectories_{m}_{s}.png", f"{m} on {s}"))
+        figs.append(
+            plot_trajectories(recs, ds.spec, out / "figures" / f"trajectories_{m}_{s}.png", f"{m} on {s}")
+        )
     lines += ["## Figures", ""] + [f"![{f.stem}](figures/{f.name})" for f in figs] + [""]
-    hard = sorted((r for (m, s), recs in runs.items() if m == "frontier" for r in recs if r["difficulty"] == "hard"),
-                  key=lambda r: -r["geodesic_distance"])[:hard_figures]
+    hard = sorted(
+        (r for (m, s), recs in runs.items() if m == "frontier" for r in recs if r["difficulty"] == "hard"),
+        key=lambda r: -r["geodesic_distance"],
+    )[:hard_figures]
     if not hard:
-        hard = sorted((r for (m, s), recs in runs.items() if m == "frontier" for r in recs),
-                      key=lambda r: -r["geodesic_distance"])[:hard_figures]
-    hard_files = [hard_episode_figure(r, dataset, out / "figures" / f"hard_{r['scene_id']}_{r['episode_id']}.png") for r in hard]
+        hard = sorted(
+            (r for (m, s), recs in runs.items() if m == "frontier" for r in recs),
+            key=lambda r: -r["geodesic_distance"],
+        )[:hard_figures]
+    hard_files = [
+        hard_episode_figure(r, dataset, out / "figures" / f"hard_{r['scene_id']}_{r['episode_id']}.png")
+        for r in hard
+    ]
     if hard_files:
-        lines += ["## Longest frontier episodes (hard-episode analysis)", ""] + [f"![{f.stem}](figures/{f.name})" for f in hard_files] + [""]
+        lines += (
+            ["## Longest frontier episodes (hard-episode analysis)", ""]
+            + [f"![{f.stem}](figures/{f.name})" for f in hard_files]
+            + [""]
+        )
     if videos:
         from biovln_ms.record import record_episode
 

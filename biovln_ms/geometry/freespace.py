@@ -25,7 +25,9 @@ def grow(geom, radius: float):
 def free_space(floor: Polygon | MultiPolygon, obstacles: Iterable[Polygon], radius: float) -> MultiPolygon:
     """Positions where a disc of ``radius`` fits on ``floor`` without touching any obstacle."""
     minx, miny, maxx, maxy = floor.bounds
-    outside = box(minx - 2 * radius - 1, miny - 2 * radius - 1, maxx + 2 * radius + 1, maxy + 2 * radius + 1).difference(floor)
+    outside = box(
+        minx - 2 * radius - 1, miny - 2 * radius - 1, maxx + 2 * radius + 1, maxy + 2 * radius + 1
+    ).difference(floor)
     blocked = grow(unary_union([outside, *obstacles]), radius)
     free = floor.difference(blocked)
     if isinstance(free, Polygon):
@@ -42,4 +44,3 @@ def island_of(free: MultiPolygon, point: Sequence[float], tol: float = 1e-6) -> 
         if poly.distance(p) <= tol:
             return i
     return None
-

@@ -140,8 +140,10 @@ class NavGeometry:
         """Which segments pass within ``tol`` of a boundary vertex strictly between their ends."""
         v = self._edges_a
         d = q - p
-        L2 = np.maximum((d ** 2).sum(axis=1), 1e-18)
-        t = ((v[None, :, 0] - p[:, None, 0]) * d[:, None, 0] + (v[None, :, 1] - p[:, None, 1]) * d[:, None, 1]) / L2[:, None]
+        L2 = np.maximum((d**2).sum(axis=1), 1e-18)
+        t = (
+            (v[None, :, 0] - p[:, None, 0]) * d[:, None, 0] + (v[None, :, 1] - p[:, None, 1]) * d[:, None, 1]
+        ) / L2[:, None]
         inner = (t > 1e-9) & (t < 1 - 1e-9)
         cx = p[:, None, 0] + t * d[:, None, 0] - v[None, :, 0]
         cy = p[:, None, 1] + t * d[:, None, 1] - v[None, :, 1]
@@ -167,7 +169,9 @@ class NavGeometry:
         vis = self._visible(self.vertices[i], self.vertices[j])
         i, j = i[vis], j[vis]
         w = np.linalg.norm(self.vertices[i] - self.vertices[j], axis=1)
-        graph = csr_matrix((np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n))
+        graph = csr_matrix(
+            (np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n)
+        )
         dist, pred = shortest_path(graph, method="D", directed=False, return_predecessors=True)
         return dist, pred
 
@@ -214,7 +218,9 @@ class NavGeometry:
 
     def _join(self, p: np.ndarray, isl: int) -> tuple[np.ndarray, np.ndarray]:
         idx = np.flatnonzero(self.vertex_island == isl)
-        idx = idx[self._tangent(idx, np.repeat(p[None], len(idx), axis=0))]  # a shortest path bends only there
+        idx = idx[
+            self._tangent(idx, np.repeat(p[None], len(idx), axis=0))
+        ]  # a shortest path bends only there
         if len(idx) == 0:
             return idx, np.zeros(0)
         vis = self._visible(np.repeat(p[None], len(idx), axis=0), self.vertices[idx])
@@ -270,6 +276,9 @@ class NavGeometry:
         """Waypoints (k, 2) of the shortest path; UnreachableError when there is none."""
         d, path = self._solve(s, g)
         if path is None:
-            raise UnreachableError(f"no navigable path from {np.round(s, 3).tolist()} to {np.round(g, 3).tolist()} "
-                                   f"for a {self.radius} m robot", fix="snap both points onto the same island first")
+            raise UnreachableError(
+                f"no navigable path from {np.round(s, 3).tolist()} to {np.round(g, 3).tolist()} "
+                f"for a {self.radius} m robot",
+                fix="snap both points onto the same island first",
+            )
         return np.asarray(path)

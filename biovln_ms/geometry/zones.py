@@ -55,8 +55,9 @@ def placement_z(support_top: float, bb_center_z: float, bottom_z: float) -> floa
     return support_top + bb_center_z - bottom_z
 
 
-def goal_position(center_xy: Sequence[float], face: Sequence[float], d_half: float,
-                  approach_distance: float) -> np.ndarray:
+def goal_position(
+    center_xy: Sequence[float], face: Sequence[float], d_half: float, approach_distance: float
+) -> np.ndarray:
     """Eq. 1: g = c + f (d + delta), on the floor plane."""
     return np.asarray(center_xy, float)[:2] + np.asarray(face, float) * (d_half + approach_distance)
 
@@ -80,13 +81,22 @@ class PlacedInstrument:
         object.__setattr__(self, "_rot", rot2(self.yaw))
 
     @classmethod
-    def from_asset(cls, asset: AssetSpec, center: Sequence[float], yaw: float, name: str = "") -> PlacedInstrument:
+    def from_asset(
+        cls, asset: AssetSpec, center: Sequence[float], yaw: float, name: str = ""
+    ) -> PlacedInstrument:
         """The asset placed at ``center`` and ``yaw``, with the epsilon_c (Eq. 2) of the catalog it came from."""
         face = asset.face_vector
-        return cls(center=tuple(float(v) for v in center), yaw=float(yaw), size=tuple(asset.dimensions),
-                   model_face=None if face is None else (float(face[0]), float(face[1])),
-                   d_half=asset.d_half or 0.0, approach_distance=asset.approach_distance or 0.0,
-                   name=name or asset.name, category=asset.name, eps_c=asset.zone2_clearance)
+        return cls(
+            center=tuple(float(v) for v in center),
+            yaw=float(yaw),
+            size=tuple(asset.dimensions),
+            model_face=None if face is None else (float(face[0]), float(face[1])),
+            d_half=asset.d_half or 0.0,
+            approach_distance=asset.approach_distance or 0.0,
+            name=name or asset.name,
+            category=asset.name,
+            eps_c=asset.zone2_clearance,
+        )
 
     # --- frames -------------------------------------------------------------------------------
     @property
@@ -167,7 +177,7 @@ class PlacedInstrument:
         p = np.atleast_2d(np.asarray(points, float))
         local = (p - self.center_xy) @ self._rot
         d = np.maximum(np.abs(local) - self.half_xy, 0.0)
-        dist_sq = (d ** 2).sum(axis=1)
+        dist_sq = (d**2).sum(axis=1)
         if z is not None:
             z0, z1 = (z, z) if np.isscalar(z) else (float(z[0]), float(z[1]))
             bz0, bz1 = self.z_range
@@ -184,7 +194,9 @@ def _sat_disjoint(a: np.ndarray, b: np.ndarray, tol: float = 1e-9) -> bool:
             edge = poly[(i + 1) % 4] - poly[i]
             axis = np.array([-edge[1], edge[0]])
             pa, pb = a @ axis, b @ axis
-            if pa.max() <= pb.min() + tol * np.linalg.norm(axis) or pb.max() <= pa.min() + tol * np.linalg.norm(axis):
+            if pa.max() <= pb.min() + tol * np.linalg.norm(
+                axis
+            ) or pb.max() <= pa.min() + tol * np.linalg.norm(axis):
                 return True
     return False
 
@@ -213,8 +225,9 @@ def eq2_axis_aligned(a: PlacedInstrument, b: PlacedInstrument) -> bool:
     return bool(dx >= (sa[0] + sb[0]) / 2 + two_eps - 1e-9 or dy >= (sa[1] + sb[1]) / 2 + two_eps - 1e-9)
 
 
-def min_clearance(points: np.ndarray, instruments: Iterable[PlacedInstrument],
-                  z: float | Sequence[float] | None = None) -> np.ndarray:
+def min_clearance(
+    points: np.ndarray, instruments: Iterable[PlacedInstrument], z: float | Sequence[float] | None = None
+) -> np.ndarray:
     """Per point, the clearance to the nearest instrument body (inf when there are none)."""
     p = np.atleast_2d(np.asarray(points, float))
     out = np.full(len(p), np.inf)
@@ -236,14 +249,18 @@ class InstrumentArray:
 
     def _local(self, p: np.ndarray) -> np.ndarray:
         d = np.asarray(p, float)[:2] - self.centers
-        return np.abs(np.stack([self.cos * d[:, 0] + self.sin * d[:, 1], -self.sin * d[:, 0] + self.cos * d[:, 1]], axis=1))
+        return np.abs(
+            np.stack(
+                [self.cos * d[:, 0] + self.sin * d[:, 1], -self.sin * d[:, 0] + self.cos * d[:, 1]], axis=1
+            )
+        )
 
     def clearance(self, p) -> float:
         """Planar distance from p to the nearest body (inf when there are none)."""
         if self.n == 0:
             return math.inf
         gap = np.maximum(self._local(p) - self.half, 0.0)
-        return float(np.sqrt((gap ** 2).sum(axis=1)).min())
+        return float(np.sqrt((gap**2).sum(axis=1)).min())
 
     def in_zone2(self, p) -> bool:
         """Whether p lies inside any instrument's Zone 2 (the body rectangle grown by eps_c)."""

@@ -14,5 +14,7 @@ def algo_class(name: str):
 
     classes = {"ppo": PPO, "a2c": A2C, "sac": SAC}
     if name not in classes:
-        raise BioVLNError(f"unknown algorithm '{name}'", field="algo", fix=f"use one of: {', '.join(SB3_CONTROL_MODES)}")
+        raise BioVLNError(
+            f"unknown algorithm '{name}'", field="algo", fix=f"use one of: {', '.join(SB3_CONTROL_MODES)}"
+        )
     return classes[name]

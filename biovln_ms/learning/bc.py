@@ -43,8 +43,11 @@ class BCNet(nn.Module):
     def __init__(self, hidden: int = 128) -> None:
         super().__init__()
         self.encoder = ResNet18()
-        self.head = nn.Sequential(nn.Linear(ResNet18.feature_dim + GOAL_DIM, hidden), nn.ReLU(inplace=True),
-                                  nn.Linear(hidden, N_ACTIONS))
+        self.head = nn.Sequential(
+            nn.Linear(ResNet18.feature_dim + GOAL_DIM, hidden),
+            nn.ReLU(inplace=True),
+            nn.Linear(hidden, N_ACTIONS),
+        )
 
     def forward(self, image: torch.Tensor, goal: torch.Tensor) -> torch.Tensor:
         return self.head(torch.cat([self.encoder(image), goal], dim=1))
@@ -118,13 +121,25 @@ def _run_epoch(model, loader, opt, max_batches: int | None) -> tuple[float, floa
 
 def _save(path: Path, model: BCNet, cfg: BCConfig, meta: dict) -> None:
     buf = io.BytesIO()
-    torch.save({"arch": ARCH, "config": json.dumps(asdict(cfg)), "meta": json.dumps(meta),
-                "state_dict": model.state_dict()}, buf)
+    torch.save(
+        {
+            "arch": ARCH,
+            "config": json.dumps(asdict(cfg)),
+            "meta": json.dumps(meta),
+            "state_dict": model.state_dict(),
+        },
+        buf,
+    )
     atomic_write_bytes(path, buf.getvalue())
 
 
-def train_bc(data: list[str | Path], out: str | Path, cfg: BCConfig = BCConfig(),
-             echo: Callable[[str], None] = print, progress: bool = True) -> BCResult:
+def train_bc(
+    data: list[str | Path],
+    out: str | Path,
+    cfg: BCConfig = BCConfig(),
+    echo: Callable[[str], None] = print,
+    progress: bool = True,
+) -> BCResult:
     """Train on recording folders ``data``; writes ``bc.pt`` (best), ``history.json`` and ``loss.png``."""
     from tqdm import tqdm
 
@@ -133,25 +148,35 @@ def train_bc(data: list[str | Path], out: str | Path, cfg: BCConfig = BCConfig()
         torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     size = (cfg.image_size, cfg.image_size)
-    aug = Transforms(size=size, hflip_p=cfg.hflip_p, brightness=cfg.brightness, position_noise=cfg.position_noise)
+    aug = Transforms(
+        size=size, hflip_p=cfg.hflip_p, brightness=cfg.brightness, position_noise=cfg.position_noise
+    )
     train_ds = TrajectoryDataset(data, aug, drop_stop=cfg.drop_stop, seed=cfg.seed)
     val_ds = TrajectoryDataset(data, Transforms(size=size), drop_stop=cfg.drop_stop, seed=cfg.seed)
     tr_idx, va_idx = _episode_split(train_ds, cfg.val_fraction, cfg.seed)
     if not va_idx:
-        raise BioVLNError(f"only {train_ds.successful_episodes} successful episode(s): nothing to validate on",
-                          source=", ".join(map(str, data)), field="val_fraction",
-                          fix="record more episodes (early stopping needs held-out episodes)")
+        raise BioVLNError(
+            f"only {train_ds.successful_episodes} successful episode(s): nothing to validate on",
+            source=", ".join(map(str, data)),
+            field="val_fraction",
+            fix="record more episodes (early stopping needs held-out episodes)",
+        )
     g = torch.Generator().manual_seed(cfg.seed)
-    train_loader = torch.utils.data.DataLoader(torch.utils.data.Subset(train_ds, tr_idx), batch_size=cfg.batch_size,
-                                               shuffle=True, generator=g)
-    val_loader = torch.utils.data.DataLoader(torch.utils.data.Subset(val_ds, va_idx), batch_size=cfg.batch_size)
+    train_loader = torch.utils.data.DataLoader(
+        torch.utils.data.Subset(train_ds, tr_idx), batch_size=cfg.batch_size, shuffle=True, generator=g
+    )
+    val_loader = torch.utils.data.DataLoader(
+        torch.utils.data.Subset(val_ds, va_idx), batch_size=cfg.batch_size
+    )
     model = BCNet()
     if cfg.pretrained:
         model.encoder.load_pretrained(cfg.pretrained)
     opt = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     frame_size = train_ds.frame_size()
-    echo(f"BC: {train_ds.successful_episodes} successful episodes, {len(tr_idx)} training / {len(va_idx)} "
-         f"validation steps, {cfg.image_size}px input")
+    echo(
+        f"BC: {train_ds.successful_episodes} successful episodes, {len(tr_idx)} training / {len(va_idx)} "
+        f"validation steps, {cfg.image_size}px input"
+    )
     out.mkdir(parents=True, exist_ok=True)
     ckpt = out / "bc.pt"
     history: list[dict] = []
@@ -162,13 +187,30 @@ def train_bc(data: list[str | Path], out: str | Path, cfg: BCConfig = BCConfig()
         tl, ta = _run_epoch(model, train_loader, opt, cfg.max_batches_per_epoch)
         vl, va = _run_epoch(model, val_loader, None, None)
         minutes = (time.perf_counter() - t0) / 60
-        history.append({"epoch": epoch, "train_loss": tl, "train_acc": ta, "val_loss": vl, "val_acc": va,
-                        "minutes": round(minutes, 3)})
+        history.append(
+            {
+                "epoch": epoch,
+                "train_loss": tl,
+                "train_acc": ta,
+                "val_loss": vl,
+                "val_acc": va,
+                "minutes": round(minutes, 3),
+            }
+        )
         bar.set_postfix(train=f"{tl:.3f}", val=f"{vl:.3f}", acc=f"{va:.2f}")
         if vl < best - 1e-6:
             best, best_epoch, stale = vl, epoch, 0
-            _save(ckpt, model, cfg, {"epoch": epoch, "val_loss": vl, "frame_size": frame_size,
-                                     "episodes": train_ds.successful_episodes})
+            _save(
+                ckpt,
+                model,
+                cfg,
+                {
+                    "epoch": epoch,
+                    "val_loss": vl,
+                    "frame_size": frame_size,
+                    "episodes": train_ds.successful_episodes,
+                },
+            )
         else:
             stale += 1
         atomic_write_text(out / "history.json", json.dumps(history, indent=1))
@@ -179,8 +221,17 @@ def train_bc(data: list[str | Path], out: str | Path, cfg: BCConfig = BCConfig()
             stopped_by = f"time budget ({cfg.max_minutes:g} min)"
             break
     plot_history(history, out / "loss.png")
-    return BCResult(ckpt, best_epoch, best, len(history), stopped_by, len(tr_idx), len(va_idx),
-                    (time.perf_counter() - t0) / 60, history)
+    return BCResult(
+        ckpt,
+        best_epoch,
+        best,
+        len(history),
+        stopped_by,
+        len(tr_idx),
+        len(va_idx),
+        (time.perf_counter() - t0) / 60,
+        history,
+    )
 
 
 def plot_history(history: list[dict], path: Path) -> None:
@@ -208,26 +259,46 @@ def load_bc(path: str | Path) -> tuple[BCNet, BCConfig, dict]:
     """(model in eval mode, its training config, meta) of a checkpoint written by ``train_bc``."""
     path = Path(path)
     if not path.is_file():
-        raise CheckpointError("no such checkpoint", source=str(path), field="checkpoint",
-                              fix="train one: biovln-ms train bc --data DIR --out ckpt/")
+        raise CheckpointError(
+            "no such checkpoint",
+            source=str(path),
+            field="checkpoint",
+            fix="train one: biovln-ms train bc --data DIR --out ckpt/",
+        )
     try:
         ck = torch.load(path, map_location="cpu", weights_only=True)
     except (RuntimeError, EOFError, zlib.error, ValueError, OSError) as e:
-        raise CheckpointError(f"not a readable torch checkpoint ({type(e).__name__})", source=str(path),
-                              field="checkpoint", fix="pass the bc.pt written by `biovln-ms train bc`") from None
+        raise CheckpointError(
+            f"not a readable torch checkpoint ({type(e).__name__})",
+            source=str(path),
+            field="checkpoint",
+            fix="pass the bc.pt written by `biovln-ms train bc`",
+        ) from None
     except Exception as e:  # noqa: BLE001 - pickles refused by weights_only raise UnpicklingError subclasses
-        raise CheckpointError(f"refused to load ({type(e).__name__}: it is not weights-only)", source=str(path),
-                              field="checkpoint", fix="pass the bc.pt written by `biovln-ms train bc`") from None
+        raise CheckpointError(
+            f"refused to load ({type(e).__name__}: it is not weights-only)",
+            source=str(path),
+            field="checkpoint",
+            fix="pass the bc.pt written by `biovln-ms train bc`",
+        ) from None
     if not isinstance(ck, dict) or ck.get("arch") != ARCH:
         found = ck.get("arch") if isinstance(ck, dict) else type(ck).__name__
-        raise CheckpointError(f"checkpoint of another architecture ({found!r}; this build reads {ARCH!r})",
-                              source=str(path), field="arch", fix="retrain with `biovln-ms train bc`")
+        raise CheckpointError(
+            f"checkpoint of another architecture ({found!r}; this build reads {ARCH!r})",
+            source=str(path),
+            field="arch",
+            fix="retrain with `biovln-ms train bc`",
+        )
     model = BCNet()
     try:
         model.load_state_dict(ck["state_dict"])
     except (RuntimeError, KeyError) as e:
-        raise CheckpointError(f"weights do not fit the BC network: {str(e).splitlines()[0]}", source=str(path),
-                              field="state_dict", fix="retrain with `biovln-ms train bc`") from None
+        raise CheckpointError(
+            f"weights do not fit the BC network: {str(e).splitlines()[0]}",
+            source=str(path),
+            field="state_dict",
+            fix="retrain with `biovln-ms train bc`",
+        ) from None
     model.eval()
     return model, BCConfig(**json.loads(ck["config"])), json.loads(ck["meta"])
 

@@ -58,8 +58,9 @@ def goal_vector(position, heading, goal) -> np.ndarray:
     return goal_features(local / dist if dist > 1e-9 else np.zeros(2), dist)
 
 
-def image_tensor(img: Image.Image, size: tuple[int, int], normalize: bool = True, flip: bool = False,
-                 gain: float = 1.0) -> torch.Tensor:
+def image_tensor(
+    img: Image.Image, size: tuple[int, int], normalize: bool = True, flip: bool = False, gain: float = 1.0
+) -> torch.Tensor:
     """A PIL RGB image -> (3, H, W) float tensor: bilinear resize to ``size`` (H, W), optional mirror,
     brightness gain and ImageNet normalisation. Training and the BC policy's inference share it."""
     if img.size != size[::-1]:
@@ -92,8 +93,16 @@ def _members(path: Path):
 
 
 class TrajectoryDataset(torch.utils.data.Dataset):
-    def __init__(self, roots, transforms: Transforms = Transforms(), drop_stop: bool = False, success_only: bool = True,
-                 require_images: bool = True, seed: int = 0, cache_episodes: int = 8) -> None:
+    def __init__(
+        self,
+        roots,
+        transforms: Transforms = Transforms(),
+        drop_stop: bool = False,
+        success_only: bool = True,
+        require_images: bool = True,
+        seed: int = 0,
+        cache_episodes: int = 8,
+    ) -> None:
         roots = [Path(r) for r in ([roots] if isinstance(roots, (str, Path)) else roots)]
         self.t = transforms
         self.require_images = require_images
@@ -105,8 +114,11 @@ class TrajectoryDataset(torch.utils.data.Dataset):
         for root in roots:
             files = sorted(root.glob("trajectories-*.jsonl.gz"))
             if not files:
-                raise TrajectoryDataError("no recordings here", source=str(root),
-                                          fix="record some: biovln-ms eval --method frontier --split ms_dev --record DIR")
+                raise TrajectoryDataError(
+                    "no recordings here",
+                    source=str(root),
+                    fix="record some: biovln-ms eval --method frontier --split ms_dev --record DIR",
+                )
             for f in files:
                 for off, length in _members(f):
                     entry = self._load(f, off, length)
@@ -121,15 +133,25 @@ class TrajectoryDataset(torch.utils.data.Dataset):
                             continue
                         self.index.append((root, f, off, length, k))
         if versions != {RECORDER_VERSION}:
-            raise TrajectoryDataError(f"recordings of versions {sorted(map(str, versions))} (this build reads {RECORDER_VERSION})",
-                                      source=", ".join(map(str, roots)), field="recorder_version",
-                                      fix="re-record with this version of biovln-ms, or keep one version per dataset")
+            raise TrajectoryDataError(
+                f"recordings of versions {sorted(map(str, versions))} (this build reads {RECORDER_VERSION})",
+                source=", ".join(map(str, roots)),
+                field="recorder_version",
+                fix="re-record with this version of biovln-ms, or keep one version per dataset",
+            )
         if require_images and "trace" in modes:
-            raise TrajectoryDataError("trace-only recordings have no images", source=", ".join(map(str, roots)),
-                                      field="mode", fix="record with --record-mode full, or pass require_images=False")
+            raise TrajectoryDataError(
+                "trace-only recordings have no images",
+                source=", ".join(map(str, roots)),
+                field="mode",
+                fix="record with --record-mode full, or pass require_images=False",
+            )
         if success_only and successes == 0:
-            raise TrajectoryDataError(f"none of the {episodes} recorded episodes succeeded", source=", ".join(map(str, roots)),
-                                      fix="record a stronger policy, or pass success_only=False")
+            raise TrajectoryDataError(
+                f"none of the {episodes} recorded episodes succeeded",
+                source=", ".join(map(str, roots)),
+                fix="record a stronger policy, or pass success_only=False",
+            )
         if not self.index:
             raise TrajectoryDataError("no steps left after filtering", source=", ".join(map(str, roots)))
         self.episodes, self.successful_episodes = episodes, successes
@@ -174,7 +196,10 @@ class TrajectoryDataset(torch.utils.data.Dataset):
             action = {TURN_LEFT: TURN_RIGHT, TURN_RIGHT: TURN_LEFT}.get(action, action)
         item = {"goal": torch.from_numpy(gv), "action": torch.tensor(action, dtype=torch.long)}
         if self.require_images:
-            gain = 1 + self.rng.uniform(-self.t.brightness, self.t.brightness) if self.t.brightness > 0 else 1.0
-            item["image"] = image_tensor(Image.open(root / obs["rgb_path"]).convert("RGB"), self.t.size,
-                                         self.t.normalize, flip, gain)
+            gain = (
+                1 + self.rng.uniform(-self.t.brightness, self.t.brightness) if self.t.brightness > 0 else 1.0
+            )
+            item["image"] = image_tensor(
+                Image.open(root / obs["rgb_path"]).convert("RGB"), self.t.size, self.t.normalize, flip, gain
+            )
         return item

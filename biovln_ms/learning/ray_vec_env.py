@@ -65,18 +65,24 @@ def _stack(items: list):
 
 
 class RayVecEnv(VecEnv):
-    def __init__(self, env_fns: Sequence[Callable[[], gym.Env]], address: str = "local",
-                 num_cpus_per_env: float = 1.0) -> None:
+    def __init__(
+        self, env_fns: Sequence[Callable[[], gym.Env]], address: str = "local", num_cpus_per_env: float = 1.0
+    ) -> None:
         try:
             import ray
         except ImportError:
-            raise BioVLNError("RayVecEnv needs Ray", field="ray_address", fix="pip install 'biovln-ms[cluster]'") from None
+            raise BioVLNError(
+                "RayVecEnv needs Ray", field="ray_address", fix="pip install 'biovln-ms[cluster]'"
+            ) from None
         self._ray = ray
         self._started = not ray.is_initialized()
         if self._started:
             if address == "local":
-                ray.init(num_cpus=max(1, int(np.ceil(len(env_fns) * num_cpus_per_env))), include_dashboard=False,
-                         log_to_driver=False)
+                ray.init(
+                    num_cpus=max(1, int(np.ceil(len(env_fns) * num_cpus_per_env))),
+                    include_dashboard=False,
+                    log_to_driver=False,
+                )
             else:
                 ray.init(address=address, log_to_driver=False)
         actor = ray.remote(num_cpus=num_cpus_per_env)(EnvActor)
@@ -91,7 +97,9 @@ class RayVecEnv(VecEnv):
         return list(self._get_indices(indices))
 
     def reset(self):
-        results = self._ray.get([a.reset.remote(self._seeds[i], self._options[i]) for i, a in enumerate(self.actors)])
+        results = self._ray.get(
+            [a.reset.remote(self._seeds[i], self._options[i]) for i, a in enumerate(self.actors)]
+        )
         self.reset_infos = [info for _, info in results]
         self._reset_seeds()
         self._reset_options()
@@ -125,9 +133,17 @@ class RayVecEnv(VecEnv):
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         self._ray.get([self.actors[i].set_attr.remote(attr_name, value) for i in self._indices(indices)])
 
-    def env_method(self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs) -> list[Any]:
-        return self._ray.get([self.actors[i].call.remote(method_name, method_args, method_kwargs)
-                              for i in self._indices(indices)])
+    def env_method(
+        self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs
+    ) -> list[Any]:
+        return self._ray.get(
+            [
+                self.actors[i].call.remote(method_name, method_args, method_kwargs)
+                for i in self._indices(indices)
+            ]
+        )
 
     def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
-        return self._ray.get([self.actors[i].is_wrapped.remote(wrapper_class) for i in self._indices(indices)])
+        return self._ray.get(
+            [self.actors[i].is_wrapped.remote(wrapper_class) for i in self._indices(indices)]
+        )

@@ -30,12 +30,20 @@ MODES = ("full", "trace")
 
 
 class TrajectoryRecorder:
-    def __init__(self, root: str | Path, mode: str = "full", depth_size: tuple[int, int] = (80, 60),
-                 image_size: tuple[int, int] | None = (224, 224), image_format: str = "png") -> None:
+    def __init__(
+        self,
+        root: str | Path,
+        mode: str = "full",
+        depth_size: tuple[int, int] = (80, 60),
+        image_size: tuple[int, int] | None = (224, 224),
+        image_format: str = "png",
+    ) -> None:
         if mode not in MODES:
             from biovln_ms.errors import BioVLNError
 
-            raise BioVLNError(f"unknown recording mode '{mode}'", field="record_mode", fix=f"use one of: {', '.join(MODES)}")
+            raise BioVLNError(
+                f"unknown recording mode '{mode}'", field="record_mode", fix=f"use one of: {', '.join(MODES)}"
+            )
         self.root = Path(root)
         self.mode = mode
         self.depth_size = depth_size
@@ -53,19 +61,31 @@ class TrajectoryRecorder:
         return self.mode == "full"
 
     def start(self, episode: dict, goal_xy) -> None:
-        self._meta = {"recorder_version": RECORDER_VERSION, "mode": self.mode, "frame": "z_up",
-                      "scene_id": episode["scene_id"], "episode_id": episode["episode_id"],
-                      "object_category": episode["object_category"], "object_id": episode["object_id"],
-                      "difficulty": episode["info"]["difficulty"], "goal_position": [float(v) for v in goal_xy[:2]]}
+        self._meta = {
+            "recorder_version": RECORDER_VERSION,
+            "mode": self.mode,
+            "frame": "z_up",
+            "scene_id": episode["scene_id"],
+            "episode_id": episode["episode_id"],
+            "object_category": episode["object_category"],
+            "object_id": episode["object_id"],
+            "difficulty": episode["info"]["difficulty"],
+            "goal_position": [float(v) for v in goal_xy[:2]],
+        }
         self._steps = []
 
     def step(self, step_idx: int, action: int, pose, goal_xy, dist_to_goal: float, obs=None) -> None:
         """Record the observation the policy acted on and the action it chose."""
-        rec = {"step_idx": step_idx, "action": int(action),
-               "obs": {"position": [round(float(pose[0]), 4), round(float(pose[1]), 4), 0.0],
-                       "heading": [round(float(np.cos(pose[2])), 5), round(float(np.sin(pose[2])), 5)],
-                       "goal_position": [round(float(goal_xy[0]), 4), round(float(goal_xy[1]), 4)]},
-               "dist_to_goal": round(float(dist_to_goal), 4)}
+        rec = {
+            "step_idx": step_idx,
+            "action": int(action),
+            "obs": {
+                "position": [round(float(pose[0]), 4), round(float(pose[1]), 4), 0.0],
+                "heading": [round(float(np.cos(pose[2])), 5), round(float(np.sin(pose[2])), 5)],
+                "goal_position": [round(float(goal_xy[0]), 4), round(float(goal_xy[1]), 4)],
+            },
+            "dist_to_goal": round(float(dist_to_goal), 4),
+        }
         if self.mode == "full" and obs is not None:
             cam = obs["sensor_data"]["head"]
             img = Image.fromarray(cam["rgb"][0].cpu().numpy())

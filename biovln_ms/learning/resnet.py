@@ -65,11 +65,19 @@ class ResNet18(nn.Module):
         try:
             state = torch.load(path, map_location="cpu", weights_only=True)
         except Exception as e:  # noqa: BLE001 - any unreadable file gets the same clear message
-            raise BioVLNError(f"cannot read pretrained weights: {e}", source=str(path), field="pretrained",
-                              fix="pass a torch state_dict of torchvision's resnet18 saved with torch.save") from None
+            raise BioVLNError(
+                f"cannot read pretrained weights: {e}",
+                source=str(path),
+                field="pretrained",
+                fix="pass a torch state_dict of torchvision's resnet18 saved with torch.save",
+            ) from None
         state = {k: v for k, v in state.items() if not k.startswith("fc.")}
         result = self.load_state_dict(state, strict=False)
         if result.unexpected_keys or len(result.missing_keys) == len(self.state_dict()):
-            raise BioVLNError("these weights are not a ResNet-18", source=str(path), field="pretrained",
-                              fix="use torchvision resnet18 weights (conv1.weight, layer1.0.conv1.weight, ...)")
+            raise BioVLNError(
+                "these weights are not a ResNet-18",
+                source=str(path),
+                field="pretrained",
+                fix="use torchvision resnet18 weights (conv1.weight, layer1.0.conv1.weight, ...)",
+            )
         return list(result.missing_keys)

@@ -25,6 +25,7 @@ from biovln_ms.errors import BioVLNError
 from biovln_ms.learning.algorithms import RL_ENV, SB3_CONTROL_MODES, algo_class
 from biovln_ms.io_utils import atomic_write_bytes, atomic_write_text, save_figure
 
+
 @dataclass
 class RLConfig:
     algo: str = "ppo"
@@ -42,9 +43,11 @@ class RLConfig:
 
     def defaults(self) -> dict:
         """Our defaults per algorithm (SB3's otherwise); ``hyperparams`` override them."""
-        base = {"ppo": {"n_steps": 1024, "batch_size": 256, "ent_coef": 0.01, "gamma": 0.99},
-                "a2c": {"n_steps": 16, "ent_coef": 0.01},
-                "sac": {"learning_starts": 2000, "buffer_size": 200_000}}[self.algo]
+        base = {
+            "ppo": {"n_steps": 1024, "batch_size": 256, "ent_coef": 0.01, "gamma": 0.99},
+            "a2c": {"n_steps": 16, "ent_coef": 0.01},
+            "sac": {"learning_starts": 2000, "buffer_size": 200_000},
+        }[self.algo]
         return {**base, **self.hyperparams}
 
 
@@ -61,11 +64,19 @@ class EpisodeLog(BaseCallback):
         for info in self.locals["infos"]:
             ep = info.get("episode")
             if ep is not None:
-                self.rows.append({"timesteps": self.num_timesteps, "return": float(ep["r"]), "length": int(ep["l"]),
-                                  "success": float(info.get("success", 0.0)),
-                                  "seconds": round(time.perf_counter() - self.t0, 2)})
+                self.rows.append(
+                    {
+                        "timesteps": self.num_timesteps,
+                        "return": float(ep["r"]),
+                        "length": int(ep["l"]),
+                        "success": float(info.get("success", 0.0)),
+                        "seconds": round(time.perf_counter() - self.t0, 2),
+                    }
+                )
         if self.rows:
-            self.logger.record("rollout/success_rate", float(np.mean([r["success"] for r in self.rows[-100:]])))
+            self.logger.record(
+                "rollout/success_rate", float(np.mean([r["success"] for r in self.rows[-100:]]))
+            )
         if self.num_timesteps >= self.next_ckpt:
             name = f"{self.model.__class__.__name__.lower()}_{self.num_timesteps}.zip"
             save_model(self.model, self.out / "checkpoints" / name)
@@ -88,8 +99,14 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
     from biovln_ms.wrappers import make_gym_env
 
     n = n_envs or cfg.n_envs
-    factory = partial(make_gym_env, cfg.env_id, split=cfg.split, dataset=cfg.dataset,
-                      control_mode=SB3_CONTROL_MODES[cfg.algo], obs_mode="state")
+    factory = partial(
+        make_gym_env,
+        cfg.env_id,
+        split=cfg.split,
+        dataset=cfg.dataset,
+        control_mode=SB3_CONTROL_MODES[cfg.algo],
+        obs_mode="state",
+    )
     if cfg.ray_address:
         from biovln_ms.learning.ray_vec_env import RayVecEnv
 
@@ -113,17 +130,30 @@ class RLResult:
     eval_summary: dict | None = None  # set by biovln_ms.eval.learned.train_and_evaluate
 
 
-def train_rl(cfg: RLConfig, out: str | Path, echo: Callable[[str], None] = print, progress: bool = True) -> RLResult:
+def train_rl(
+    cfg: RLConfig, out: str | Path, echo: Callable[[str], None] = print, progress: bool = True
+) -> RLResult:
     """Train, save and plot (``biovln_ms.eval.learned.train_and_evaluate`` then evaluates through the harness)."""
     cls = algo_class(cfg.algo)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if cfg.timesteps <= 0:
-        raise BioVLNError(f"timesteps must be positive, got {cfg.timesteps}", field="timesteps", fix="e.g. --timesteps 200000")
+        raise BioVLNError(
+            f"timesteps must be positive, got {cfg.timesteps}",
+            field="timesteps",
+            fix="e.g. --timesteps 200000",
+        )
     venv = make_vec_env(cfg)
     try:
-        model = cls("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0, tensorboard_log=str(out / "tb"),
-                    **cfg.defaults())
+        model = cls(
+            "MlpPolicy",
+            venv,
+            seed=cfg.seed,
+            device="cpu",
+            verbose=0,
+            tensorboard_log=str(out / "tb"),
+            **cfg.defaults(),
+        )
         log = EpisodeLog(out, cfg.checkpoint_every)
         t0 = time.perf_counter()
         model.learn(total_timesteps=cfg.timesteps, callback=log, progress_bar=progress, tb_log_name=cfg.algo)
@@ -132,15 +162,31 @@ def train_rl(cfg: RLConfig, out: str | Path, echo: Callable[[str], None] = print
         venv.close()
     model_path = save_model(model, out / "model.zip")
     write_episode_log(log.rows, out / "episodes.csv")
-    plot_learning_curve(log.rows, out / "learning_curve.png", f"{cfg.algo.upper()} on {cfg.env_id} ({cfg.split})")
+    plot_learning_curve(
+        log.rows, out / "learning_curve.png", f"{cfg.algo.upper()} on {cfg.env_id} ({cfg.split})"
+    )
     sr = float(np.mean([r["success"] for r in log.rows[-100:]])) if log.rows else 0.0
-    atomic_write_text(out / "train.json", json.dumps({"config": asdict(cfg), "timesteps": int(model.num_timesteps),
-                                                       "minutes": round(seconds / 60, 2),
-                                                       "steps_per_second": round(model.num_timesteps / seconds, 1),
-                                                       "episodes": len(log.rows), "final_success_rate": sr}, indent=1))
-    echo(f"{cfg.algo}: {model.num_timesteps} timesteps in {seconds / 60:.1f} min ({model.num_timesteps / seconds:.0f} steps/s), "
-         f"{len(log.rows)} episodes, last-100 success {100 * sr:.0f}% -> {model_path}")
-    return RLResult(model_path, int(model.num_timesteps), seconds / 60, model.num_timesteps / seconds, len(log.rows), sr)
+    atomic_write_text(
+        out / "train.json",
+        json.dumps(
+            {
+                "config": asdict(cfg),
+                "timesteps": int(model.num_timesteps),
+                "minutes": round(seconds / 60, 2),
+                "steps_per_second": round(model.num_timesteps / seconds, 1),
+                "episodes": len(log.rows),
+                "final_success_rate": sr,
+            },
+            indent=1,
+        ),
+    )
+    echo(
+        f"{cfg.algo}: {model.num_timesteps} timesteps in {seconds / 60:.1f} min ({model.num_timesteps / seconds:.0f} steps/s), "
+        f"{len(log.rows)} episodes, last-100 success {100 * sr:.0f}% -> {model_path}"
+    )
+    return RLResult(
+        model_path, int(model.num_timesteps), seconds / 60, model.num_timesteps / seconds, len(log.rows), sr
+    )
 
 
 def write_episode_log(rows: list[dict], path: Path) -> None:
@@ -166,7 +212,7 @@ def plot_learning_curve(rows: list[dict], path: Path, title: str, window: int = 
             k = min(window, len(v))
             ma = np.convolve(v, np.ones(k) / k, mode="valid")
             a.plot(t, v, ".", alpha=0.15, color="grey")
-            a.plot(t[k - 1:], ma, color="C0", label=f"moving mean ({k} episodes)")
+            a.plot(t[k - 1 :], ma, color="C0", label=f"moving mean ({k} episodes)")
             a.set(xlabel="timesteps", ylabel=label)
             a.grid(alpha=0.3)
             a.legend(loc="lower right")

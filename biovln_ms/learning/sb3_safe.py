@@ -39,28 +39,68 @@ MAX_WIDTH = 4096  # observation and action size, ints in policy_kwargs (layer wi
 MAX_BUFFER_VALUES = 2**28  # transitions x observation size of the rollout / replay buffer the model allocates
 
 # Classes policy_kwargs may name (SB3 writes them as str(cls) beside the pickle).
-_KWARG_CLASSES = (th.nn.ReLU, th.nn.Tanh, th.nn.ELU, th.nn.LeakyReLU, th.nn.SiLU, th.nn.GELU,
-                  th.optim.Adam, th.optim.AdamW, th.optim.RMSprop, th.optim.SGD, FlattenExtractor)
+_KWARG_CLASSES = (
+    th.nn.ReLU,
+    th.nn.Tanh,
+    th.nn.ELU,
+    th.nn.LeakyReLU,
+    th.nn.SiLU,
+    th.nn.GELU,
+    th.optim.Adam,
+    th.optim.AdamW,
+    th.optim.RMSprop,
+    th.optim.SGD,
+    FlattenExtractor,
+)
 _CLASS_BY_REPR = {str(c): c for c in _KWARG_CLASSES}
 # Globals the pickled values of a model saved by SB3 2.x reference (never imported here: they only tell an
 # SB3-written value from a payload).
 _SB3_GLOBALS = {
-    ("collections", "deque"), ("numpy", "dtype"), ("numpy", "ndarray"),
+    ("collections", "deque"),
+    ("numpy", "dtype"),
+    ("numpy", "ndarray"),
     *((f"numpy.{core}.multiarray", n) for core in ("core", "_core") for n in ("scalar", "_reconstruct")),
     *((f"numpy.{core}.numeric", "_frombuffer") for core in ("core", "_core")),
-    ("numpy.random._pcg64", "PCG64"), ("numpy.random._pickle", "__bit_generator_ctor"),
-    ("numpy.random._pickle", "__generator_ctor"), ("numpy.random.bit_generator", "SeedSequence"),
+    ("numpy.random._pcg64", "PCG64"),
+    ("numpy.random._pickle", "__bit_generator_ctor"),
+    ("numpy.random._pickle", "__generator_ctor"),
+    ("numpy.random.bit_generator", "SeedSequence"),
     ("numpy.random.bit_generator", "__pyx_unpickle_SeedSequence"),
-    ("gymnasium.spaces.box", "Box"), ("gymnasium.spaces.discrete", "Discrete"),
-    *(("stable_baselines3.common.buffers", n) for n in ("RolloutBuffer", "ReplayBuffer", "NStepReplayBuffer")),
-    ("stable_baselines3.common.policies", "ActorCriticPolicy"), ("stable_baselines3.sac.policies", "SACPolicy"),
+    ("gymnasium.spaces.box", "Box"),
+    ("gymnasium.spaces.discrete", "Discrete"),
+    *(
+        ("stable_baselines3.common.buffers", n)
+        for n in ("RolloutBuffer", "ReplayBuffer", "NStepReplayBuffer")
+    ),
+    ("stable_baselines3.common.policies", "ActorCriticPolicy"),
+    ("stable_baselines3.sac.policies", "SACPolicy"),
     *(("stable_baselines3.common.type_aliases", n) for n in ("TrainFreq", "TrainFrequencyUnit")),
     *(("stable_baselines3.common.utils", n) for n in ("FloatSchedule", "ConstantSchedule")),
     *((c.__module__, c.__qualname__) for c in _KWARG_CLASSES),
 }
 _BOX, _DISCRETE = str(spaces.Box), str(spaces.Discrete)
-_DTYPES = {"float16", "float32", "float64", "int8", "int16", "int32", "int64", "uint8", "uint16", "uint32", "uint64"}
-_STRING_OPS = {"SHORT_BINUNICODE", "BINUNICODE", "BINUNICODE8", "UNICODE", "SHORT_BINSTRING", "BINSTRING", "STRING"}
+_DTYPES = {
+    "float16",
+    "float32",
+    "float64",
+    "int8",
+    "int16",
+    "int32",
+    "int64",
+    "uint8",
+    "uint16",
+    "uint32",
+    "uint64",
+}
+_STRING_OPS = {
+    "SHORT_BINUNICODE",
+    "BINUNICODE",
+    "BINUNICODE8",
+    "UNICODE",
+    "SHORT_BINSTRING",
+    "BINSTRING",
+    "STRING",
+}
 _PUT_OPS, _GET_OPS = {"PUT", "BINPUT", "LONG_BINPUT"}, {"GET", "BINGET", "LONG_BINGET"}
 _CONSTANT = re.compile(r"ConstantSchedule\(val=([^()]+)\)")
 _Refusal = Callable[..., BioVLNError]  # (message, field[, fix]) -> the error to raise
@@ -75,8 +115,12 @@ def load_sb3_model(path: str | Path, algo: str, device: str = "cpu") -> BaseAlgo
     path = Path(path)
 
     def refuse(message: str, field: str = "checkpoint", fix: str | None = None) -> BioVLNError:
-        return BioVLNError(message, source=str(path), field=field,
-                           fix=fix or f"pass the model.zip written by `biovln-ms train {algo}`, with --method {algo}")
+        return BioVLNError(
+            message,
+            source=str(path),
+            field=field,
+            fix=fix or f"pass the model.zip written by `biovln-ms train {algo}`, with --method {algo}",
+        )
 
     def not_a_model(reason: str, field: str = "checkpoint") -> BioVLNError:
         return refuse(f"not a Stable-Baselines3 {algo.upper()} model: {reason}", field)
@@ -103,9 +147,14 @@ def load_sb3_model(path: str | Path, algo: str, device: str = "cpu") -> BaseAlgo
     if model.observation_space is None:
         model.observation_space = _observation_space_of(tensors.get("policy"), not_a_model)
     model.action_space = _space(data.get("action_space"))
-    if model.action_space is None:  # the RL env's (BioVLNNavEnv's) action space of this algorithm's control mode
-        model.action_space = (spaces.Discrete(4) if SB3_CONTROL_MODES[algo] == "discrete"
-                              else spaces.Box(-1.0, 1.0, (3,), np.float32))
+    if (
+        model.action_space is None
+    ):  # the RL env's (BioVLNNavEnv's) action space of this algorithm's control mode
+        model.action_space = (
+            spaces.Discrete(4)
+            if SB3_CONTROL_MODES[algo] == "discrete"
+            else spaces.Box(-1.0, 1.0, (3,), np.float32)
+        )
     _check_buffer(model, not_a_model)
     try:
         model._setup_model()
@@ -141,19 +190,34 @@ def _read_zip(path: Path, not_a_model: _Refusal, refuse: _Refusal) -> dict[str, 
             if len(infos) > MAX_ENTRIES:
                 raise refuse(f"{len(infos)} entries in the zip, at most {MAX_ENTRIES} are read")
             if sum(i.file_size for i in infos) > MAX_TOTAL_BYTES:
-                raise refuse(f"the zip unpacks to {sum(i.file_size for i in infos) / 2**20:.0f} MB, "
-                             f"at most {MAX_TOTAL_BYTES // 2**20} MB are read")
+                raise refuse(
+                    f"the zip unpacks to {sum(i.file_size for i in infos) / 2**20:.0f} MB, "
+                    f"at most {MAX_TOTAL_BYTES // 2**20} MB are read"
+                )
             if infos and min(i.header_offset for i in infos) != 0:
-                raise not_a_model("the zip does not start where the file does (truncated, or data put before it)")
+                raise not_a_model(
+                    "the zip does not start where the file does (truncated, or data put before it)"
+                )
             if len({i.filename for i in infos}) != len(infos):
                 raise refuse("the zip holds two entries of the same name")
             for i in infos:
                 p = PurePosixPath(i.filename.replace("\\", "/"))
                 if p.is_absolute() or ".." in p.parts or re.match(r"[A-Za-z]:", i.filename):
                     raise refuse(f"entry '{i.filename}' points outside the archive", i.filename)
-            return {i.filename: _read_entry(zf, i) for i in infos if i.filename == "data" or i.filename.endswith(".pth")}
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, RuntimeError, EOFError, OSError,
-            zlib.error) as e:
+            return {
+                i.filename: _read_entry(zf, i)
+                for i in infos
+                if i.filename == "data" or i.filename.endswith(".pth")
+            }
+    except (
+        zipfile.BadZipFile,
+        zipfile.LargeZipFile,
+        NotImplementedError,
+        RuntimeError,
+        EOFError,
+        OSError,
+        zlib.error,
+    ) as e:
         raise not_a_model(f"unreadable zip ({_brief(e)})") from None
 
 
@@ -182,8 +246,11 @@ def _read_data(blob: bytes, not_a_model: _Refusal, refuse: _Refusal) -> dict[str
             raise refuse("a ':serialized:' value that is not a base64 pickle", f"data.{key}") from None
         foreign = sorted(found - _SB3_GLOBALS)
         if foreign:
-            raise refuse(f"the pickled value would import {'.'.join(foreign[0])}, a checkpoint may not run code",
-                         f"data.{key}", "load only models written by `biovln-ms train`; this loader never unpickles")
+            raise refuse(
+                f"the pickled value would import {'.'.join(foreign[0])}, a checkpoint may not run code",
+                f"data.{key}",
+                "load only models written by `biovln-ms train`; this loader never unpickles",
+            )
     return data
 
 
@@ -224,8 +291,11 @@ def _load_tensors(blob: bytes, name: str, refuse: _Refusal) -> Any:
     try:
         return th.load(BytesIO(blob), map_location="cpu", weights_only=True)
     except Exception as e:  # noqa: BLE001 - the weights-only unpickler raises UnpicklingError, RuntimeError, ...
-        raise refuse(f"not a weights-only tensor file ({_brief(e)})", name,
-                     "load only models written by `biovln-ms train`; tensors load with weights_only=True") from None
+        raise refuse(
+            f"not a weights-only tensor file ({_brief(e)})",
+            name,
+            "load only models written by `biovln-ms train`; tensors load with weights_only=True",
+        ) from None
 
 
 def _brief(e: Exception) -> str:
@@ -254,7 +324,9 @@ def _policy_kwargs(entry: Any, refuse: _Refusal) -> dict:
         entry = {k: v for k, v in entry.items() if not k.startswith(":")}
         for k, v in entry.items():
             if isinstance(v, str) and v.startswith("<") and v not in _CLASS_BY_REPR:
-                raise refuse(f"policy_kwargs names {v}, which this loader does not rebuild", f"data.policy_kwargs.{k}")
+                raise refuse(
+                    f"policy_kwargs names {v}, which this loader does not rebuild", f"data.policy_kwargs.{k}"
+                )
         entry = {k: _CLASS_BY_REPR.get(v, v) if isinstance(v, str) else v for k, v in entry.items()}
     if not isinstance(entry, dict):
         raise refuse("policy_kwargs is not a dict", "data.policy_kwargs")
@@ -287,15 +359,23 @@ def _space(entry: Any) -> spaces.Box | spaces.Discrete | None:
         if entry.get(":type:") == _DISCRETE:
             n = int(entry["n"])
             return spaces.Discrete(n, start=int(entry.get("start", 0))) if 1 <= n <= MAX_WIDTH else None
-        if entry.get(":type:") == _BOX and entry.get("dtype") in _DTYPES and isinstance(entry.get("_shape"), list):
+        if (
+            entry.get(":type:") == _BOX
+            and entry.get("dtype") in _DTYPES
+            and isinstance(entry.get("_shape"), list)
+        ):
             shape = tuple(int(d) for d in entry["_shape"])
             if not shape or min(shape) < 1 or math.prod(shape) > MAX_WIDTH:
                 return None
-            low, high = (np.array(str(entry[k]).replace("[", " ").replace("]", " ").split()) for k in ("low", "high"))
+            low, high = (
+                np.array(str(entry[k]).replace("[", " ").replace("]", " ").split()) for k in ("low", "high")
+            )
             if low.size != math.prod(shape) or high.size != low.size:
                 return None
             dtype = np.dtype(entry["dtype"])
-            return spaces.Box(low.astype(dtype).reshape(shape), high.astype(dtype).reshape(shape), shape, dtype)
+            return spaces.Box(
+                low.astype(dtype).reshape(shape), high.astype(dtype).reshape(shape), shape, dtype
+            )
     except (KeyError, TypeError, ValueError, OverflowError):
         return None
     return None
@@ -303,10 +383,15 @@ def _space(entry: Any) -> spaces.Box | spaces.Discrete | None:
 
 def _observation_space_of(policy_state: Any, not_a_model: _Refusal) -> spaces.Box:
     """The RL env's observation space (an unbounded float32 state vector), as wide as the policy's first layer."""
-    width = next((t.shape[1] for t in policy_state.values() if isinstance(t, th.Tensor) and t.ndim == 2), None) \
-        if isinstance(policy_state, dict) else None
+    width = (
+        next((t.shape[1] for t in policy_state.values() if isinstance(t, th.Tensor) and t.ndim == 2), None)
+        if isinstance(policy_state, dict)
+        else None
+    )
     if width is None or not 1 <= width <= MAX_WIDTH:
-        raise not_a_model("no observation space in 'data' and none to infer from policy.pth", "data.observation_space")
+        raise not_a_model(
+            "no observation space in 'data' and none to infer from policy.pth", "data.observation_space"
+        )
     return spaces.Box(-np.inf, np.inf, (width,), np.float32)
 
 
@@ -318,5 +403,7 @@ def _check_buffer(model: BaseAlgorithm, not_a_model: _Refusal) -> None:
             raise not_a_model(f"{k} must be a positive integer, got {v!r}", f"data.{k}")
     transitions = sizes.get("buffer_size", sizes["n_steps"] * sizes["n_envs"])
     if transitions * math.prod(model.observation_space.shape) > MAX_BUFFER_VALUES:
-        raise not_a_model(f"its buffer of {transitions} transitions is larger than this loader allows",
-                          "data.buffer_size" if "buffer_size" in sizes else "data.n_steps")
+        raise not_a_model(
+            f"its buffer of {transitions} transitions is larger than this loader allows",
+            "data.buffer_size" if "buffer_size" in sizes else "data.n_steps",
+        )

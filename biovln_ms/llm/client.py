@@ -37,11 +37,18 @@ class LLMConfig:
     def from_env(cls) -> "LLMConfig":
         key = os.environ.get("BIOVLN_LLM_API_KEY") or os.environ.get("DEEPSEEK_API_KEY")
         if not key:
-            raise LLMConfigError("no LLM endpoint configured (BIOVLN_LLM_API_KEY is unset)", field="BIOVLN_LLM_API_KEY",
-                                 fix="export BIOVLN_LLM_API_KEY=... (and BIOVLN_LLM_BASE_URL / BIOVLN_LLM_MODEL for a "
-                                     "non-DeepSeek endpoint); LLM-Frontier numbers are not reported without one")
-        return cls(os.environ.get("BIOVLN_LLM_BASE_URL", DEFAULT_BASE_URL), os.environ.get("BIOVLN_LLM_MODEL", DEFAULT_MODEL),
-                   key, float(os.environ.get("BIOVLN_LLM_TIMEOUT", "20")))
+            raise LLMConfigError(
+                "no LLM endpoint configured (BIOVLN_LLM_API_KEY is unset)",
+                field="BIOVLN_LLM_API_KEY",
+                fix="export BIOVLN_LLM_API_KEY=... (and BIOVLN_LLM_BASE_URL / BIOVLN_LLM_MODEL for a "
+                "non-DeepSeek endpoint); LLM-Frontier numbers are not reported without one",
+            )
+        return cls(
+            os.environ.get("BIOVLN_LLM_BASE_URL", DEFAULT_BASE_URL),
+            os.environ.get("BIOVLN_LLM_MODEL", DEFAULT_MODEL),
+            key,
+            float(os.environ.get("BIOVLN_LLM_TIMEOUT", "20")),
+        )
 
     def __repr__(self) -> str:
         return f"LLMConfig(base_url={self.base_url!r}, model={self.model!r}, api_key='***')"
@@ -66,8 +73,12 @@ class JSONChatClient:
         from openai import OpenAI
 
         self.config = config or LLMConfig.from_env()
-        self._client = OpenAI(base_url=self.config.base_url, api_key=self.config.api_key, timeout=self.config.timeout,
-                              max_retries=self.config.max_retries)
+        self._client = OpenAI(
+            base_url=self.config.base_url,
+            api_key=self.config.api_key,
+            timeout=self.config.timeout,
+            max_retries=self.config.max_retries,
+        )
         self.stats = LLMStats()
         self._cache: dict[str, dict] = {}
         self._lock = threading.Lock()
@@ -92,8 +103,11 @@ class JSONChatClient:
         self.stats.calls += 1
         try:
             resp = self._client.chat.completions.create(
-                model=self.config.model, temperature=0, response_format={"type": "json_object"},
-                messages=[{"role": "system", "content": system}, {"role": "user", "content": user}])
+                model=self.config.model,
+                temperature=0,
+                response_format={"type": "json_object"},
+                messages=[{"role": "system", "content": system}, {"role": "user", "content": user}],
+            )
             text = resp.choices[0].message.content or ""
         except Exception as e:  # network, timeout, HTTP errors: counted, the caller falls back
             self.stats.fail(type(e).__name__)

@@ -47,8 +47,12 @@ def _z_up_to_gltf(m: np.ndarray) -> np.ndarray:
 
 def _box(name: str, scene: trimesh.Scene, size, centre) -> None:
     mesh = trimesh.creation.box(size)
-    scene.add_geometry(mesh, node_name=name, geom_name=name,
-                       transform=_z_up_to_gltf(trimesh.transformations.translation_matrix(centre)))
+    scene.add_geometry(
+        mesh,
+        node_name=name,
+        geom_name=name,
+        transform=_z_up_to_gltf(trimesh.transformations.translation_matrix(centre)),
+    )
 
 
 def build_target_scene() -> trimesh.Scene:
@@ -67,8 +71,11 @@ def build_target_scene() -> trimesh.Scene:
         a = cat.get(category)
         yaw = math.radians(yaw_deg)
         if a.placement == "table_top":
-            support = next(s for s in LAYOUT if s[1] in cat.support_heights and
-                           abs(x - s[2]) < 3.0 and abs(y - s[3]) < 1.0)
+            support = next(
+                s
+                for s in LAYOUT
+                if s[1] in cat.support_heights and abs(x - s[2]) < 3.0 and abs(y - s[3]) < 1.0
+            )
             z = cat.support_heights[support[1]] + a.dimensions[2] / 2
         else:
             z = a.dimensions[2] / 2
@@ -78,14 +85,22 @@ def build_target_scene() -> trimesh.Scene:
         parts = load_glb(ASSET_DIR / f"{category}.glb")
         for node in parts.graph.nodes_geometry:
             transform, geom = parts.graph[node]
-            scene.add_geometry(parts.geometry[geom], node_name=f"{name}|{node.split('.', 1)[-1]}",
-                               geom_name=f"{name}|{geom}", parent_node_name=name, transform=transform)
+            scene.add_geometry(
+                parts.geometry[geom],
+                node_name=f"{name}|{node.split('.', 1)[-1]}",
+                geom_name=f"{name}|{geom}",
+                parent_node_name=name,
+                transform=transform,
+            )
         if marker:
             face = rot2(yaw) @ np.asarray(a.face_vector)
             lateral = np.array([-face[1], face[0]])
             xy = np.array([x, y]) + face * (a.d_half + offset[0]) + lateral * offset[1]
-            scene.graph.update(frame_to=marker, frame_from=base,
-                               matrix=_z_up_to_gltf(trimesh.transformations.translation_matrix([xy[0], xy[1], 0.0])))
+            scene.graph.update(
+                frame_to=marker,
+                frame_from=base,
+                matrix=_z_up_to_gltf(trimesh.transformations.translation_matrix([xy[0], xy[1], 0.0])),
+            )
     return scene
 
 

@@ -53,10 +53,25 @@ def goal_json(spec: SceneSpec) -> dict:
     goals = []
     for o in spec.goal_objects():
         fx, fy = o.face
-        goals.append({"object_id": o.id, "category": o.category, "position": [*_r(o.goal), 0.0], "face": _r(o.face),
-                      "facing_yaw": round(math.atan2(-fy, -fx), 6), "success_radius": o.success_radius,
-                      "source": _goal_source(o)})
-    return {"format": "biovln-goals", "version": 1, "scene": spec.name, "frame": "z_up", "units": "m", "goals": goals}
+        goals.append(
+            {
+                "object_id": o.id,
+                "category": o.category,
+                "position": [*_r(o.goal), 0.0],
+                "face": _r(o.face),
+                "facing_yaw": round(math.atan2(-fy, -fx), 6),
+                "success_radius": o.success_radius,
+                "source": _goal_source(o),
+            }
+        )
+    return {
+        "format": "biovln-goals",
+        "version": 1,
+        "scene": spec.name,
+        "frame": "z_up",
+        "units": "m",
+        "goals": goals,
+    }
 
 
 def lsat_json(spec: SceneSpec, report=None) -> dict:
@@ -68,13 +83,39 @@ def lsat_json(spec: SceneSpec, report=None) -> dict:
         goal = None
         if o.is_goal:
             zones["zone3"] = _poly(p.zone3())
-            goal = {"position": _r(o.goal), "success_radius": o.success_radius, "strategy": 1 if o.goal_source == "marker" else 2}
-        objects.append({"id": o.id, "category": o.category, "node": nodes.get(o.id), "center": _r(o.position),
-                        "yaw": round(o.yaw, 6), "size": _r(o.size), "placement": o.placement, "support": o.support,
-                        "face": _r(o.face) if o.face is not None else None, "zones": zones, "goal": goal})
-    return {"format": "lsat-scene", "version": 1, "scene": spec.name, "frame": "z_up", "units": "m",
-            "rooms": [{"id": r.id, "kind": r.kind, "polygon": [_r(v) for v in r.polygon], "height": r.height} for r in spec.rooms],
-            "objects": objects, "coverage": report.coverage() if report is not None else None}
+            goal = {
+                "position": _r(o.goal),
+                "success_radius": o.success_radius,
+                "strategy": 1 if o.goal_source == "marker" else 2,
+            }
+        objects.append(
+            {
+                "id": o.id,
+                "category": o.category,
+                "node": nodes.get(o.id),
+                "center": _r(o.position),
+                "yaw": round(o.yaw, 6),
+                "size": _r(o.size),
+                "placement": o.placement,
+                "support": o.support,
+                "face": _r(o.face) if o.face is not None else None,
+                "zones": zones,
+                "goal": goal,
+            }
+        )
+    return {
+        "format": "lsat-scene",
+        "version": 1,
+        "scene": spec.name,
+        "frame": "z_up",
+        "units": "m",
+        "rooms": [
+            {"id": r.id, "kind": r.kind, "polygon": [_r(v) for v in r.polygon], "height": r.height}
+            for r in spec.rooms
+        ],
+        "objects": objects,
+        "coverage": report.coverage() if report is not None else None,
+    }
 
 
 def _poly(poly) -> list[list[float]]:
@@ -130,7 +171,9 @@ def write_usd(spec: SceneSpec, out: str | Path) -> Path:
             prim = g.GetPrim()
             prim.CreateAttribute("biovln:category", Sdf.ValueTypeNames.String).Set(o.category)
             prim.CreateAttribute("biovln:objectId", Sdf.ValueTypeNames.String).Set(o.id)
-            prim.CreateAttribute("biovln:successRadius", Sdf.ValueTypeNames.Double).Set(float(o.success_radius))
+            prim.CreateAttribute("biovln:successRadius", Sdf.ValueTypeNames.Double).Set(
+                float(o.success_radius)
+            )
             prim.CreateAttribute("biovln:source", Sdf.ValueTypeNames.String).Set(_goal_source(o))
         stage.GetRootLayer().Save()
         return atomic_write_bytes(out, tmp_path.read_bytes())

@@ -85,28 +85,44 @@ class ImportReport:
 
     def coverage(self) -> dict:
         goals = [i for i in self.instruments if i["is_goal"]]
-        return {"instruments_found": len(self.instruments), "goal_objects": len(goals),
-                "goals_strategy1": sum(i["goal_strategy"] == 1 for i in goals),
-                "goals_strategy2": sum(i["goal_strategy"] == 2 for i in goals),
-                "missing": [i["id"] for i in goals if i["goal_strategy"] is None],
-                "markers_unassigned": [m["node"] for m in self.markers if m.get("assigned_to") is None],
-                "unmatched_names": len(self.unmatched), "ambiguous_names": len(self.ambiguous)}
+        return {
+            "instruments_found": len(self.instruments),
+            "goal_objects": len(goals),
+            "goals_strategy1": sum(i["goal_strategy"] == 1 for i in goals),
+            "goals_strategy2": sum(i["goal_strategy"] == 2 for i in goals),
+            "missing": [i["id"] for i in goals if i["goal_strategy"] is None],
+            "markers_unassigned": [m["node"] for m in self.markers if m.get("assigned_to") is None],
+            "unmatched_names": len(self.unmatched),
+            "ambiguous_names": len(self.ambiguous),
+        }
 
     def to_markdown(self) -> str:
         c = self.coverage()
-        summary = (f"Instruments found: {c['instruments_found']} ({c['goal_objects']} goal objects); "
-                   f"goals from markers (strategy 1): {c['goals_strategy1']}; from geometry + Eq. 1 "
-                   f"(strategy 2): {c['goals_strategy2']}; missing: {len(c['missing'])}.")
-        lines = [f"# LSAT import of `{self.source}`", "", summary, "",
-                 "| id | node | category | goal from | face from |", "|---|---|---|---|---|"]
+        summary = (
+            f"Instruments found: {c['instruments_found']} ({c['goal_objects']} goal objects); "
+            f"goals from markers (strategy 1): {c['goals_strategy1']}; from geometry + Eq. 1 "
+            f"(strategy 2): {c['goals_strategy2']}; missing: {len(c['missing'])}."
+        )
+        lines = [
+            f"# LSAT import of `{self.source}`",
+            "",
+            summary,
+            "",
+            "| id | node | category | goal from | face from |",
+            "|---|---|---|---|---|",
+        ]
         for i in self.instruments:
             strat = {1: "marker (strategy 1)", 2: "Eq. 1 (strategy 2)", None: "–"}[i["goal_strategy"]]
             lines.append(f"| {i['id']} | `{i['node']}` | {i['category']} | {strat} | {i['face_from']} |")
-        for title, items in (("Markers without an instrument", c["markers_unassigned"]),
-                             ("Names matching no category", self.unmatched),
-                             ("Ambiguous names (not guessed)",
-                              [f"`{a['node']}`: {', '.join(a['candidates'])}" for a in self.ambiguous]),
-                             ("Warnings", self.warnings)):
+        for title, items in (
+            ("Markers without an instrument", c["markers_unassigned"]),
+            ("Names matching no category", self.unmatched),
+            (
+                "Ambiguous names (not guessed)",
+                [f"`{a['node']}`: {', '.join(a['candidates'])}" for a in self.ambiguous],
+            ),
+            ("Warnings", self.warnings),
+        ):
             if items:
                 lines += ["", f"## {title}", ""] + [f"- {x}" for x in items]
         return "\n".join(lines) + "\n"
@@ -179,15 +195,23 @@ def _footprint(points: np.ndarray) -> _Footprint | None:
         return None
     c = np.asarray(rect.exterior.coords)[:4]
     e1, e2 = c[1] - c[0], c[2] - c[1]
-    return _Footprint(np.asarray(rect.centroid.coords[0]), math.atan2(e1[1], e1[0]),
-                      float(np.linalg.norm(e1)), float(np.linalg.norm(e2)))
+    return _Footprint(
+        np.asarray(rect.centroid.coords[0]),
+        math.atan2(e1[1], e1[0]),
+        float(np.linalg.norm(e1)),
+        float(np.linalg.norm(e2)),
+    )
 
 
 def _face_parts(scene: GLTFScene, node: Node) -> np.ndarray:
     """Vertices of the parts whose names say they are on the operational face, with their own children
     (a nested part counted once)."""
-    on_face = {m.index for n in scene.subtree(node)[1:]
-               if any(w in normalise(n.name) for w in FACE_PART_WORDS) for m in scene.subtree(n)}
+    on_face = {
+        m.index
+        for n in scene.subtree(node)[1:]
+        if any(w in normalise(n.name) for w in FACE_PART_WORDS)
+        for m in scene.subtree(n)
+    }
     pts = [p for p in (scene.mesh_points(scene.nodes[i]) for i in sorted(on_face)) if len(p)]
     return np.concatenate(pts) if pts else np.zeros((0, 3))
 
@@ -247,20 +271,24 @@ def _rooms(scene: GLTFScene, report: ImportReport) -> tuple[list[RoomRect], floa
         x0, y0 = pts[:, :2].min(0)
         x1, y1 = pts[:, :2].max(0)
         if x1 - x0 < MIN_FLOOR_SIDE or y1 - y0 < MIN_FLOOR_SIDE:
-            report.warnings.append(f"floor node '{n.name}' is smaller than "
-                                   f"{MIN_FLOOR_SIDE:g} x {MIN_FLOOR_SIDE:g} m: ignored")
+            report.warnings.append(
+                f"floor node '{n.name}' is smaller than {MIN_FLOOR_SIDE:g} x {MIN_FLOOR_SIDE:g} m: ignored"
+            )
             continue
         corners = tuple(round(float(v), ROOM_DECIMALS) for v in (x0, y0, x1, y1))
         rects.append((f"room_{len(rects)}", "room", corners))
         tops.append(float(pts[:, 2].max()))
     if not rects:
-        raise LSATImportError("no floor: no mesh node named 'floor...' of at least "
-                              f"{MIN_FLOOR_SIDE:g} x {MIN_FLOOR_SIDE:g} m", source=report.source,
-                              field="nodes",
-                              fix="name the floor mesh 'floor' (one per room: 'floor_lab', 'floor_corridor')")
+        raise LSATImportError(
+            f"no floor: no mesh node named 'floor...' of at least {MIN_FLOOR_SIDE:g} x {MIN_FLOOR_SIDE:g} m",
+            source=report.source,
+            field="nodes",
+            fix="name the floor mesh 'floor' (one per room: 'floor_lab', 'floor_corridor')",
+        )
     if max(tops) - min(tops) > FLOOR_LEVEL_TOLERANCE or abs(min(tops)) > FLOOR_LEVEL_TOLERANCE:
-        report.warnings.append(f"floor tops range {min(tops):.3f}..{max(tops):.3f} m: "
-                               "BioVLN assumes the floor at z = 0")
+        report.warnings.append(
+            f"floor tops range {min(tops):.3f}..{max(tops):.3f} m: BioVLN assumes the floor at z = 0"
+        )
     walls = [n for n in scene.nodes if normalise(n.name).startswith("wall")]
     heights = [pts[:, 2].max() for pts in (scene.subtree_points(n) for n in walls) if len(pts)]
     return rects, float(max(heights)) if heights else DEFAULT_WALL_HEIGHT
@@ -326,14 +354,17 @@ def _pose(scene: GLTFScene, f: _Found, report: ImportReport) -> _Pose | None:
     measured = sorted(hi - lo)
     a = load_catalog().get(f.category)
     if max(abs(x - y) for x, y in zip(measured, sorted(a.dimensions[:2]))) > SIZE_TOLERANCE:
-        report.warnings.append(f"'{f.node.name}': footprint {measured[1]:.2f} x {measured[0]:.2f} m differs "
-                               f"from the catalog's {a.dimensions[0]:.2f} x {a.dimensions[1]:.2f} m "
-                               "(the catalog's is used)")
+        report.warnings.append(
+            f"'{f.node.name}': footprint {measured[1]:.2f} x {measured[0]:.2f} m differs "
+            f"from the catalog's {a.dimensions[0]:.2f} x {a.dimensions[1]:.2f} m "
+            "(the catalog's is used)"
+        )
     return _Pose(rot2(yaw) @ ((lo + hi) / 2), yaw, face_from)
 
 
-def _rest(f: _Found, centre: np.ndarray, furniture: list[ObjectSpec],
-          report: ImportReport) -> tuple[str | None, float]:
+def _rest(
+    f: _Found, centre: np.ndarray, furniture: list[ObjectSpec], report: ImportReport
+) -> tuple[str | None, float]:
     """The support and centre height: a table-top instrument is snapped onto the furniture under its centre
     at the Eq. 4 height (none there is refused); anything else stands on the floor. A bottom more than
     SUPPORT_TOLERANCE off is reported."""
@@ -342,18 +373,23 @@ def _rest(f: _Found, centre: np.ndarray, furniture: list[ObjectSpec],
     bottom = float(f.points[:, 2].min())
     if a.placement != "table_top":
         if abs(bottom) > SUPPORT_TOLERANCE:
-            report.warnings.append(f"'{f.node.name}': bottom at {bottom:.3f} m above the floor "
-                                   "(snapped to the floor)")
+            report.warnings.append(
+                f"'{f.node.name}': bottom at {bottom:.3f} m above the floor (snapped to the floor)"
+            )
         return None, a.dimensions[2] / 2
     sup = next((o for o in furniture if o.placed().zone1().contains(Point(centre))), None)
     if sup is None:
-        raise LSATImportError(f"table-top instrument '{f.node.name}' stands on no bench or table",
-                              source=report.source, field=f.node.name,
-                              fix="put it on a 'Lab Bench' or 'Lab Table' node")
+        raise LSATImportError(
+            f"table-top instrument '{f.node.name}' stands on no bench or table",
+            source=report.source,
+            field=f.node.name,
+            fix="put it on a 'Lab Bench' or 'Lab Table' node",
+        )
     top = cat.support_heights[sup.category]
     if abs(bottom - top) > SUPPORT_TOLERANCE:
-        report.warnings.append(f"'{f.node.name}': bottom at {bottom:.3f} m, its support's top at {top:.3f} m "
-                               "(snapped, Eq. 4)")
+        report.warnings.append(
+            f"'{f.node.name}': bottom at {bottom:.3f} m, its support's top at {top:.3f} m (snapped, Eq. 4)"
+        )
     return sup.id, placement_z(top, 0.0, -a.dimensions[2] / 2)
 
 
@@ -383,18 +419,29 @@ def _place(scene: GLTFScene, found: list[_Found], rects: list[RoomRect], report:
             continue
         room = next((rid for rid, poly in floor_boxes.items() if poly.contains(Point(pose.centre))), None)
         if room is None:
-            raise LSATImportError(f"'{f.node.name}' stands outside every floor", source=report.source,
-                                  field=f.node.name, fix="move it onto a floor mesh, or add a floor under it")
+            raise LSATImportError(
+                f"'{f.node.name}' stands outside every floor",
+                source=report.source,
+                field=f.node.name,
+                fix="move it onto a floor mesh, or add a floor under it",
+            )
         support, z = _rest(f, pose.centre, placed.furniture, report)
         obj_id = _object_id(f, placed.rows, counts)
         a = cat.get(f.category)
         flag = f.node.extras.get("is_goal")  # our exporter says which furniture is a goal; else the catalog
         is_goal = flag if isinstance(flag, bool) else a.goal_category
-        obj = make_object(cat, obj_id, f.category, pose.centre, z, pose.yaw, a.placement, room, support, None,
-                          is_goal)
+        obj = make_object(
+            cat, obj_id, f.category, pose.centre, z, pose.yaw, a.placement, room, support, None, is_goal
+        )
         (placed.furniture if a.placement == "furniture" else placed.instruments).append(obj)
-        placed.rows[obj_id] = {"id": obj_id, "node": f.node.name, "category": f.category, "is_goal": is_goal,
-                               "goal_strategy": None, "face_from": pose.face_from}
+        placed.rows[obj_id] = {
+            "id": obj_id,
+            "node": f.node.name,
+            "category": f.category,
+            "is_goal": is_goal,
+            "goal_strategy": None,
+            "face_from": pose.face_from,
+        }
     return placed
 
 
@@ -425,34 +472,52 @@ def _assign_markers(placed: _Placed, markers: list[_Marker], report: ImportRepor
     return _Placed([by_id[o.id] for o in placed.furniture], [by_id[o.id] for o in placed.instruments], rows)
 
 
-def _assemble(name: str, shell: _Shell, placed: _Placed, robot_radius: float,
-              report: ImportReport) -> SceneSpec:
+def _assemble(
+    name: str, shell: _Shell, placed: _Placed, robot_radius: float, report: ImportReport
+) -> SceneSpec:
     """The designer scene spec, validated by ``parse_spec`` (a broken designer rule is refused, naming the
     object); the other generator rules become report warnings. A scene without instruments is refused."""
     from biovln_ms.scene.rules import check_layout
 
     cat = load_catalog()
     if not placed.instruments:
-        raise LSATImportError("no instrument found", source=report.source, field="nodes",
-                              fix=f"name instrument nodes by category ({', '.join(cat.names())})")
-    obj = {"schema_version": SCHEMA_VERSION, "name": name, "template": DESIGNER_TEMPLATE, "seed": 0,
-           "generator_version": 0, "robot_radius": robot_radius, "catalog_sha256": cat.sha256,
-           "rooms": [r.model_dump() for r in shell.rooms], "walls": [w.model_dump() for w in shell.walls],
-           "openings": [o.model_dump() for o in shell.openings],
-           "furniture": [o.model_dump() for o in placed.furniture],
-           "instruments": [o.model_dump() for o in placed.instruments]}
+        raise LSATImportError(
+            "no instrument found",
+            source=report.source,
+            field="nodes",
+            fix=f"name instrument nodes by category ({', '.join(cat.names())})",
+        )
+    obj = {
+        "schema_version": SCHEMA_VERSION,
+        "name": name,
+        "template": DESIGNER_TEMPLATE,
+        "seed": 0,
+        "generator_version": 0,
+        "robot_radius": robot_radius,
+        "catalog_sha256": cat.sha256,
+        "rooms": [r.model_dump() for r in shell.rooms],
+        "walls": [w.model_dump() for w in shell.walls],
+        "openings": [o.model_dump() for o in shell.openings],
+        "furniture": [o.model_dump() for o in placed.furniture],
+        "instruments": [o.model_dump() for o in placed.instruments],
+    }
     try:
         spec = parse_spec(obj, source=report.source)
     except SceneSpecError as e:
         fix = e.fix or "move the named object in the authoring tool"
-        raise LSATImportError(f"the imported scene breaks a rule: {e.message}", source=report.source,
-                              field=e.field, fix=fix) from None
+        raise LSATImportError(
+            f"the imported scene breaks a rule: {e.message}", source=report.source, field=e.field, fix=fix
+        ) from None
     report.warnings += [f"generator rule '{v.rule}': {v.message}" for v in check_layout(spec)]
     return spec
 
 
-def import_glb(path: str | Path, name: str | None = None, allow_external: bool = False,
-               robot_radius: float = ROBOT_RADIUS) -> tuple[SceneSpec, ImportReport]:
+def import_glb(
+    path: str | Path,
+    name: str | None = None,
+    allow_external: bool = False,
+    robot_radius: float = ROBOT_RADIUS,
+) -> tuple[SceneSpec, ImportReport]:
     """Read, interpret and validate a designer GLB: rooms, classify, place, assign markers, assemble. The
     spec passes ``parse_spec`` (designer rules); the report says where each goal came from."""
     from biovln_ms.scene.generator import rooms_from_rects

@@ -80,12 +80,16 @@ class LayoutRequest(_Strict):
 
 def parse_request(obj, source: str = "<layout request>") -> LayoutRequest:
     if not isinstance(obj, dict):
-        raise LayoutError("a layout request must be a mapping", source=source, fix="see `biovln-ms layout solve --help`")
+        raise LayoutError(
+            "a layout request must be a mapping", source=source, fix="see `biovln-ms layout solve --help`"
+        )
     try:
         return LayoutRequest.model_validate(obj)
     except ValidationError as e:
         field, msg = describe_validation_error(e)
-        raise LayoutError(msg, source=source, field=field, fix="see the request schema in biovln_ms/lsat/layout.py") from None
+        raise LayoutError(
+            msg, source=source, field=field, fix="see the request schema in biovln_ms/lsat/layout.py"
+        ) from None
 
 
 def load_request(path: str | Path) -> LayoutRequest:
@@ -97,12 +101,16 @@ def load_request(path: str | Path) -> LayoutRequest:
     try:
         obj = yaml.safe_load(path.read_text())  # safe_load: plain data only, no tags that construct objects
     except yaml.YAMLError as e:
-        raise LayoutError(f"not valid YAML/JSON ({str(e).splitlines()[0]})", source=str(path), fix="fix the syntax") from None
+        raise LayoutError(
+            f"not valid YAML/JSON ({str(e).splitlines()[0]})", source=str(path), fix="fix the syntax"
+        ) from None
     return parse_request(obj, str(path))
 
 
 # --- the solver ------------------------------------------------------------------------------------
-def _furniture_slots(req: LayoutRequest, need_support: bool) -> tuple[list[dict], list[str], dict[str, tuple]]:
+def _furniture_slots(
+    req: LayoutRequest, need_support: bool
+) -> tuple[list[dict], list[str], dict[str, tuple]]:
     """Benches along the west wall, tables along the south (then north) wall; the walls they occupy."""
     cat = load_catalog()
     W, D = req.room.width, req.room.depth
@@ -116,12 +124,23 @@ def _furniture_slots(req: LayoutRequest, need_support: bool) -> tuple[list[dict]
     bw, bd = cat.get("lab_bench").dimensions[:2]
     for k in range(n_bench):
         if bd > D - 2 * WALL_MARGIN:
-            raise LayoutError(f"a lab bench is {bd:.2f} m long; the room is {D:.2f} m deep", field="furniture.lab_bench",
-                              fix="make the room deeper (>= 6.6 m) or ask for lab tables instead")
+            raise LayoutError(
+                f"a lab bench is {bd:.2f} m long; the room is {D:.2f} m deep",
+                field="furniture.lab_bench",
+                fix="make the room deeper (>= 6.6 m) or ask for lab tables instead",
+            )
         side = ("W", "E")[k]
         x = bw / 2 if side == "W" else W - bw / 2
-        out.append({"id": f"bench_{k}", "category": "lab_bench", "room": "lab", "center": [x, D / 2],
-                    "face": [1.0, 0.0] if side == "W" else [-1.0, 0.0], "goal": True})
+        out.append(
+            {
+                "id": f"bench_{k}",
+                "category": "lab_bench",
+                "room": "lab",
+                "center": [x, D / 2],
+                "face": [1.0, 0.0] if side == "W" else [-1.0, 0.0],
+                "goal": True,
+            }
+        )
         used[side] = (0.0, D)
     tw, td = cat.get("lab_table").dimensions[:2]
     x0 = (bw if "W" in used else 0.0) + WALL_MARGIN
@@ -131,12 +150,23 @@ def _furniture_slots(req: LayoutRequest, need_support: bool) -> tuple[list[dict]
         side = "S" if k < per_wall else "N"
         j = k if side == "S" else k - per_wall
         if j >= per_wall:
-            raise LayoutError(f"{n_table} lab tables do not fit along the {W:.1f} m walls", field="furniture.lab_table",
-                              fix="ask for fewer tables or a wider room")
+            raise LayoutError(
+                f"{n_table} lab tables do not fit along the {W:.1f} m walls",
+                field="furniture.lab_table",
+                fix="ask for fewer tables or a wider room",
+            )
         x = x0 + (j + 0.5) * (x1 - x0) / per_wall
         y = td / 2 if side == "S" else D - td / 2
-        out.append({"id": f"table_{k}", "category": "lab_table", "room": "lab", "center": [x, y],
-                    "face": [0.0, 1.0] if side == "S" else [0.0, -1.0], "goal": True})
+        out.append(
+            {
+                "id": f"table_{k}",
+                "category": "lab_table",
+                "room": "lab",
+                "center": [x, y],
+                "face": [0.0, 1.0] if side == "S" else [0.0, -1.0],
+                "goal": True,
+            }
+        )
         lo, hi = used.get(side, (x - tw / 2, x + tw / 2))
         used[side] = (min(lo, x - tw / 2), max(hi, x + tw / 2))
     return out, notes, used
@@ -162,7 +192,11 @@ def request_template(req: LayoutRequest):
     need_support = any(cat.get(r.category).placement == "table_top" for r, _ in units)
     furniture, notes, used = _furniture_slots(req, need_support)
     supports = [f["id"] for f in furniture]
-    walls_free = [s for s in ("E", "N", "S", "W") if s not in used or _wall_span(s, W, D, used)[1] - _wall_span(s, W, D, used)[0] > 1.0]
+    walls_free = [
+        s
+        for s in ("E", "N", "S", "W")
+        if s not in used or _wall_span(s, W, D, used)[1] - _wall_span(s, W, D, used)[0] > 1.0
+    ]
     slots, wall_turn, sup_turn = [], 0, 0
     for r, k in units:
         a = cat.get(r.category)
@@ -170,20 +204,53 @@ def request_template(req: LayoutRequest):
         if a.placement == "wall":
             side = r.wall or walls_free[wall_turn % len(walls_free)]
             wall_turn += r.wall is None
-            slots.append({"id": sid, "placement": "wall", "room": "lab", "wall": side, "span": _wall_span(side, W, D, used),
-                          "categories": [r.category], "fixed": True})
+            slots.append(
+                {
+                    "id": sid,
+                    "placement": "wall",
+                    "room": "lab",
+                    "wall": side,
+                    "span": _wall_span(side, W, D, used),
+                    "categories": [r.category],
+                    "fixed": True,
+                }
+            )
         elif a.placement == "table_top":
-            slots.append({"id": sid, "placement": "table_top", "support": supports[sup_turn % len(supports)],
-                          "span": [0.1, 0.9], "categories": [r.category], "fixed": True})
+            slots.append(
+                {
+                    "id": sid,
+                    "placement": "table_top",
+                    "support": supports[sup_turn % len(supports)],
+                    "span": [0.1, 0.9],
+                    "categories": [r.category],
+                    "fixed": True,
+                }
+            )
             sup_turn += 1
         else:
             m = 1.2
-            slots.append({"id": sid, "placement": "floor", "room": "lab", "region": [m, m, W - m, D - m],
-                          "categories": [r.category], "fixed": True})
+            slots.append(
+                {
+                    "id": sid,
+                    "placement": "floor",
+                    "room": "lab",
+                    "region": [m, m, W - m, D - m],
+                    "categories": [r.category],
+                    "fixed": True,
+                }
+            )
     name = req.name or "layout"
-    obj = {"name": name, "description": "solved from a layout request", "name_pattern": name + "_s{seed}",
-           "wall_height": req.room.height, "rooms": [{"id": "lab", "kind": "room", "rect": [0.0, 0.0, W, D]}],
-           "furniture": furniture, "slots": slots, "active_slots": [len(slots), len(slots)], "max_attempts": 600}
+    obj = {
+        "name": name,
+        "description": "solved from a layout request",
+        "name_pattern": name + "_s{seed}",
+        "wall_height": req.room.height,
+        "rooms": [{"id": "lab", "kind": "room", "rect": [0.0, 0.0, W, D]}],
+        "furniture": furniture,
+        "slots": slots,
+        "active_slots": [len(slots), len(slots)],
+        "max_attempts": 600,
+    }
     return parse_template(obj, "<layout request>"), notes
 
 
@@ -195,8 +262,11 @@ def solve_layout(req: LayoutRequest) -> tuple[SceneSpec, list[str]]:
     try:
         return generate_scene(template, req.seed), notes
     except GenerationError as e:
-        raise LayoutError(f"the request cannot be laid out: {e.message}", field="instruments",
-                          fix="a bigger room, fewer instruments, or other walls for them") from None
+        raise LayoutError(
+            f"the request cannot be laid out: {e.message}",
+            field="instruments",
+            fix="a bigger room, fewer instruments, or other walls for them",
+        ) from None
 
 
 # --- the LLM front end -----------------------------------------------------------------------------
@@ -213,7 +283,9 @@ Pick a room size that fits the instruments with aisles of at least 1 m. Do not i
 
 def _categories_line() -> str:
     cat = load_catalog()
-    return ", ".join(f"{n} ({cat.get(n).placement})" for n in cat.names() if cat.get(n).placement != "furniture")
+    return ", ".join(
+        f"{n} ({cat.get(n).placement})" for n in cat.names() if cat.get(n).placement != "furniture"
+    )
 
 
 def suggest_request(description: str, client=None) -> LayoutRequest:
@@ -223,7 +295,9 @@ def suggest_request(description: str, client=None) -> LayoutRequest:
     client = client or JSONChatClient()
     description = re.sub(r"\s+", " ", description).strip()[:2000]
     if not description:
-        raise LayoutError("empty description", field="description", fix='e.g. "a cell-culture room with two incubators"')
+        raise LayoutError(
+            "empty description", field="description", fix='e.g. "a cell-culture room with two incubators"'
+        )
     errors: list[str] = []
 
     def valid(obj: dict) -> bool:
@@ -237,8 +311,11 @@ def suggest_request(description: str, client=None) -> LayoutRequest:
     answer = client.ask(SYSTEM_PROMPT % _categories_line(), description, validate=valid)
     if answer is None:
         why = errors[-1] if errors else f"the endpoint failed ({dict(client.stats.failure_kinds)})"
-        raise LayoutError(f"the LLM gave no valid layout request: {why}", field="description",
-                          fix="rephrase, or write the request yourself and run `biovln-ms layout solve request.yaml`")
+        raise LayoutError(
+            f"the LLM gave no valid layout request: {why}",
+            field="description",
+            fix="rephrase, or write the request yourself and run `biovln-ms layout solve request.yaml`",
+        )
     return LayoutRequest.model_validate(answer)
 
 

@@ -17,11 +17,16 @@ def suggested_marker(node_name: str, center_xy, yaw: float) -> tuple[str, tuple[
     m = match_category(node_name)
     if m.category is None:
         why = f"ambiguous between {', '.join(m.candidates)}" if m.ambiguous else "matches no catalog category"
-        raise BioVLNError(f"'{node_name}' {why}", field="name",
-                          fix=f"rename it after its category ({', '.join(load_catalog().names())})")
+        raise BioVLNError(
+            f"'{node_name}' {why}",
+            field="name",
+            fix=f"rename it after its category ({', '.join(load_catalog().names())})",
+        )
     a = load_catalog().get(m.category)
     if a.face_vector is None:
-        raise BioVLNError(f"'{m.category}' has no operational face", field="category", fix="it cannot be a goal")
+        raise BioVLNError(
+            f"'{m.category}' has no operational face", field="category", fix="it cannot be a goal"
+        )
     face = rot2(yaw) @ np.asarray(a.face_vector, float)
     g = goal_position(center_xy, face, a.d_half, a.approach_distance)
     return f"{TARGET_PREFIX}{m.category}", (float(g[0]), float(g[1]))
@@ -35,6 +40,13 @@ def check_markers(names: list[str]) -> list[dict]:
             continue
         m = match_category(n, TARGET_PREFIX)
         status = "ok" if m.category else ("ambiguous" if m.ambiguous else "unmatched")
-        rows.append({"name": n, "category": m.category, "distance": m.distance, "status": status,
-                     "candidates": list(m.candidates)})
+        rows.append(
+            {
+                "name": n,
+                "category": m.category,
+                "distance": m.distance,
+                "status": status,
+                "candidates": list(m.candidates),
+            }
+        )
     return rows

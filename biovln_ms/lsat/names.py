@@ -54,7 +54,7 @@ def match_category(name: str, strip_prefix: str | None = None) -> Match:
     """The catalog category a node name denotes (fuzzy, distance <= 2), or why none."""
     key = normalise(name)
     if strip_prefix and key.startswith(strip_prefix):
-        key = key[len(strip_prefix):]
+        key = key[len(strip_prefix) :]
     best: dict[str, int] = {}
     for alias, category in _aliases().items():
         d = Levenshtein.distance(key, alias, score_cutoff=MAX_DISTANCE)

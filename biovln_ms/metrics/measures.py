@@ -69,7 +69,11 @@ class BatchContext:
         self.episodes[i] = ctx
         t = lambda v: torch.as_tensor(np.asarray(v, float), dtype=F64, device=self.device)  # noqa: E731
         self.goal[i], self.target_centre[i] = t(ctx.goal), t(ctx.target.center_xy)
-        self.radius[i], self.start_geodesic[i], self.hfov[i] = ctx.success_radius, ctx.start_geodesic, ctx.hfov
+        self.radius[i], self.start_geodesic[i], self.hfov[i] = (
+            ctx.success_radius,
+            ctx.start_geodesic,
+            ctx.hfov,
+        )
         self.has_zone3[i] = ctx.target.model_face is not None
         if ctx.target.model_face is not None:
             corners = ctx.target.zone3_corners()
@@ -99,7 +103,13 @@ class StepState:
         """The state at reset: pose (N, 3), no command."""
         pose = pose.to(F64)
         zeros = torch.zeros(len(pose), dtype=F64, device=pose.device)
-        return cls(pose[:, :2], pose[:, 2], torch.zeros(len(pose), dtype=torch.bool, device=pose.device), zeros, zeros)
+        return cls(
+            pose[:, :2],
+            pose[:, 2],
+            torch.zeros(len(pose), dtype=torch.bool, device=pose.device),
+            zeros,
+            zeros,
+        )
 
 
 class Measure:
@@ -147,7 +157,9 @@ def measure_names() -> list[str]:
 def _per_env(ctx: BatchContext, s: StepState, idx: torch.Tensor, fn: Callable, dtype=F64) -> torch.Tensor:
     """``fn(episode_context, position)`` for each sub-env in ``idx`` (per-scene geometry)."""
     pos = s.position[idx].cpu().numpy()
-    return torch.tensor([fn(ctx.episode(i), p) for i, p in zip(idx.tolist(), pos)], dtype=dtype, device=s.position.device)
+    return torch.tensor(
+        [fn(ctx.episode(i), p) for i, p in zip(idx.tolist(), pos)], dtype=dtype, device=s.position.device
+    )
 
 
 @register_measure
@@ -380,8 +392,12 @@ class NavReward(Measure):
         unsafe = clearance < SAFETY_THRESHOLD
         scale = (1.0 - clearance / SAFETY_THRESHOLD) if c.proportional_safety else torch.ones_like(clearance)
         safety = torch.where(unsafe, c.safety_penalty * scale, torch.zeros_like(clearance))
-        self.value[idx] = ((self.previous_distance[idx] - d) - c.step_penalty
-                           + c.success_bonus * m["success"][idx].to(F64) - safety)
+        self.value[idx] = (
+            (self.previous_distance[idx] - d)
+            - c.step_penalty
+            + c.success_bonus * m["success"][idx].to(F64)
+            - safety
+        )
         self.previous_distance[idx] = d
 
 
@@ -412,8 +428,13 @@ class GoalPosition(Measure):
 class MeasureSet:
     """Registered measures for ``n`` sub-envs, updated in dependency order."""
 
-    def __init__(self, names: tuple[str, ...] = NavTaskConfig().measures, n: int = 1,
-                 device: torch.device | str = "cpu", cfg: NavTaskConfig | None = None) -> None:
+    def __init__(
+        self,
+        names: tuple[str, ...] = NavTaskConfig().measures,
+        n: int = 1,
+        device: torch.device | str = "cpu",
+        cfg: NavTaskConfig | None = None,
+    ) -> None:
         order: list[str] = []
 
         def visit(name: str, stack: tuple = ()) -> None:
@@ -464,7 +485,10 @@ class MeasureSet:
 
     def state_dict(self) -> dict[str, dict[str, torch.Tensor]]:
         """Every measure's state tensors (cloned): what a replay needs to continue the episode."""
-        return {name: {k: getattr(meas, k).clone() for k in meas.state_names} for name, meas in self.measures.items()}
+        return {
+            name: {k: getattr(meas, k).clone() for k in meas.state_names}
+            for name, meas in self.measures.items()
+        }
 
     def load_state_dict(self, state: dict, env_idx: torch.Tensor | None = None) -> None:
         """Restore rows ``env_idx`` (all by default) from :meth:`state_dict` output."""

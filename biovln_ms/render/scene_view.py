@@ -16,8 +16,16 @@ def render_overview(spec: SceneSpec, out: str | Path, size: tuple[int, int] = (9
 
     import biovln_ms.tasks.lab_scene_env  # noqa: F401  (registers the env)
 
-    env = gym.make("BioVLN-LabScene-v0", specs=[spec], ceiling=False, render_size=size, render_mode="rgb_array",
-                   obs_mode="none", sim_backend="physx_cpu", render_backend=_render_backend())
+    env = gym.make(
+        "BioVLN-LabScene-v0",
+        specs=[spec],
+        ceiling=False,
+        render_size=size,
+        render_mode="rgb_array",
+        obs_mode="none",
+        sim_backend="physx_cpu",
+        render_backend=_render_backend(),
+    )
     try:
         env.reset(seed=0)
         frame = env.render()

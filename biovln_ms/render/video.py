@@ -55,7 +55,7 @@ def side_by_side(ego: np.ndarray, map_img: np.ndarray) -> np.ndarray:
     h = max(ego.shape[0], map_img.shape[0])
     out = np.full((h, ego.shape[1] + map_img.shape[1], 3), 255, np.uint8)
     out[: ego.shape[0], : ego.shape[1]] = ego
-    out[: map_img.shape[0], ego.shape[1]:] = map_img
+    out[: map_img.shape[0], ego.shape[1] :] = map_img
     # even sizes for H.264
     return out[: out.shape[0] // 2 * 2, : out.shape[1] // 2 * 2]
 

@@ -46,8 +46,13 @@ def assemble(spec: SceneSpec) -> trimesh.Scene:
         scene.graph.update(frame_to=shell_name, frame_from=scene.graph.base_frame, matrix=np.eye(4))
         for node in part.graph.nodes_geometry:
             tf, geom = part.graph[node]
-            scene.add_geometry(part.geometry[geom], node_name=f"{shell_name}/{geom}", geom_name=f"{shell_name}/{geom}",
-                               parent_node_name=shell_name, transform=tf)
+            scene.add_geometry(
+                part.geometry[geom],
+                node_name=f"{shell_name}/{geom}",
+                geom_name=f"{shell_name}/{geom}",
+                parent_node_name=shell_name,
+                transform=tf,
+            )
     assets: dict[str, trimesh.Scene] = {}
     from biovln_ms.paths import asset_glb
 
@@ -55,12 +60,19 @@ def assemble(spec: SceneSpec) -> trimesh.Scene:
         if o.category not in assets:
             assets[o.category] = load_glb(asset_glb(o.category))
         asset = assets[o.category]
-        scene.graph.update(frame_to=o.id, frame_from=scene.graph.base_frame, matrix=_yaw_matrix(o.position, o.yaw))
+        scene.graph.update(
+            frame_to=o.id, frame_from=scene.graph.base_frame, matrix=_yaw_matrix(o.position, o.yaw)
+        )
         for node in asset.graph.nodes_geometry:
             tf, geom = asset.graph[node]
             part = geom.split(".", 1)[-1]
-            scene.add_geometry(asset.geometry[geom], node_name=f"{o.id}/{part}", geom_name=f"{o.id}/{part}",
-                               parent_node_name=o.id, transform=tf)
+            scene.add_geometry(
+                asset.geometry[geom],
+                node_name=f"{o.id}/{part}",
+                geom_name=f"{o.id}/{part}",
+                parent_node_name=o.id,
+                transform=tf,
+            )
     return scene
 
 
@@ -69,10 +81,10 @@ def _chunks(glb: bytes) -> tuple[dict, bytearray]:
     if magic != 0x46546C67 or version != 2:
         raise ValueError("not a glTF 2.0 binary")
     jlen, jtype = struct.unpack_from("<II", glb, 12)
-    gltf = json.loads(glb[20:20 + jlen])
+    gltf = json.loads(glb[20 : 20 + jlen])
     off = 20 + jlen
     blen, _ = struct.unpack_from("<II", glb, off)
-    return gltf, bytearray(glb[off + 8: off + 8 + blen])
+    return gltf, bytearray(glb[off + 8 : off + 8 + blen])
 
 
 def _pack(gltf: dict, binary: bytearray) -> bytes:
@@ -80,8 +92,13 @@ def _pack(gltf: dict, binary: bytearray) -> bytes:
     j += b" " * (-len(j) % 4)
     binary += b"\0" * (-len(binary) % 4)
     total = 12 + 8 + len(j) + 8 + len(binary)
-    return (struct.pack("<III", 0x46546C67, 2, total) + struct.pack("<II", len(j), 0x4E4F534A) + j
-            + struct.pack("<II", len(binary), 0x004E4942) + bytes(binary))
+    return (
+        struct.pack("<III", 0x46546C67, 2, total)
+        + struct.pack("<II", len(j), 0x4E4F534A)
+        + j
+        + struct.pack("<II", len(binary), 0x004E4942)
+        + bytes(binary)
+    )
 
 
 def annotate(glb: bytes, spec: SceneSpec) -> bytes:
@@ -95,9 +112,16 @@ def annotate(glb: bytes, spec: SceneSpec) -> bytes:
         owner = name.split("/", 1)[0]
         if name in objects:
             o = objects[name]
-            node["extras"] = {"object_id": o.id, "category": o.category, "is_goal": o.is_goal, "placement": o.placement,
-                              "goal": list(o.goal) if o.goal else None, "face": list(o.face) if o.face else None,
-                              "success_radius": o.success_radius, "semantic_color": list(colors[o.category])}
+            node["extras"] = {
+                "object_id": o.id,
+                "category": o.category,
+                "is_goal": o.is_goal,
+                "placement": o.placement,
+                "goal": list(o.goal) if o.goal else None,
+                "face": list(o.face) if o.face else None,
+                "success_radius": o.success_radius,
+                "semantic_color": list(colors[o.category]),
+            }
         elif name in ("room_shell", "ceiling"):
             node["extras"] = {"category": ROOM_CATEGORY, "semantic_color": list(colors[ROOM_CATEGORY])}
         if "mesh" in node:
@@ -110,14 +134,27 @@ def annotate(glb: bytes, spec: SceneSpec) -> bytes:
             count = gltf["accessors"][prim["attributes"]["POSITION"]]["count"]
             binary += b"\0" * (-len(binary) % 4)
             data = np.tile(np.array(rgba, np.uint8), (count, 1)).tobytes()
-            gltf["bufferViews"].append({"buffer": 0, "byteOffset": len(binary), "byteLength": len(data), "target": 34962})
+            gltf["bufferViews"].append(
+                {"buffer": 0, "byteOffset": len(binary), "byteLength": len(data), "target": 34962}
+            )
             binary += data
-            gltf["accessors"].append({"bufferView": len(gltf["bufferViews"]) - 1, "componentType": 5121, "normalized": True,
-                                      "count": count, "type": "VEC4"})
+            gltf["accessors"].append(
+                {
+                    "bufferView": len(gltf["bufferViews"]) - 1,
+                    "componentType": 5121,
+                    "normalized": True,
+                    "count": count,
+                    "type": "VEC4",
+                }
+            )
             prim["attributes"]["COLOR_0"] = len(gltf["accessors"]) - 1
     gltf["buffers"][0]["byteLength"] = len(binary) + (-len(binary) % 4)
-    gltf.setdefault("asset", {})["extras"] = {"scene": spec.name, "template": spec.template, "seed": spec.seed,
-                                              "semantic_colors": {k: list(v) for k, v in colors.items()}}
+    gltf.setdefault("asset", {})["extras"] = {
+        "scene": spec.name,
+        "template": spec.template,
+        "seed": spec.seed,
+        "semantic_colors": {k: list(v) for k, v in colors.items()},
+    }
     return _pack(gltf, binary)
 
 

@@ -43,10 +43,15 @@ def build_rooms(t: Template) -> tuple[list[RoomSpec], list[WallSpec], list[Openi
     return rooms_from_rects([(r.id, r.kind, r.rect) for r in t.rooms], t.wall_height)
 
 
-def rooms_from_rects(rects: Sequence[tuple[str, str, Sequence[float]]], wall_height: float,
-                     ) -> tuple[list[RoomSpec], list[WallSpec], list[OpeningSpec]]:
+def rooms_from_rects(
+    rects: Sequence[tuple[str, str, Sequence[float]]],
+    wall_height: float,
+) -> tuple[list[RoomSpec], list[WallSpec], list[OpeningSpec]]:
     """Rooms of axis-aligned rectangles (id, kind, (x0, y0, x1, y1)), walls along their union, openings."""
-    rooms = [RoomSpec(id=rid, kind=kind, polygon=_rect_polygon(rect), height=wall_height) for rid, kind, rect in rects]
+    rooms = [
+        RoomSpec(id=rid, kind=kind, polygon=_rect_polygon(rect), height=wall_height)
+        for rid, kind, rect in rects
+    ]
     floor = unary_union([box(*rect) for _, _, rect in rects]).simplify(0)
     polys = list(getattr(floor, "geoms", [floor]))
     walls = []
@@ -61,17 +66,32 @@ def rooms_from_rects(rects: Sequence[tuple[str, str, Sequence[float]]], wall_hei
                 if n < 1e-9:
                     continue
                 interior = (-dy / n, dx / n) if floor_on_left else (dy / n, -dx / n)
-                walls.append(WallSpec(id=f"wall_{len(walls)}", start=a, end=b, interior=interior,
-                                      thickness=WALL_THICKNESS, height=wall_height))
+                walls.append(
+                    WallSpec(
+                        id=f"wall_{len(walls)}",
+                        start=a,
+                        end=b,
+                        interior=interior,
+                        thickness=WALL_THICKNESS,
+                        height=wall_height,
+                    )
+                )
     openings = []
     for i, (ida, _, ra) in enumerate(rects):
-        for idb, _, rb in rects[i + 1:]:
+        for idb, _, rb in rects[i + 1 :]:
             shared = box(*ra).intersection(box(*rb))
             if shared.length > 0 and shared.area < 1e-9 and isinstance(shared, LineString):
                 (x0, y0), (x1, y1) = shared.coords[0], shared.coords[-1]
                 normal = (0.0, 1.0) if abs(y1 - y0) < 1e-9 else (1.0, 0.0)
-                openings.append(OpeningSpec(id=f"opening_{len(openings)}", rooms=(ida, idb),
-                                            center=((x0 + x1) / 2, (y0 + y1) / 2), width=shared.length, normal=normal))
+                openings.append(
+                    OpeningSpec(
+                        id=f"opening_{len(openings)}",
+                        rooms=(ida, idb),
+                        center=((x0 + x1) / 2, (y0 + y1) / 2),
+                        width=shared.length,
+                        normal=normal,
+                    )
+                )
     return rooms, walls, openings
 
 
@@ -79,19 +99,42 @@ def _world_extent(size: Sequence[float], yaw: float) -> np.ndarray:
     return np.abs(rot2(yaw)) @ np.asarray(size[:2], float)
 
 
-def make_object(cat: Catalog, obj_id: str, category: str, xy: Sequence[float], z: float, yaw: float, placement: str,
-                 room: str, support: str | None, slot: str | None, is_goal: bool) -> ObjectSpec:
+def make_object(
+    cat: Catalog,
+    obj_id: str,
+    category: str,
+    xy: Sequence[float],
+    z: float,
+    yaw: float,
+    placement: str,
+    room: str,
+    support: str | None,
+    slot: str | None,
+    is_goal: bool,
+) -> ObjectSpec:
     a = cat.get(category)
     yaw = wrap_angle(yaw)
     face = None if a.face_vector is None else tuple(float(v) for v in rot2(yaw) @ a.face_vector)
     goal = None
     if is_goal:
         goal = tuple(float(v) for v in goal_position(xy, face, a.d_half, a.approach_distance))
-    return ObjectSpec(id=obj_id, category=category, position=(float(xy[0]), float(xy[1]), float(z)), yaw=float(yaw),
-                      size=tuple(a.dimensions), placement=placement, room=room, support=support, slot=slot,
-                      is_goal=is_goal, face=face, d_half=a.d_half if is_goal else None,
-                      approach_distance=a.approach_distance if is_goal else None,
-                      success_radius=a.success_radius if is_goal else None, goal=goal)
+    return ObjectSpec(
+        id=obj_id,
+        category=category,
+        position=(float(xy[0]), float(xy[1]), float(z)),
+        yaw=float(yaw),
+        size=tuple(a.dimensions),
+        placement=placement,
+        room=room,
+        support=support,
+        slot=slot,
+        is_goal=is_goal,
+        face=face,
+        d_half=a.d_half if is_goal else None,
+        approach_distance=a.approach_distance if is_goal else None,
+        success_radius=a.success_radius if is_goal else None,
+        goal=goal,
+    )
 
 
 def _room_rect(t: Template, room_id: str) -> tuple[float, float, float, float]:
@@ -107,8 +150,11 @@ def _place_wall(cat, t, slot: InstrumentSlot, category, rng) -> tuple[np.ndarray
     along_axis = 0 if slot.wall in ("N", "S") else 1
     lo, hi = slot.span[0] + ext[along_axis] / 2, slot.span[1] - ext[along_axis] / 2
     if hi < lo:
-        raise TemplateError(f"slot '{slot.id}' spans {slot.span[1] - slot.span[0]:.2f} m, too short for '{category}' "
-                            f"({ext[along_axis]:.2f} m along the wall)", field="slots.span")
+        raise TemplateError(
+            f"slot '{slot.id}' spans {slot.span[1] - slot.span[0]:.2f} m, too short for '{category}' "
+            f"({ext[along_axis]:.2f} m along the wall)",
+            field="slots.span",
+        )
     along = rng.uniform(lo, hi)
     wall_coord = {"S": y0, "N": y1, "W": x0, "E": x1}[slot.wall]
     normal = wall_coord + interior[1 - along_axis] * ext[1 - along_axis] / 2
@@ -118,12 +164,16 @@ def _place_wall(cat, t, slot: InstrumentSlot, category, rng) -> tuple[np.ndarray
     return xy, a.dimensions[2] / 2, yaw
 
 
-def _place_table_top(cat, t, slot: InstrumentSlot, category, rng, furniture: dict[str, ObjectSpec], floor) -> tuple[np.ndarray, float, float]:
+def _place_table_top(
+    cat, t, slot: InstrumentSlot, category, rng, furniture: dict[str, ObjectSpec], floor
+) -> tuple[np.ndarray, float, float]:
     a = cat.get(category)
     sup = furniture[slot.support]
     top = cat.support_heights.get(sup.category)
     if top is None:
-        raise TemplateError(f"slot '{slot.id}': '{sup.category}' has no support height", field="slots.support")
+        raise TemplateError(
+            f"slot '{slot.id}': '{sup.category}' has no support height", field="slots.support"
+        )
     sp = sup.placed()
     half = sp.half_xy
     long_axis = int(np.argmax(half))
@@ -184,8 +234,10 @@ def _choose_slots(t: Template, rng, required: Sequence[str]) -> list[tuple[Instr
     for cat_name in required:
         options = [s for s in t.slots if s.id not in chosen and cat_name in s.categories]
         if not options:
-            raise TemplateError(f"no free slot of template '{t.name}' accepts required category '{cat_name}'",
-                                field="required_categories")
+            raise TemplateError(
+                f"no free slot of template '{t.name}' accepts required category '{cat_name}'",
+                field="required_categories",
+            )
         fixed_opts = [s for s in options if s.fixed]
         pick = fixed_opts[0] if fixed_opts else options[int(rng.integers(len(options)))]
         chosen[pick.id] = cat_name
@@ -200,15 +252,26 @@ def _choose_slots(t: Template, rng, required: Sequence[str]) -> list[tuple[Instr
     return [(s, chosen[s.id]) for s in t.slots if s.id in chosen]
 
 
-def _attempt(t: Template, seed: int, attempt: int, cat: Catalog, required: Sequence[str], radius: float,
-             rooms, walls, openings, floor) -> tuple[SceneSpec, list[Violation]]:
+def _attempt(
+    t: Template,
+    seed: int,
+    attempt: int,
+    cat: Catalog,
+    required: Sequence[str],
+    radius: float,
+    rooms,
+    walls,
+    openings,
+    floor,
+) -> tuple[SceneSpec, list[Violation]]:
     rng = np.random.default_rng([seed, attempt])
     furniture: dict[str, ObjectSpec] = {}
     for f in t.furniture:
         a = cat.get(f.category)
         yaw = yaw_facing(a.face_vector, f.face) if a.face_vector is not None else 0.0
-        furniture[f.id] = make_object(cat, f.id, f.category, f.center, a.dimensions[2] / 2, yaw, "furniture", f.room,
-                                       None, None, f.goal)
+        furniture[f.id] = make_object(
+            cat, f.id, f.category, f.center, a.dimensions[2] / 2, yaw, "furniture", f.room, None, None, f.goal
+        )
     instruments = []
     counts: Counter = Counter()
     for slot, category in _choose_slots(t, rng, required):
@@ -223,17 +286,35 @@ def _attempt(t: Template, seed: int, attempt: int, cat: Catalog, required: Seque
             room, support = slot.room, None
         obj_id = f"{category}_{counts[category]}"
         counts[category] += 1
-        instruments.append(make_object(cat, obj_id, category, xy, z, yaw, slot.placement, room, support, slot.id, True))
-    spec = SceneSpec(schema_version=1, name=t.scene_name(seed), template=t.name, seed=seed,
-                     generator_version=SCENE_GENERATOR_VERSION, robot_radius=radius, catalog_sha256=cat.sha256,
-                     rooms=rooms, walls=walls, openings=openings, furniture=list(furniture.values()), instruments=instruments)
+        instruments.append(
+            make_object(cat, obj_id, category, xy, z, yaw, slot.placement, room, support, slot.id, True)
+        )
+    spec = SceneSpec(
+        schema_version=1,
+        name=t.scene_name(seed),
+        template=t.name,
+        seed=seed,
+        generator_version=SCENE_GENERATOR_VERSION,
+        robot_radius=radius,
+        catalog_sha256=cat.sha256,
+        rooms=rooms,
+        walls=walls,
+        openings=openings,
+        furniture=list(furniture.values()),
+        instruments=instruments,
+    )
     # Round-trip through canonical JSON so the returned spec is exactly what a saved file loads as.
     spec = parse_spec(json.loads(spec.to_json()), check_rules=False)
     return spec, check_layout(spec)
 
 
-def generate_scene(template: str | Template, seed: int, required_categories: Sequence[str] = (),
-                   robot_radius: float = ROBOT_RADIUS, catalog: Catalog | None = None) -> SceneSpec:
+def generate_scene(
+    template: str | Template,
+    seed: int,
+    required_categories: Sequence[str] = (),
+    robot_radius: float = ROBOT_RADIUS,
+    catalog: Catalog | None = None,
+) -> SceneSpec:
     """Generate the scene of ``seed``: byte-identical spec JSON for the same inputs on any machine."""
     t = get_template(template)
     cat = catalog or load_catalog()
@@ -244,13 +325,18 @@ def generate_scene(template: str | Template, seed: int, required_categories: Seq
     tally: Counter = Counter()
     last: list[Violation] = []
     for attempt in range(t.max_attempts):
-        spec, violations = _attempt(t, seed, attempt, cat, required_categories, robot_radius, rooms, walls, openings, floor)
+        spec, violations = _attempt(
+            t, seed, attempt, cat, required_categories, robot_radius, rooms, walls, openings, floor
+        )
         if not violations:
             return spec
         last = violations
         tally.update(v.rule for v in violations)
     rule, n = tally.most_common(1)[0]
     examples = "; ".join(v.message for v in last[:3])
-    raise GenerationError(f"seed {seed} of template '{t.name}': no layout in {t.max_attempts} attempts satisfied every rule; "
-                          f"most often broken: '{rule}' ({n}x); last attempt: {examples}",
-                          field="seed", fix="try another seed, widen the template's slots, or relax required_categories")
+    raise GenerationError(
+        f"seed {seed} of template '{t.name}': no layout in {t.max_attempts} attempts satisfied every rule; "
+        f"most often broken: '{rule}' ({n}x); last attempt: {examples}",
+        field="seed",
+        fix="try another seed, widen the template's slots, or relax required_categories",
+    )

@@ -43,10 +43,14 @@ def obstacle_footprints(spec: SceneSpec) -> list:
 
 
 def scene_free_space(spec: SceneSpec, radius: float | None = None):
-    return free_space(floor_polygon(spec), obstacle_footprints(spec), spec.robot_radius if radius is None else radius)
+    return free_space(
+        floor_polygon(spec), obstacle_footprints(spec), spec.robot_radius if radius is None else radius
+    )
 
 
-def scene_navigation(spec: SceneSpec, radius: float | None = None, grid_resolution: float = 0.05) -> NavGeometry:
+def scene_navigation(
+    spec: SceneSpec, radius: float | None = None, grid_resolution: float = 0.05
+) -> NavGeometry:
     """NavGeometry of a scene spec (radius defaults to the spec's robot radius)."""
     r = spec.robot_radius if radius is None else radius
     return NavGeometry(scene_free_space(spec, r), r, grid_resolution)
@@ -60,8 +64,9 @@ def _index(spec: SceneSpec, obj: ObjectSpec) -> str:
 
 # Designer-authored scenes (LSAT) keep free placement: only these rules refuse them; the generator's
 # other rules (flush walls, Zone 2 disjoint, Zone 3 clear, ...) are reported by the importer as warnings.
-DESIGNER_RULES = frozenset({"catalog", "Eq. 3", "Eq. 4", "support", "inside rooms", "goal navigable",
-                            "goals mutually reachable"})
+DESIGNER_RULES = frozenset(
+    {"catalog", "Eq. 3", "Eq. 4", "support", "inside rooms", "goal navigable", "goals mutually reachable"}
+)
 
 
 def check_consistency(spec: SceneSpec) -> list[Violation]:
@@ -72,41 +77,103 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
     for o in spec.objects():
         where = _index(spec, o)
         if o.category not in cat:
-            out.append(Violation("catalog", f"{where}.category", f"unknown category '{o.category}'; known: {', '.join(cat.names())}", (o.id,)))
+            out.append(
+                Violation(
+                    "catalog",
+                    f"{where}.category",
+                    f"unknown category '{o.category}'; known: {', '.join(cat.names())}",
+                    (o.id,),
+                )
+            )
             continue
         a = cat.get(o.category)
         if any(abs(x - y) > TOL for x, y in zip(o.size, a.dimensions)):
-            out.append(Violation("catalog", f"{where}.size", f"{list(o.size)} differs from the catalog's {list(a.dimensions)}", (o.id,)))
+            out.append(
+                Violation(
+                    "catalog",
+                    f"{where}.size",
+                    f"{list(o.size)} differs from the catalog's {list(a.dimensions)}",
+                    (o.id,),
+                )
+            )
         if o.face is not None and a.face_vector is not None:
             c, s = math.cos(o.yaw), math.sin(o.yaw)
             m = a.face_vector
             expect = (c * m[0] - s * m[1], s * m[0] + c * m[1])
             if math.dist(expect, o.face) > 1e-3:
-                out.append(Violation("Eq. 3", f"{where}.face", f"{list(o.face)} is not the catalog face {a.face} turned by yaw {o.yaw:.4f} "
-                                     f"({[round(v, 4) for v in expect]})", (o.id,)))
+                out.append(
+                    Violation(
+                        "Eq. 3",
+                        f"{where}.face",
+                        f"{list(o.face)} is not the catalog face {a.face} turned by yaw {o.yaw:.4f} "
+                        f"({[round(v, 4) for v in expect]})",
+                        (o.id,),
+                    )
+                )
         if o.is_goal:
             for key in ("d_half", "approach_distance", "success_radius"):
                 if abs(getattr(o, key) - getattr(a, key)) > TOL:
-                    out.append(Violation("catalog", f"{where}.{key}", f"{getattr(o, key)} differs from the catalog's {getattr(a, key)}", (o.id,)))
+                    out.append(
+                        Violation(
+                            "catalog",
+                            f"{where}.{key}",
+                            f"{getattr(o, key)} differs from the catalog's {getattr(a, key)}",
+                            (o.id,),
+                        )
+                    )
             g = goal_position(o.position[:2], o.face, o.d_half, o.approach_distance)
             if o.goal_source is None and math.dist(g, o.goal) > 1e-3:
-                out.append(Violation("Eq. 1", f"{where}.goal", f"{list(o.goal)} is not c + f(d + delta) = {[round(v, 4) for v in g]}", (o.id,)))
+                out.append(
+                    Violation(
+                        "Eq. 1",
+                        f"{where}.goal",
+                        f"{list(o.goal)} is not c + f(d + delta) = {[round(v, 4) for v in g]}",
+                        (o.id,),
+                    )
+                )
         if o.placement == "table_top":
             sup = supports.get(o.support)
             if sup is None:
-                out.append(Violation("Eq. 4", f"{where}.support", "a table-top instrument needs a support", (o.id,)))
+                out.append(
+                    Violation("Eq. 4", f"{where}.support", "a table-top instrument needs a support", (o.id,))
+                )
                 continue
             top = cat.support_heights.get(sup.category)
             if top is None:
-                out.append(Violation("Eq. 4", f"{where}.support", f"'{sup.category}' has no support height in the catalog", (o.id,)))
+                out.append(
+                    Violation(
+                        "Eq. 4",
+                        f"{where}.support",
+                        f"'{sup.category}' has no support height in the catalog",
+                        (o.id,),
+                    )
+                )
                 continue
             z = placement_z(top, 0.0, -o.size[2] / 2)
             if abs(o.position[2] - z) > 1e-3:
-                out.append(Violation("Eq. 4", f"{where}.position", f"z = {o.position[2]} but on '{sup.id}' (top {top} m) it must be {z:.4f}", (o.id,)))
+                out.append(
+                    Violation(
+                        "Eq. 4",
+                        f"{where}.position",
+                        f"z = {o.position[2]} but on '{sup.id}' (top {top} m) it must be {z:.4f}",
+                        (o.id,),
+                    )
+                )
             if not sup.placed().zone1().buffer(TOL).contains(o.placed().zone1()):
-                out.append(Violation("support", f"{where}.position", f"not fully on its support '{sup.id}'", (o.id, sup.id)))
+                out.append(
+                    Violation(
+                        "support", f"{where}.position", f"not fully on its support '{sup.id}'", (o.id, sup.id)
+                    )
+                )
         elif abs(o.position[2] - o.size[2] / 2) > 1e-3:
-            out.append(Violation("Eq. 4", f"{where}.position", f"z = {o.position[2]} but a floor-standing object rests at {o.size[2] / 2:.4f}", (o.id,)))
+            out.append(
+                Violation(
+                    "Eq. 4",
+                    f"{where}.position",
+                    f"z = {o.position[2]} but a floor-standing object rests at {o.size[2] / 2:.4f}",
+                    (o.id,),
+                )
+            )
     return out
 
 
@@ -127,24 +194,55 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
         where = _index(spec, o)
         p = placed[o.id]
         if not floor.buffer(TOL).contains(p.zone1()):
-            out.append(Violation("inside rooms", f"{where}.position", f"'{o.id}' is not inside the rooms' floor", (o.id,)))
+            out.append(
+                Violation(
+                    "inside rooms", f"{where}.position", f"'{o.id}' is not inside the rooms' floor", (o.id,)
+                )
+            )
         if o.placement == "wall":
             back = np.asarray(o.position[:2]) - np.asarray(o.face) * o.d_half
             if min(w.distance(Point(back)) for w in walls) > 0.01:
-                out.append(Violation("flush with wall", f"{where}.position", f"the back of '{o.id}' is not against a wall", (o.id,)))
+                out.append(
+                    Violation(
+                        "flush with wall",
+                        f"{where}.position",
+                        f"the back of '{o.id}' is not against a wall",
+                        (o.id,),
+                    )
+                )
             if floor.contains(Point(back - 0.05 * np.asarray(o.face))):
-                out.append(Violation("faces interior (Eq. 3)", f"{where}.yaw", f"'{o.id}' does not face the room interior", (o.id,)))
+                out.append(
+                    Violation(
+                        "faces interior (Eq. 3)",
+                        f"{where}.yaw",
+                        f"'{o.id}' does not face the room interior",
+                        (o.id,),
+                    )
+                )
         if o.placement == "table_top" and o.support in supports:
             sup = supports[o.support].placed()
             front = np.asarray(o.position[:2]) + np.asarray(o.face) * (o.d_half + SUPPORT_EDGE_MARGIN + 0.01)
             if sup.zone1().contains(Point(front)):
-                out.append(Violation("faces a free edge", f"{where}.yaw", f"'{o.id}' does not face an edge of '{o.support}'", (o.id,)))
+                out.append(
+                    Violation(
+                        "faces a free edge",
+                        f"{where}.yaw",
+                        f"'{o.id}' does not face an edge of '{o.support}'",
+                        (o.id,),
+                    )
+                )
     for a, b in combinations(objs, 2):
         if _related(a, b):
             continue
         if not zone2_disjoint(placed[a.id], placed[b.id]):
-            out.append(Violation("Zone 2 disjoint (Eq. 2)", f"{_index(spec, b)}.position",
-                                 f"Zone 2 of '{a.id}' and '{b.id}' overlap", (a.id, b.id)))
+            out.append(
+                Violation(
+                    "Zone 2 disjoint (Eq. 2)",
+                    f"{_index(spec, b)}.position",
+                    f"Zone 2 of '{a.id}' and '{b.id}' overlap",
+                    (a.id, b.id),
+                )
+            )
     wall_geom = unary_union(walls).buffer(1e-3)
     for o in objs:
         if not o.is_goal:
@@ -152,23 +250,44 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
         z3 = placed[o.id].zone3()
         where = _index(spec, o)
         if not floor.buffer(TOL).contains(z3) or z3.buffer(-1e-3).intersects(wall_geom):
-            out.append(Violation("Zone 3 clear", f"{where}.position", f"Zone 3 of '{o.id}' crosses a wall", (o.id,)))
+            out.append(
+                Violation("Zone 3 clear", f"{where}.position", f"Zone 3 of '{o.id}' crosses a wall", (o.id,))
+            )
         for b in objs:
             if b.id == o.id or _related(o, b):
                 continue
             if z3.intersection(placed[b.id].zone2()).area > 1e-6:
-                out.append(Violation("Zone 3 clear", f"{where}.position", f"Zone 3 of '{o.id}' overlaps Zone 1/2 of '{b.id}'", (o.id, b.id)))
+                out.append(
+                    Violation(
+                        "Zone 3 clear",
+                        f"{where}.position",
+                        f"Zone 3 of '{o.id}' overlaps Zone 1/2 of '{b.id}'",
+                        (o.id, b.id),
+                    )
+                )
     free = scene_free_space(spec, radius)
     islands = {}
     for o in spec.goal_objects():
         isl = island_of(free, o.goal)
         if isl is None:
-            out.append(Violation("goal navigable", f"{_index(spec, o)}.goal",
-                                 f"goal of '{o.id}' is not on navigable floor for a {spec.robot_radius if radius is None else radius} m robot", (o.id,)))
+            out.append(
+                Violation(
+                    "goal navigable",
+                    f"{_index(spec, o)}.goal",
+                    f"goal of '{o.id}' is not on navigable floor for a {spec.robot_radius if radius is None else radius} m robot",
+                    (o.id,),
+                )
+            )
         else:
             islands.setdefault(isl, []).append(o.id)
     if len(islands) > 1:
         groups = sorted(islands.values(), key=len)
-        out.append(Violation("goals mutually reachable", "instruments", f"goals lie on {len(islands)} separate islands: {groups}",
-                             tuple(groups[0])))
+        out.append(
+            Violation(
+                "goals mutually reachable",
+                "instruments",
+                f"goals lie on {len(islands)} separate islands: {groups}",
+                tuple(groups[0]),
+            )
+        )
     return out

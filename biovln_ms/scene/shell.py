@@ -29,8 +29,12 @@ def cache_dir() -> Path:
 
 
 def _key(spec: SceneSpec) -> str:
-    data = {"rooms": [r.model_dump(mode="json") for r in spec.rooms], "walls": [w.model_dump(mode="json") for w in spec.walls],
-            "openings": [o.model_dump(mode="json") for o in spec.openings], "v": 1}
+    data = {
+        "rooms": [r.model_dump(mode="json") for r in spec.rooms],
+        "walls": [w.model_dump(mode="json") for w in spec.walls],
+        "openings": [o.model_dump(mode="json") for o in spec.openings],
+        "v": 1,
+    }
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -42,12 +46,16 @@ def shell_scene(spec: SceneSpec, ceiling: bool) -> trimesh.Scene:
     """Floor + walls (+ baseboards and door jambs), or with ``ceiling`` only the ceiling slabs."""
     k = _kit()
     if ceiling:
-        mat = k.material("ceiling", texture=tx.floor_vinyl((0.93, 0.93, 0.92), k.seed("ceiling")), tile=0.6, roughness=0.9)
+        mat = k.material(
+            "ceiling", texture=tx.floor_vinyl((0.93, 0.93, 0.92), k.seed("ceiling")), tile=0.6, roughness=0.9
+        )
         for r in spec.rooms:
             xy = np.asarray(r.polygon)
             k.box_span(f"ceiling_{r.id}", (*xy.min(0), r.height), (*xy.max(0), r.height + FLOOR_DEPTH), mat)
         return k.scene((0.0, -1.0))
-    floor = k.material("floor", texture=tx.floor_vinyl((0.55, 0.60, 0.58), k.seed("floor")), tile=0.5, roughness=0.7)
+    floor = k.material(
+        "floor", texture=tx.floor_vinyl((0.55, 0.60, 0.58), k.seed("floor")), tile=0.5, roughness=0.7
+    )
     wall = k.material("wall", texture=tx.powder_coat((0.86, 0.87, 0.84), k.seed("wall"), amount=5), tile=0.5)
     base = k.material("baseboard", color=(0.25, 0.26, 0.28, 1.0), texture=None)
     jamb = k.material("jamb", texture=tx.powder_coat((0.45, 0.50, 0.58), k.seed("jamb"), amount=8), tile=0.25)

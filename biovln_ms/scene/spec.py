@@ -111,9 +111,16 @@ class ObjectSpec(_Strict):
             c, s = math.cos(-self.yaw), math.sin(-self.yaw)
             fx, fy = self.face
             model_face = (round(c * fx - s * fy, 9), round(s * fx + c * fy, 9))
-        return PlacedInstrument(center=self.position, yaw=self.yaw, size=self.size, model_face=model_face,
-                                d_half=self.d_half or 0.0, approach_distance=self.approach_distance or 0.0,
-                                name=self.id, category=self.category)
+        return PlacedInstrument(
+            center=self.position,
+            yaw=self.yaw,
+            size=self.size,
+            model_face=model_face,
+            d_half=self.d_half or 0.0,
+            approach_distance=self.approach_distance or 0.0,
+            name=self.id,
+            category=self.category,
+        )
 
 
 class SceneSpec(_Strict):
@@ -157,8 +164,10 @@ class SceneSpec(_Strict):
         for o in self.objects():
             if o.id == object_id:
                 return o
-        raise SceneSpecError(f"no object '{object_id}' in scene '{self.name}'",
-                             fix=f"use one of: {', '.join(o.id for o in self.objects())}")
+        raise SceneSpecError(
+            f"no object '{object_id}' in scene '{self.name}'",
+            fix=f"use one of: {', '.join(o.id for o in self.objects())}",
+        )
 
     def to_json(self) -> str:
         """Canonical JSON: sorted keys, fixed float formatting (byte-identical for the same spec)."""
@@ -187,8 +196,12 @@ def parse_spec(obj: dict, source: str = "<scene spec>", check_rules: bool = True
         raise SceneSpecError("a scene spec must be a JSON object", source=source)
     version = obj.get("schema_version")
     if version != SCHEMA_VERSION:
-        raise SceneSpecError(f"schema_version {version!r} is not supported (this build reads {SCHEMA_VERSION})",
-                             source=source, field="schema_version", fix="regenerate the spec with this version")
+        raise SceneSpecError(
+            f"schema_version {version!r} is not supported (this build reads {SCHEMA_VERSION})",
+            source=source,
+            field="schema_version",
+            fix="regenerate the spec with this version",
+        )
     try:
         spec = SceneSpec.model_validate(obj)
     except ValidationError as e:
@@ -203,7 +216,9 @@ def parse_spec(obj: dict, source: str = "<scene spec>", check_rules: bool = True
             if problems:
                 p = problems[0]
                 more = f" (+{len(problems) - 1} more)" if len(problems) > 1 else ""
-                raise SceneSpecError(f"{p.message}{more}", source=source, field=p.field, fix=f"rule: {p.rule}")
+                raise SceneSpecError(
+                    f"{p.message}{more}", source=source, field=p.field, fix=f"rule: {p.rule}"
+                )
     return spec
 
 
@@ -216,7 +231,9 @@ def load_spec(path: str | Path, check_rules: bool = True) -> SceneSpec:
     try:
         obj = json.loads(text)
     except json.JSONDecodeError as e:
-        raise SceneSpecError(f"not valid JSON at line {e.lineno} column {e.colno}: {e.msg}", source=str(path)) from None
+        raise SceneSpecError(
+            f"not valid JSON at line {e.lineno} column {e.colno}: {e.msg}", source=str(path)
+        ) from None
     return parse_spec(obj, str(path), check_rules)
 
 

@@ -61,14 +61,22 @@ class InstrumentSlot(_Strict):
     room: str | None = None
     wall: Side | None = Field(default=None, description="wall slots: which wall of the room")
     span: tuple[float, float] | None = Field(
-        default=None, description="wall: world interval along the wall; table_top: fraction interval along the support")
+        default=None,
+        description="wall: world interval along the wall; table_top: fraction interval along the support",
+    )
     support: str | None = Field(default=None, description="table_top slots: furniture id")
-    region: tuple[float, float, float, float] | None = Field(default=None, description="floor slots: x0, y0, x1, y1")
+    region: tuple[float, float, float, float] | None = Field(
+        default=None, description="floor slots: x0, y0, x1, y1"
+    )
     fixed: bool = Field(default=False, description="always active (e.g. every slot of two_room)")
 
     @model_validator(mode="after")
     def _by_placement(self) -> InstrumentSlot:
-        need = {"wall": ("room", "wall", "span"), "table_top": ("support", "span"), "floor": ("room", "region")}[self.placement]
+        need = {
+            "wall": ("room", "wall", "span"),
+            "table_top": ("support", "span"),
+            "floor": ("room", "region"),
+        }[self.placement]
         for key in need:
             if getattr(self, key) is None:
                 raise ValueError(f"{key}: required for a {self.placement} slot")
@@ -84,7 +92,9 @@ class Template(_Strict):
     furniture: list[FurnitureSlot] = []
     slots: list[InstrumentSlot] = Field(min_length=1)
     active_slots: tuple[int, int]
-    yaw_jitter_deg: float = Field(default=30.0, ge=0, le=180, description="floor instruments: face-to-centre jitter")
+    yaw_jitter_deg: float = Field(
+        default=30.0, ge=0, le=180, description="floor instruments: face-to-centre jitter"
+    )
     max_attempts: int = Field(default=400, ge=1)
 
     @model_validator(mode="after")
@@ -96,7 +106,9 @@ class Template(_Strict):
         furn = {f.id for f in self.furniture}
         lo, hi = self.active_slots
         if not (1 <= lo <= hi <= len(self.slots)):
-            raise ValueError(f"active_slots: [{lo}, {hi}] must satisfy 1 <= min <= max <= {len(self.slots)} slots")
+            raise ValueError(
+                f"active_slots: [{lo}, {hi}] must satisfy 1 <= min <= max <= {len(self.slots)} slots"
+            )
         if sum(s.fixed for s in self.slots) > hi:
             raise ValueError("active_slots: fewer than the number of fixed slots")
         for i, f in enumerate(self.furniture):
@@ -111,9 +123,13 @@ class Template(_Strict):
                 raise ValueError(f"slots[{i}].support: '{s.support}' is not a furniture id")
             for c in s.categories:
                 if c not in cat:
-                    raise ValueError(f"slots[{i}].categories: unknown '{c}' (known: {', '.join(cat.names())})")
+                    raise ValueError(
+                        f"slots[{i}].categories: unknown '{c}' (known: {', '.join(cat.names())})"
+                    )
                 if cat.get(c).placement != s.placement:
-                    raise ValueError(f"slots[{i}].categories: '{c}' is a {cat.get(c).placement} asset, not {s.placement}")
+                    raise ValueError(
+                        f"slots[{i}].categories: '{c}' is a {cat.get(c).placement} asset, not {s.placement}"
+                    )
         ids = [s.id for s in self.slots] + [f.id for f in self.furniture]
         if len(set(ids)) != len(ids):
             raise ValueError("slots/furniture: ids must be unique")
@@ -171,8 +187,11 @@ def resolve_template_path(path: str | Path) -> Path:
         if candidate.is_file():
             return candidate
     where = f"{Path.cwd()}" + (f" and the package's {tasks_dir}" if tasks_dir is not None else "")
-    raise TemplateError(f"no such template file (looked in {where})", source=str(path),
-                        fix="give the JSON file's path from the current directory, or an absolute path")
+    raise TemplateError(
+        f"no such template file (looked in {where})",
+        source=str(path),
+        fix="give the JSON file's path from the current directory, or an absolute path",
+    )
 
 
 def register_template(template: Template | dict | str | Path, override: bool = False) -> Template:
@@ -187,8 +206,10 @@ def register_template(template: Template | dict | str | Path, override: bool = F
     elif not isinstance(template, Template):
         template = load_template_file(resolve_template_path(template))
     if template.name in _REGISTRY and not override and _REGISTRY[template.name] != template:
-        raise TemplateError(f"a different template named '{template.name}' is already registered",
-                            fix="pick another name or pass override=True")
+        raise TemplateError(
+            f"a different template named '{template.name}' is already registered",
+            fix="pick another name or pass override=True",
+        )
     _REGISTRY[template.name] = template
     return template
 
@@ -215,5 +236,7 @@ def get_template(name: str | Template) -> Template:
         return name
     _load_builtin()
     if name not in _REGISTRY:
-        raise TemplateError(f"unknown template '{name}'", field="template", fix=f"use one of: {', '.join(sorted(_REGISTRY))}")
+        raise TemplateError(
+            f"unknown template '{name}'", field="template", fix=f"use one of: {', '.join(sorted(_REGISTRY))}"
+        )
     return _REGISTRY[name]

@@ -16,9 +16,16 @@ from biovln_ms.scene.rules import scene_free_space  # noqa: E402
 from biovln_ms.scene.spec import SceneSpec  # noqa: E402
 
 CATEGORY_COLORS = {
-    "refrigerator": "#3b7dd8", "incubator": "#d8643b", "centrifuge": "#8e44ad", "mini_centrifuge": "#b07cc6",
-    "pipette": "#16a085", "cabinet": "#7f8c3b", "waste_bin": "#e0b000", "biosafety_cabinet": "#2e8b57",
-    "lab_bench": "#6d5a45", "lab_table": "#8a7f72",
+    "refrigerator": "#3b7dd8",
+    "incubator": "#d8643b",
+    "centrifuge": "#8e44ad",
+    "mini_centrifuge": "#b07cc6",
+    "pipette": "#16a085",
+    "cabinet": "#7f8c3b",
+    "waste_bin": "#e0b000",
+    "biosafety_cabinet": "#2e8b57",
+    "lab_bench": "#6d5a45",
+    "lab_table": "#8a7f72",
 }
 
 
@@ -42,27 +49,63 @@ def draw_map(spec: SceneSpec, ax=None, show_free: bool = True, title: str | None
     for r in spec.rooms:
         _poly(ax, r.polygon, facecolor="#f4f4f0", edgecolor="none", zorder=0)
     if show_free:
-        _draw_geom(ax, scene_free_space(spec), facecolor="#cfeccf", edgecolor="#8cc68c", lw=0.5, alpha=0.9, zorder=1,
-                   label=f"navigable (robot r = {spec.robot_radius} m)")
+        _draw_geom(
+            ax,
+            scene_free_space(spec),
+            facecolor="#cfeccf",
+            edgecolor="#8cc68c",
+            lw=0.5,
+            alpha=0.9,
+            zorder=1,
+            label=f"navigable (robot r = {spec.robot_radius} m)",
+        )
     for w in spec.walls:
         s, e, n = np.asarray(w.start), np.asarray(w.end), np.asarray(w.interior)
-        _poly(ax, [s, e, e - n * w.thickness, s - n * w.thickness], facecolor="#333333", edgecolor="#333333", zorder=5)
+        _poly(
+            ax,
+            [s, e, e - n * w.thickness, s - n * w.thickness],
+            facecolor="#333333",
+            edgecolor="#333333",
+            zorder=5,
+        )
     for o in spec.objects():
         p = o.placed()
         color = CATEGORY_COLORS.get(o.category, "#999999")
         if o.is_goal:
-            _poly(ax, p.zone3_corners(), facecolor=color, alpha=0.18, edgecolor=color, lw=1.0, ls="-", zorder=2)
+            _poly(
+                ax, p.zone3_corners(), facecolor=color, alpha=0.18, edgecolor=color, lw=1.0, ls="-", zorder=2
+            )
         _poly(ax, p.zone2_corners(), facecolor="none", edgecolor="#d62728", lw=0.9, ls="--", zorder=3)
         alpha = 0.55 if o.placement == "furniture" else 0.95
-        _poly(ax, p.zone1_corners(), facecolor=color, alpha=alpha, edgecolor="black", lw=0.8, zorder=4 if o.placement != "furniture" else 3)
+        _poly(
+            ax,
+            p.zone1_corners(),
+            facecolor=color,
+            alpha=alpha,
+            edgecolor="black",
+            lw=0.8,
+            zorder=4 if o.placement != "furniture" else 3,
+        )
         if o.face is not None:
             f = np.asarray(o.face)
             start = p.center_xy + f * (o.d_half or 0.0) * 0.2
             length = (o.d_half or 0.2) * 0.8
-            ax.add_patch(FancyArrow(*start, *(f * length), width=0.04, head_width=0.14, head_length=0.12, color="black", zorder=6))
+            ax.add_patch(
+                FancyArrow(
+                    *start,
+                    *(f * length),
+                    width=0.04,
+                    head_width=0.14,
+                    head_length=0.12,
+                    color="black",
+                    zorder=6,
+                )
+            )
         if o.is_goal:
             g = np.asarray(o.goal)
-            ax.add_patch(Circle(g, o.success_radius, facecolor="none", edgecolor=color, lw=1.0, ls=":", zorder=6))
+            ax.add_patch(
+                Circle(g, o.success_radius, facecolor="none", edgecolor=color, lw=1.0, ls=":", zorder=6)
+            )
             ax.plot(*g, marker="*", ms=13, color=color, markeredgecolor="black", zorder=7)
             ax.annotate(o.id, g, xytext=(4, 6), textcoords="offset points", fontsize=7, zorder=8)
     xs = [x for r in spec.rooms for x, _ in r.polygon]
@@ -81,12 +124,23 @@ def legend_handles():
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    return [Patch(facecolor="#cfeccf", edgecolor="#8cc68c", label="navigable area"),
-            Patch(facecolor="#999999", edgecolor="black", label="Zone 1 (body)"),
-            Line2D([], [], color="#d62728", ls="--", label="Zone 2 (0.25 m clearance)"),
-            Patch(facecolor="#999999", alpha=0.2, label="Zone 3 (operation area)"),
-            Line2D([], [], marker="*", color="none", markerfacecolor="#999999", markeredgecolor="black", ms=12, label="goal (Eq. 1)"),
-            Line2D([], [], color="#999999", ls=":", label="success radius r")]
+    return [
+        Patch(facecolor="#cfeccf", edgecolor="#8cc68c", label="navigable area"),
+        Patch(facecolor="#999999", edgecolor="black", label="Zone 1 (body)"),
+        Line2D([], [], color="#d62728", ls="--", label="Zone 2 (0.25 m clearance)"),
+        Patch(facecolor="#999999", alpha=0.2, label="Zone 3 (operation area)"),
+        Line2D(
+            [],
+            [],
+            marker="*",
+            color="none",
+            markerfacecolor="#999999",
+            markeredgecolor="black",
+            ms=12,
+            label="goal (Eq. 1)",
+        ),
+        Line2D([], [], color="#999999", ls=":", label="success radius r"),
+    ]
 
 
 ISLAND_COLORS = ["#cfeccf", "#cfe0f4", "#f4e6cf", "#eccfe9"]
@@ -95,7 +149,9 @@ ISLAND_COLORS = ["#cfeccf", "#cfe0f4", "#f4e6cf", "#eccfe9"]
 def draw_islands(ax, nav) -> None:
     """Each island of the navigable area in its own colour (drawn over the single-colour area)."""
     for k, poly in enumerate(nav.islands):
-        _draw_geom(ax, poly, facecolor=ISLAND_COLORS[k % len(ISLAND_COLORS)], edgecolor="#6a9a6a", lw=0.6, zorder=1.5)
+        _draw_geom(
+            ax, poly, facecolor=ISLAND_COLORS[k % len(ISLAND_COLORS)], edgecolor="#6a9a6a", lw=0.6, zorder=1.5
+        )
 
 
 def draw_episode(ax, episode: dict, path=None) -> None:
@@ -111,15 +167,37 @@ def draw_episode(ax, episode: dict, path=None) -> None:
         p = np.asarray(vp["agent_state"]["position"][:2])
         vw, _, _, vz = vp["agent_state"]["rotation"]
         vyaw = 2 * np.arctan2(vz, vw)
-        ax.add_patch(FancyArrow(*p, 0.12 * np.cos(vyaw), 0.12 * np.sin(vyaw), width=0.01, head_width=0.05,
-                                head_length=0.04, color="#444444", zorder=9))
-    ax.add_patch(FancyArrow(*s, 0.35 * np.cos(yaw), 0.35 * np.sin(yaw), width=0.04, head_width=0.14, head_length=0.1,
-                            color="#1f77b4", zorder=10))
+        ax.add_patch(
+            FancyArrow(
+                *p,
+                0.12 * np.cos(vyaw),
+                0.12 * np.sin(vyaw),
+                width=0.01,
+                head_width=0.05,
+                head_length=0.04,
+                color="#444444",
+                zorder=9,
+            )
+        )
+    ax.add_patch(
+        FancyArrow(
+            *s,
+            0.35 * np.cos(yaw),
+            0.35 * np.sin(yaw),
+            width=0.04,
+            head_width=0.14,
+            head_length=0.1,
+            color="#1f77b4",
+            zorder=10,
+        )
+    )
     ax.plot(*s, marker="o", ms=10, color="#1f77b4", markeredgecolor="white", zorder=11)
     ax.plot(*goal["position"][:2], marker="X", ms=11, color="#d62728", markeredgecolor="white", zorder=11)
     info = episode["info"]
-    ax.set_title(f"{episode['scene_id']} episode {episode['episode_id']}: {episode['object_id']} - geodesic "
-                 f"{info['geodesic_distance']:.2f} m ({info['difficulty']})")
+    ax.set_title(
+        f"{episode['scene_id']} episode {episode['episode_id']}: {episode['object_id']} - geodesic "
+        f"{info['geodesic_distance']:.2f} m ({info['difficulty']})"
+    )
 
 
 def save_map(spec: SceneSpec, out: str | Path, episode: dict | None = None, nav=None, dpi: int = 130) -> Path:

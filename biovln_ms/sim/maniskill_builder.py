@@ -30,7 +30,9 @@ class LabSceneBuilder(SceneBuilder):
 
     builds_lighting = True
 
-    def __init__(self, env, specs: Sequence[SpecLike], ceiling: bool = True, robot_init_qpos_noise: float = 0.0) -> None:
+    def __init__(
+        self, env, specs: Sequence[SpecLike], ceiling: bool = True, robot_init_qpos_noise: float = 0.0
+    ) -> None:
         super().__init__(env, robot_init_qpos_noise=robot_init_qpos_noise)
         self.build_configs = [as_spec(s) for s in specs]
         self.init_configs = [None]
@@ -42,7 +44,9 @@ class LabSceneBuilder(SceneBuilder):
         if isinstance(build_config_idxs, int):
             build_config_idxs = [build_config_idxs] * self.env.num_envs
         if len(build_config_idxs) != self.env.num_envs:
-            raise ValueError(f"build_config_idxs: {len(build_config_idxs)} given for {self.env.num_envs} envs")
+            raise ValueError(
+                f"build_config_idxs: {len(build_config_idxs)} given for {self.env.num_envs} envs"
+            )
         self.env_specs = [self.build_configs[i] for i in build_config_idxs]
         self.built = {}
         self.scene_objects = {}
@@ -53,7 +57,9 @@ class LabSceneBuilder(SceneBuilder):
             spec = self.build_configs[bci]
             prefix = "" if self.env.num_envs == 1 else f"scs-{bci}_"
             idxs = None if self.env.num_envs == 1 else env_idx
-            built = add_spec_to_scene(self.scene, spec, ceiling=self.ceiling, scene_idxs=idxs, name_prefix=prefix)
+            built = add_spec_to_scene(
+                self.scene, spec, ceiling=self.ceiling, scene_idxs=idxs, name_prefix=prefix
+            )
             add_lights(self.scene, spec, scene_idxs=idxs)
             self.built[bci] = built
             for obj_id, actor in built.objects.items():
@@ -66,6 +72,8 @@ class LabSceneBuilder(SceneBuilder):
         """Per-scene segmentation id -> object id for one build config."""
         out = {}
         for obj_id, actor in self.built[bci].objects.items():
-            for sid in np.atleast_1d(actor.per_scene_id.cpu().numpy() if hasattr(actor.per_scene_id, "cpu") else actor.per_scene_id):
+            for sid in np.atleast_1d(
+                actor.per_scene_id.cpu().numpy() if hasattr(actor.per_scene_id, "cpu") else actor.per_scene_id
+            ):
                 out[int(sid)] = obj_id
         return out

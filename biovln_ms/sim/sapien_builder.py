@@ -45,8 +45,14 @@ def _builder(scene, scene_idxs):
     return b
 
 
-def add_spec_to_scene(scene, spec: SceneSpec, *, ceiling: bool = True, scene_idxs: list[int] | None = None,
-                      name_prefix: str = "") -> BuiltScene:
+def add_spec_to_scene(
+    scene,
+    spec: SceneSpec,
+    *,
+    ceiling: bool = True,
+    scene_idxs: list[int] | None = None,
+    name_prefix: str = "",
+) -> BuiltScene:
     """Add the spec's shell, furniture and instruments to ``scene`` (sapien.Scene or ManiSkillScene)."""
     cat = load_catalog()
     built = BuiltScene()
@@ -57,14 +63,21 @@ def add_spec_to_scene(scene, spec: SceneSpec, *, ceiling: bool = True, scene_idx
     for r in spec.rooms:
         xy = np.asarray(r.polygon)
         lo, hi = xy.min(0), xy.max(0)
-        b.add_box_collision(sapien.Pose([*(lo + hi) / 2, -FLOOR_DEPTH / 2]), half_size=[*(hi - lo) / 2, FLOOR_DEPTH / 2], material=mat)
+        b.add_box_collision(
+            sapien.Pose([*(lo + hi) / 2, -FLOOR_DEPTH / 2]),
+            half_size=[*(hi - lo) / 2, FLOOR_DEPTH / 2],
+            material=mat,
+        )
     for w in spec.walls:
         s, e, n = np.asarray(w.start), np.asarray(w.end), np.asarray(w.interior)
         length = float(np.linalg.norm(e - s)) + 2 * w.thickness
         centre = (s + e) / 2 - n * w.thickness / 2
         yaw = math.atan2(e[1] - s[1], e[0] - s[0])
-        b.add_box_collision(sapien.Pose([*centre, w.height / 2], yaw_quat(yaw)), half_size=[length / 2, w.thickness / 2, w.height / 2],
-                            material=mat)
+        b.add_box_collision(
+            sapien.Pose([*centre, w.height / 2], yaw_quat(yaw)),
+            half_size=[length / 2, w.thickness / 2, w.height / 2],
+            material=mat,
+        )
     b.initial_pose = sapien.Pose()
     built.shell.append(b.build_static(name=f"{name_prefix}room_shell"))
     if ceiling:
@@ -81,7 +94,9 @@ def _add_object(scene, o: ObjectSpec, collision: str, scene_idxs, name_prefix: s
     b = _builder(scene, scene_idxs)
     b.add_visual_from_file(str(asset_glb(o.category)))
     if collision == "coacd":
-        b.add_multiple_convex_collisions_from_file(str(COLLISION_DIR / f"{o.category}.obj"), material=frictionless())
+        b.add_multiple_convex_collisions_from_file(
+            str(COLLISION_DIR / f"{o.category}.obj"), material=frictionless()
+        )
     else:
         b.add_box_collision(half_size=[s / 2 for s in o.size], material=frictionless())
     b.initial_pose = sapien.Pose(list(o.position), yaw_quat(o.yaw))

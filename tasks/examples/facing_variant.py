@@ -39,5 +39,9 @@ BASE = VARIANTS["BioVLN-OpFace-v0"]
 
 @register_biovln_env("MyLab-OpFaceFacing-v0", max_episode_steps=BASE.max_episode_steps)
 class FacingOpFaceEnv(BioVLNNavEnv):
-    config = replace(BASE, measures=BASE.measures + ("facing_success",), success_measure="facing_success",
-                     fail_measure="facing_fail")
+    config = replace(
+        BASE,
+        measures=BASE.measures + ("facing_success",),
+        success_measure="facing_success",
+        fail_measure="facing_fail",
+    )

@@ -48,8 +48,11 @@ def _library():
 
 class BIOVLN_AddonPreferences(bpy.types.AddonPreferences):
     bl_idname = __name__
-    library_path: StringProperty(name="biovln-ms location", subtype="DIR_PATH",
-                                 description="A folder holding the biovln_ms package, if Blender's Python does not")
+    library_path: StringProperty(
+        name="biovln-ms location",
+        subtype="DIR_PATH",
+        description="A folder holding the biovln_ms package, if Blender's Python does not",
+    )
 
     def draw(self, context):
         self.layout.prop(self, "library_path")
@@ -123,7 +126,9 @@ class BIOVLN_OT_import_export(bpy.types.Operator):
         out.mkdir(parents=True, exist_ok=True)
         name = Path(bpy.data.filepath).stem if bpy.data.filepath else "scene"
         glb = out / f"{name}.glb"
-        bpy.ops.export_scene.gltf(filepath=str(glb), export_format="GLB", export_yup=True, use_selection=False)
+        bpy.ops.export_scene.gltf(
+            filepath=str(glb), export_format="GLB", export_yup=True, use_selection=False
+        )
         try:
             spec, report = import_glb(glb, name=name)
         except BioVLNError as e:
@@ -138,8 +143,10 @@ class BIOVLN_OT_import_export(bpy.types.Operator):
         except BioVLNError as e:  # usd-core not installed in Blender's Python
             self.report({"WARNING"}, str(e))
         c = report.coverage()
-        context.scene["biovln_coverage"] = (f"{c['instruments_found']} instruments, {c['goals_strategy1']} marker goals, "
-                                            f"{c['goals_strategy2']} Eq. 1 goals, {len(c['missing'])} missing")
+        context.scene["biovln_coverage"] = (
+            f"{c['instruments_found']} instruments, {c['goals_strategy1']} marker goals, "
+            f"{c['goals_strategy2']} Eq. 1 goals, {len(c['missing'])} missing"
+        )
         self.report({"INFO"}, f"wrote {out}: {context.scene['biovln_coverage']}")
         return {"FINISHED"}
 
@@ -161,7 +168,13 @@ class BIOVLN_PT_panel(bpy.types.Panel):
                 self.layout.label(text=str(context.scene[key]))
 
 
-CLASSES = (BIOVLN_AddonPreferences, BIOVLN_OT_add_marker, BIOVLN_OT_check_markers, BIOVLN_OT_import_export, BIOVLN_PT_panel)
+CLASSES = (
+    BIOVLN_AddonPreferences,
+    BIOVLN_OT_add_marker,
+    BIOVLN_OT_check_markers,
+    BIOVLN_OT_import_export,
+    BIOVLN_PT_panel,
+)
 
 
 def register():
