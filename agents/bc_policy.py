@@ -2,8 +2,8 @@
 
 Each step it reads the head camera's RGB frame and the env's GPS+compass goal sensor
 (``extra.pointgoal_with_gps_compass`` = distance rho, bearing phi in the agent frame), forms the same 4-d goal
-vector as the training data (``goal_features``: [cos phi, sin phi, rho, clip(rho / 5, 0, 1)]) and takes the arg-max
-action (``sample=True`` samples the softmax instead, seeded per episode).
+vector as the training data (``goal_features``: [cos phi, sin phi, rho, clip(rho / 5, 0, 1)]) and takes the
+arg-max action (``sample=True`` samples the softmax instead, seeded per episode).
 """
 
 from __future__ import annotations

@@ -5,10 +5,11 @@ from the head camera's depth, like a laser scan), the planner (:mod:`~biovln_ms.
 the nearest frontier by path length on the robot's own map, re-planned as the map grows) and the
 controller (:mod:`~biovln_ms.agents.frontier_control`: path following and the STOP rule).
 
-The policy runs from the observation alone (``biovln_ms.agents.policy``): its pose is the head
-camera's (``cam2world_gl``; the camera sits on the base's vertical axis), the map is centred on the
-first pose, and the goal is read once, at the first step, from the ``pointgoal_with_gps_compass``
-sensor and kept fixed (re-reading it each step would make float32 noise move the goal).
+The policy runs from the observation alone (``biovln_ms.agents.policy``): its pose is the robot's
+odometry (the base joints in ManiSkill's proprioception, ``obs["agent"]["qpos"]``: x, y, yaw in the frame
+the camera extrinsics use), the map is centred on the first pose, and the goal is read once, at the first
+step, from the ``pointgoal_with_gps_compass`` sensor and kept fixed (re-reading it each step would make
+float32 noise move the goal).
 
 Goal rule (the paper leaves it implicit): the goal position is used only to decide when to go there
 and stop: as soon as the goal cell is known free and reachable on the robot's map it navigates to it
@@ -47,7 +48,7 @@ __all__ = [
     "backproject",
     "goal_from_sensor",
     "head_frame",
-    "pose_from_camera",
+    "pose_from_odometry",
     "to_numpy",
 ]
 
@@ -57,12 +58,11 @@ def to_numpy(x) -> np.ndarray:
     return x.cpu().numpy() if hasattr(x, "cpu") else np.asarray(x)
 
 
-def pose_from_camera(cam2world_gl: np.ndarray) -> np.ndarray:
-    """The robot's (x, y, yaw) from its head camera's 4x4 pose (OpenGL: the camera looks along -Z)
-    of a camera on the base's vertical axis; yaw in (-pi, pi]."""
-    m = np.asarray(cam2world_gl, float)
-    forward = -m[:3, 2]
-    return np.array([m[0, 3], m[1, 3], math.atan2(forward[1], forward[0])])
+def pose_from_odometry(obs: dict) -> np.ndarray:
+    """The robot's (x, y, yaw) from its base joints (ManiSkill's proprioception, the robot's odometry).
+    The head camera's pose gives the same to ~1e-7 m, but a map origin that moves by that much re-bins
+    depth points lying on cell borders, so the exact odometry keeps runs reproducible."""
+    return to_numpy(obs["agent"]["qpos"][0, :3]).astype(float)
 
 
 def goal_from_sensor(pose: np.ndarray, pointgoal) -> np.ndarray:
@@ -99,7 +99,7 @@ class FrontierPolicy(Policy):
         self.pose: np.ndarray | None = None  # (x, y, yaw) at the current step
 
     def act(self, obs, info: dict) -> int:
-        self.pose = pose_from_camera(to_numpy(obs["sensor_param"]["head"]["cam2world_gl"][0]))
+        self.pose = pose_from_odometry(obs)
         if self.map is None:
             self._start(obs, self.pose)
         self._integrate(obs)

@@ -11,6 +11,8 @@ sensors of :mod:`biovln_ms.tasks.sensors`:
 * ``obs["extra"]["objectgoal"]`` (N, C): one-hot target category, in ``task.goal_categories`` order.
 * ``obs["extra"]["semantic_category"]`` (N, H, W, 1), obs modes with segmentation only: per head-camera
   pixel, 1 + the index of the goal category of the object seen there, 0 for anything else.
+* ``obs["agent"]`` (obs modes with proprioception): the base joints' ``qpos`` / ``qvel`` — the robot's
+  odometry (x, y, yaw) in the world frame the camera extrinsics use.
 * ``obs["sensor_data"]["head"]`` (rgb, depth in int16 mm, segmentation) and
   ``obs["sensor_param"]["head"]`` (``intrinsic_cv``, ``extrinsic_cv``, ``cam2world_gl``), ManiSkill's.
 

@@ -14,7 +14,7 @@ The structure of VLFM, with pluggable components:
    known-free cell nearest to that cloud and stops there (VLFM's PointNav-to-object stage).
 
 Unlike the frontier baseline, VLFM is never told the goal position: it only knows the target
-category, as in ObjectNav (it reads the head camera's images and pose, and the GT detector the
+category, as in ObjectNav (it reads the head camera's images, the odometry, and the GT detector the
 ``semantic_category`` sensor, never ``pointgoal_with_gps_compass``). It early-stops after 100
 consecutive steps without progress (paper Table 15): progress = the known free area grew, or the
 distance to the current target shrank.

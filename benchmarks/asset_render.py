@@ -45,7 +45,8 @@ def main() -> None:
     base = frame_ms(scene, cam, args.frames)
     scene.remove_entity(ref_actor)
     print(
-        f"device: {scene.render_system.device.name} ({device_kind(scene.render_system.device)}), {w}x{h}, {args.frames} frames"
+        f"device: {scene.render_system.device.name} ({device_kind(scene.render_system.device)}), "
+        f"{w}x{h}, {args.frames} frames"
     )
     print(f"{'reference (one box)':<22} {base:8.2f} ms/frame   1.00x")
     for plan in plans(load_catalog()):

@@ -30,7 +30,8 @@ def main() -> None:
     total = sum(s["episodes"] for k, s in m["splits"].items() if k == "full")
     bench = sum(s["episodes"] for k, s in m["splits"].items() if k not in ("full", "train"))
     print(
-        f"scene specs: {specs:.2f} s; episodes + files: {build:.2f} s; total {specs + build:.2f} s (budget 60 s)"
+        f"scene specs: {specs:.2f} s; episodes + files: {build:.2f} s; "
+        f"total {specs + build:.2f} s (budget 60 s)"
     )
     print(
         f"{len(m['scenes'])} scenes, {total} episodes in 'full', {bench} in the benchmark splits "

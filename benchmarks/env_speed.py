@@ -72,7 +72,8 @@ def main() -> None:
     print(f"{'mode':<16} {'env steps/s':>12} {'raw SAPIEN frames/s':>20} {'ratio':>7}")
     for label, rate, raw in rows:
         print(
-            f"{label:<16} {rate:12.0f} {raw if raw else float('nan'):20.0f} {rate / raw if raw else float('nan'):7.2f}"
+            f"{label:<16} {rate:12.0f} {raw if raw else float('nan'):20.0f} "
+            f"{rate / raw if raw else float('nan'):7.2f}"
         )
 
     # Resets: same scene vs new scene (state obs, so the timing is the env's, not a frame's).

@@ -24,7 +24,8 @@ def main() -> None:
     ap.add_argument("--queries", type=int, default=200)
     args = ap.parse_args()
     print(
-        f"{'template':<12} {'build ms':>9} {'x free-space':>12} {'query ms':>9} {'x visibility':>12} {'reflex verts':>12}"
+        f"{'template':<12} {'build ms':>9} {'x free-space':>12} "
+        f"{'query ms':>9} {'x visibility':>12} {'reflex verts':>12}"
     )
     for template in ("single_room", "two_room", "suite", "open_plan"):
         builds, frees, queries, vis, nverts = [], [], [], [], []

@@ -53,7 +53,8 @@ def main() -> None:
     rows = [("PPO", ppo), ("Random", rnd["overall"])]
     lines = [
         f"PPO on {RL_ENV}: {r.timesteps} timesteps in {r.minutes:.1f} min on this machine "
-        f"({r.steps_per_second:.0f} steps/s with {args.n_envs} envs; the env alone: {raw:.0f} steps/s in one process, "
+        f"({r.steps_per_second:.0f} steps/s with {args.n_envs} envs; "
+        f"the env alone: {raw:.0f} steps/s in one process, "
         f"ratio {r.steps_per_second / raw:.2f})",
         "",
         "| MS VAL (RL variant) | episodes | SR % | SPL | MCR m | VRT % |",

@@ -57,10 +57,12 @@ def main() -> None:
     later = sorted(times)
     print(f"first build + frame (env creation, shader JIT): {first:.2f} s")
     print(
-        f"later builds incl. first frame: median {later[len(later) // 2]:.3f} s, max {later[-1]:.3f} s (budget 2 s) over {len(times)} scenes"
+        f"later builds incl. first frame: median {later[len(later) // 2]:.3f} s, max {later[-1]:.3f} s "
+        f"(budget 2 s) over {len(times)} scenes"
     )
     print(
-        f"one 640x480 frame of the built scene: {frame * 1e3:.1f} ms -> a build = {later[len(later) // 2] / frame:.1f} frames"
+        f"one 640x480 frame of the built scene: {frame * 1e3:.1f} ms -> "
+        f"a build = {later[len(later) // 2] / frame:.1f} frames"
     )
 
 

@@ -34,7 +34,8 @@ def main() -> None:
     per = gen / args.n
     print(f"{args.n} {args.template} specs in {gen:.2f} s ({per * 1e3:.2f} ms/spec; budget 20 s per 1000)")
     print(
-        f"rule check of one finished spec: {check * 1e3:.2f} ms -> generation = {per / check:.2f}x one rule check"
+        f"rule check of one finished spec: {check * 1e3:.2f} ms -> "
+        f"generation = {per / check:.2f}x one rule check"
     )
 
 

@@ -109,7 +109,8 @@ class AssetSpec(_Strict):
 
     @property
     def zone2_clearance(self) -> float:
-        """epsilon_c of Eq. 2 from the catalog this asset came from (the packaged one for a stand-alone asset)."""
+        """epsilon_c of Eq. 2 from the catalog this asset came from (the packaged one for a stand-alone
+        asset)."""
         return load_catalog().zone2_clearance if self._zone2_clearance is None else self._zone2_clearance
 
 

@@ -52,7 +52,8 @@ def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
         "",
         "| target | start | goal | geodesic (m) | euclidean (m) | difficulty |",
         "|---|---|---|---|---|---|",
-        f"| {episode['object_id']} | {episode['start_position'][:2]} | {episode['goals'][0]['position'][:2]} | "
+        f"| {episode['object_id']} | {episode['start_position'][:2]} | "
+        f"{episode['goals'][0]['position'][:2]} | "
         f"{info['geodesic_distance']:.3f} | {info['euclidean_distance']:.3f} | {info['difficulty']} |",
     ]
     from biovln_ms.record import record_episode
@@ -65,8 +66,8 @@ def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
         "",
         "| success | steps | SPL | soft SPL | DTG (m) | MCR (m) | VRT | collisions |",
         "|---|---|---|---|---|---|---|---|",
-        f"| {m['success']} | {m['steps']} | {m['spl']:.3f} | {m['soft_spl']:.3f} | {m['distance_to_goal']:.3f} | "
-        f"{m['mcr']:.3f} | {m['vrt']:.3f} | {m['collisions']} |",
+        f"| {m['success']} | {m['steps']} | {m['spl']:.3f} | {m['soft_spl']:.3f} | "
+        f"{m['distance_to_goal']:.3f} | {m['mcr']:.3f} | {m['vrt']:.3f} | {m['collisions']} |",
     ]
     files["table"] = out_dir / "demo.md"
     files["table"].write_text("\n".join(lines) + "\n")

@@ -31,7 +31,8 @@ from biovln_ms.benchmark import dataset_root
 from biovln_ms.catalog import load_catalog
 from biovln_ms.episodes.source import DatasetEpisodes, EpisodeCursor, EpisodeSource, GeneratedEpisodes
 from biovln_ms.errors import BioVLNError
-from biovln_ms.scene.rules import scene_navigation
+from biovln_ms.geometry.motion import SweptMotion
+from biovln_ms.scene.rules import floor_polygon, obstacle_footprints, scene_navigation
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, MeasureSet, StepState
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
@@ -104,7 +105,8 @@ class BioVLNNavEnv(BaseEnv):
     @property
     def _default_sensor_configs(self):
         c, visual = self.cfg, self.obs_mode_struct.visual
-        # ManiSkill's fast "minimal" shader renders rgb, depth and segmentation; normals and albedo need "default"
+        # ManiSkill's fast "minimal" shader renders rgb, depth and segmentation; normals and albedo need
+        # "default"
         shader = "default" if visual.normal or visual.albedo else "minimal"
         return [
             CameraConfig(
@@ -131,6 +133,9 @@ class BioVLNNavEnv(BaseEnv):
         scene_ids = [ep["scene_id"] for ep in self._episodes]
         self.scene_specs = [self.source.spec(s) for s in scene_ids]
         self.navs = [scene_navigation(s) for s in self.scene_specs]
+        self._motions = [
+            SweptMotion(floor_polygon(s), obstacle_footprints(s), s.robot_radius) for s in self.scene_specs
+        ]
         self._scene_ids = scene_ids
 
     @property
@@ -143,6 +148,7 @@ class BioVLNNavEnv(BaseEnv):
         super()._load_agent(options, sapien.Pose())
         for controller in self.agent.controllers.values():
             controller.set_motion(self.cfg.forward_step, self.cfg.turn_deg)
+            controller.limit = self._limit_forward
 
     def _load_scene(self, options: dict):
         scene_ids = list(dict.fromkeys(self._scene_ids))  # one build config per distinct scene
@@ -160,6 +166,8 @@ class BioVLNNavEnv(BaseEnv):
         self._measures = MeasureSet(self._measure_names(), self.num_envs, self.device, self.cfg)
         self._start = torch.zeros(self.num_envs, 3, dtype=torch.float64, device=self.device)
         self._category = torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
+        self._done = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)  # the episode has ended
+        self._frozen = self._done.clone()  # ... already before the current step
 
     def _measure_names(self) -> tuple[str, ...]:
         c = self.cfg
@@ -212,6 +220,8 @@ class BioVLNNavEnv(BaseEnv):
         self.agent.reset(qpos if self.num_envs > 1 else qpos[:1])
         pose = self._pose()
         self._start[idx] = pose[idx]
+        self._done[idx] = False
+        self._frozen[idx] = False
         self._measures.reset(self._ctx, StepState.at_rest(pose), idx)
 
     def _episode_context(self, i: int) -> EpisodeContext:
@@ -245,7 +255,17 @@ class BioVLNNavEnv(BaseEnv):
             action = torch.as_tensor(np.asarray(action))
         if isinstance(action, (np.ndarray, torch.Tensor)) and action.ndim == 0:
             action = action.reshape(1)
+        self._frozen = self._done.clone()  # an ended episode ignores actions until reset (Habitat's rule)
+        self.agent.controller.frozen = self._frozen
         return super()._step_action(action)
+
+    def _limit_forward(self, pose: torch.Tensor, forward: torch.Tensor) -> torch.Tensor:
+        """Forward moves cut where the swept body would enter an obstacle (no tunnelling at any step size)."""
+        out = forward.clone()
+        for i in torch.nonzero(forward > 0).flatten().tolist():
+            x, y, yaw = pose[i].tolist()
+            out[i] = self._motions[i].max_forward(x, y, yaw, float(forward[i]))
+        return out
 
     def _after_control_step(self):
         cmd = self.agent.controller.command
@@ -254,7 +274,12 @@ class BioVLNNavEnv(BaseEnv):
         heading = torch.stack([torch.cos(start[:, 2]), torch.sin(start[:, 2])], dim=1)
         moved = ((pose[:, :2] - start[:, :2]) * heading).sum(1)
         state = StepState(pose[:, :2], pose[:, 2], cmd.stop.clone(), cmd.forward.to(torch.float64), moved)
-        self._measures.update(self._ctx, state)
+        active = torch.nonzero(~self._frozen).flatten()
+        self._measures.update(self._ctx, state, active)
+        c = self.cfg
+        ended = self._measures[c.success_measure] | self._measures[c.fail_measure]
+        ended |= torch.as_tensor(self._elapsed_steps, device=self.device) + 1 >= c.max_episode_steps
+        self._done |= ended
 
     def evaluate(self) -> dict:
         """The measures' values (a pure query: it changes nothing)."""
@@ -304,13 +329,14 @@ class BioVLNNavEnv(BaseEnv):
 
     # --- rewards: measures chosen by the config (Eq. 5) ----------------------------------------
     def compute_dense_reward(self, obs, action, info):
-        return self._measures[self.cfg.reward_measure].to(torch.float32)
+        reward = self._measures[self.cfg.reward_measure].to(torch.float32)
+        return torch.where(self._frozen, torch.zeros_like(reward), reward)  # nothing after the episode's end
 
     def compute_normalized_dense_reward(self, obs, action, info):
         return self.compute_dense_reward(obs, action, info) / self.cfg.success_bonus
 
     def compute_sparse_reward(self, obs, action, info):
-        return info["success"].to(torch.float32)
+        return (info["success"] & ~self._frozen).to(torch.float32)
 
     # --- state: the simulator's and the task's -------------------------------------------------
     def get_state_dict(self):
@@ -321,6 +347,7 @@ class BioVLNNavEnv(BaseEnv):
             episode=self._episode_indices(),
             start=self._start.clone(),
             elapsed_steps=torch.as_tensor(self._elapsed_steps).clone(),
+            done=self._done.clone(),
             measures=self._measures.state_dict(),
         )
         return state
@@ -342,6 +369,7 @@ class BioVLNNavEnv(BaseEnv):
         self._elapsed_steps[idx] = torch.as_tensor(task["elapsed_steps"], device=self.device)[idx].to(
             self._elapsed_steps.dtype
         )
+        self._done[idx] = torch.as_tensor(task["done"], device=self.device)[idx]
         self._measures.load_state_dict(task["measures"], idx)
 
     def _episode_indices(self) -> torch.Tensor:
@@ -384,7 +412,8 @@ class BioVLNNavEnv(BaseEnv):
         )
 
     def episode_info(self, i: int = 0, privileged: bool = False) -> EpisodeInfo:
-        """What a policy may know of sub-env ``i``'s episode; ``privileged`` adds the oracle's read-only view."""
+        """What a policy may know of sub-env ``i``'s episode; ``privileged`` adds the oracle's
+        read-only view."""
         ep = self._episodes[i]
         view = None
         if privileged:

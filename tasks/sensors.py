@@ -74,8 +74,8 @@ def objectgoal(x: SensorInputs) -> torch.Tensor:
 
 @register_sensor("rl_state")
 def rl_state(x: SensorInputs) -> torch.Tensor:
-    """The paper's RL observation: position / s, heading as (cos, sin), goal / s, the goal in the robot frame / s
-    and min(clearance, 2) / 2, with s = ``position_scale`` (4 m)."""
+    """The paper's RL observation: position / s, heading as (cos, sin), goal / s, the goal in the robot
+    frame / s and min(clearance, 2) / 2, with s = ``position_scale`` (4 m)."""
     s = x.cfg.position_scale
     local = _rotate(x.goal - x.pose[:, :2], x.pose[:, 2])
     yaw = x.pose[:, 2]

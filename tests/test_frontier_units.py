@@ -15,7 +15,7 @@ from biovln_ms.agents.frontier import (
     FrontierPolicy,
     OccupancyMap,
     goal_from_sensor,
-    pose_from_camera,
+    pose_from_odometry,
 )
 from biovln_ms.agents.frontier_control import FrontierController
 from biovln_ms.agents.frontier_planner import FrontierPlanner, Plan, PlanField, goal_if_reachable
@@ -89,6 +89,7 @@ def _obs(pose, goal, wall_x: float) -> dict:
         phi = (math.atan2(d[1], d[0]) - pose[2] + math.pi) % (2 * math.pi) - math.pi
         extra["pointgoal_with_gps_compass"] = t([np.linalg.norm(d), phi])
     return {
+        "agent": {"qpos": t(pose)},
         "extra": extra,
         "sensor_data": {
             "head": {"depth": t(depth_mm[..., None], torch.int16), "rgb": t(np.zeros((H, W, 3)), torch.uint8)}
@@ -109,8 +110,8 @@ def _episode() -> EpisodeInfo:
 
 # --- obs helpers -------------------------------------------------------------------------------------
 @pytest.mark.parametrize("pose", [(0.0, 0.0, 0.0), (1.5, -2.0, 2.5), (-3.0, 4.0, -math.pi / 2)])
-def test_pose_from_camera_is_exact(pose):
-    assert np.allclose(pose_from_camera(_cam2world_gl(pose)), pose, atol=1e-12)
+def test_pose_is_the_odometry(pose):
+    assert np.allclose(pose_from_odometry(_obs(pose, (5.0, 5.0), wall_x=pose[0] + 3.0)), pose, atol=1e-6)
 
 
 def test_goal_from_sensor_is_exact():

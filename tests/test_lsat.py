@@ -305,7 +305,8 @@ def test_marker_helpers_of_the_blender_addon():
 
 @pytest.mark.parametrize("template, seed", [("single_room", 150), ("two_room", 200)])
 def test_exported_procedural_scene_imports_back(tmp_path, template, seed):
-    """`scene export` writes Y-up glTF; importing it (strategy 2, names/extras) recovers every pose and goal."""
+    """`scene export` writes Y-up glTF; importing it (strategy 2, names/extras) recovers every pose and
+    goal."""
     from biovln_ms.scene.export_glb import export_scene_glb
     from biovln_ms.scene.generator import generate_scene
 

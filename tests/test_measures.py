@@ -251,9 +251,10 @@ def test_partial_reset_touches_only_the_named_rows():
     m, b = MeasureSet(NAMES, n), BatchContext(n)
     for i in range(n):
         b.set(i, ctx())
-    full = lambda t: state(
-        pos[t].tolist(), yaw[t].tolist(), stop[t].tolist(), cmd[t].tolist(), moved[t].tolist()
-    )  # noqa: E731
+
+    def full(t):
+        return state(pos[t].tolist(), yaw[t].tolist(), stop[t].tolist(), cmd[t].tolist(), moved[t].tolist())
+
     m.reset(b, full(0))
     for t in range(1, 6):
         m.update(b, full(t))
@@ -266,9 +267,10 @@ def test_partial_reset_touches_only_the_named_rows():
 
 def test_state_dict_round_trip_continues_identically():
     pos, yaw, stop, cmd, moved = _random_trajectories(2, 10, seed=5)
-    full = lambda t: state(
-        pos[t].tolist(), yaw[t].tolist(), stop[t].tolist(), cmd[t].tolist(), moved[t].tolist()
-    )  # noqa: E731
+
+    def full(t):
+        return state(pos[t].tolist(), yaw[t].tolist(), stop[t].tolist(), cmd[t].tolist(), moved[t].tolist())
+
     b = BatchContext(2)
     b.set(0, ctx()), b.set(1, ctx(radius=1.2))
     a, c = MeasureSet(NAMES, 2), MeasureSet(NAMES, 2)

@@ -47,7 +47,10 @@ def env(dataset):
 
 def test_registered_on_import_and_by_module_prefix():
     assert {"BioVLN-OpFace-v0", "BioVLN-Centroid-v0", "BioVLN-OpFace-RL-v0"} <= set(gym.registry)
-    code = "import gymnasium as gym; e = gym.make('biovln_ms:BioVLN-OpFace-v0', obs_mode='state', sim_backend='physx_cpu', render_backend='cpu'); print(e.action_space)"
+    code = (
+        "import gymnasium as gym; e = gym.make('biovln_ms:BioVLN-OpFace-v0', obs_mode='state', "
+        "sim_backend='physx_cpu', render_backend='cpu'); print(e.action_space)"
+    )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0 and "Discrete(4)" in r.stdout, r.stderr
     import biovln_ms.tasks  # noqa: F401  (what the first gym.make imports)
@@ -407,11 +410,69 @@ def test_no_cuda_fallback_warning_on_a_cpu_machine(dataset):
 
 
 def test_robot_radius_is_one_fact(env):
-    """The robot's radius comes from its URDF collision cylinder; the navigation geometry, the episodes and the
-    task spec policies get all use the same number."""
+    """The robot's radius comes from its URDF collision cylinder; the navigation geometry, the episodes and
+    the task spec policies get all use the same number."""
     from biovln_ms.constants import ROBOT_RADIUS
 
     u = env.unwrapped
     env.reset(options={"episode_index": 0})
     assert u.agent.radius == ROBOT_RADIUS == u.scene_spec.robot_radius == u.navs[0].radius
     assert u.task_spec().robot_radius == u.agent.radius
+
+
+def test_nothing_happens_after_the_episode_ends(env):
+    """Stepping after STOP (or truncation) moves nothing, changes no metric and pays nothing (Habitat's rule:
+    an ended episode waits for reset); a second STOP does not pay the success bonus again."""
+    env.reset(options={"episode_index": 2})
+    u = env.unwrapped
+    g = np.asarray(u.current_episode["goals"][0]["position"][:2])
+    u.agent.reset(torch.tensor([[g[0], g[1], 0.0]]))
+    _, r, term, _, info = env.step(0)
+    assert bool(info["success"]) and bool(term) and float(r) > 9.0
+    p = pose(u)
+    for a in (1, 1, 2, 0, 0):
+        _, r2, term2, _, info2 = env.step(a)
+        assert float(r2) == 0.0 and bool(term2)
+        assert np.allclose(pose(u), p, atol=1e-5)
+        for k in ("success", "spl", "steps", "path_length", "collisions", "mcr", "vrt"):
+            assert torch.equal(info2[k], info[k]), k
+    env.reset(options={"episode_index": 2})
+    _, _, _, _, info = env.step(1)
+    assert int(info["steps"]) == 1  # a reset starts counting again
+
+
+def test_no_tunnelling_at_any_step_size(dataset):
+    """Large forward steps (up to 2 m, through 0.1 m walls and thin instruments) and random continuous actions
+    never take the robot out of the navigable floor; a cut move counts as a collision."""
+    from shapely.geometry import Point
+
+    from biovln_ms.scene.rules import scene_free_space
+
+    rng = np.random.default_rng(0)
+    for step, mode in ((0.5, "discrete"), (1.0, "discrete"), (2.0, "discrete"), (1.5, "continuous")):
+        e = gym.make(
+            "BioVLN-OpFace-v0",
+            dataset=str(dataset),
+            split="ms_val",
+            obs_mode="none",
+            forward_step=step,
+            control_mode=mode,
+            **CPU,
+        )
+        u = e.unwrapped
+        for ep in range(4):
+            e.reset(options={"episode_index": ep})
+            free = scene_free_space(u.scene_spec, 0.2 - 0.02)  # the body may press 2 cm into contact at most
+            collisions = 0
+            for _ in range(60):
+                a = (
+                    int(rng.choice([1, 1, 1, 2, 3]))
+                    if mode == "discrete"
+                    else rng.uniform(-1, 1, 3) * [1, 1, 0]
+                )
+                _, _, _, _, info = e.step(a)
+                x, y = pose(u)[:2]
+                assert free.contains(Point(x, y)), (step, mode, ep, x, y)
+            collisions = int(info["collisions"])
+            assert collisions > 0, (step, mode, ep)
+        e.close()

@@ -28,7 +28,8 @@ ALGOS = {
 
 
 class StateEnv(gym.Env):
-    """The RL env's spaces (a 19-d state; Discrete(4), or Box(-1, 1, (3,)) for SAC), random states, 8-step episodes."""
+    """The RL env's spaces (a 19-d state; Discrete(4), or Box(-1, 1, (3,)) for SAC), random states,
+    8-step episodes."""
 
     observation_space = gym.spaces.Box(-np.inf, np.inf, (19,), np.float32)
 
@@ -69,7 +70,8 @@ def one_torch_thread():
 
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
-    """A tiny trained model.zip per algorithm (it holds SB3's usual pickled values: spaces, schedules, buffers)."""
+    """A tiny trained model.zip per algorithm (it holds SB3's usual pickled values: spaces, schedules,
+    buffers)."""
     root = tmp_path_factory.mktemp("sb3")
     out = {}
     for algo, (cls, kw) in ALGOS.items():

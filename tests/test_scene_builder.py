@@ -102,3 +102,25 @@ def test_cli_render(tmp_path):
 
     img = np.asarray(Image.open(png))
     assert img.shape[:2] == (720, 960) and img.std() > 10
+
+
+def test_navigable_positions_cover_the_free_space():
+    """ManiSkill's ``navigable_positions``: per sub-env a flat mesh whose area is the robot's free space."""
+    import gymnasium as gym
+
+    from biovln_ms.scene.rules import scene_free_space
+
+    env = gym.make("BioVLN-OpFace-v0", obs_mode="none", sim_backend="physx_cpu", render_backend="cpu")
+    try:
+        env.reset(seed=0)
+        u = env.unwrapped
+        (mesh,) = u.scene_builder.navigable_positions
+        free = scene_free_space(u.scene_spec)
+        assert mesh.area == pytest.approx(free.area, rel=1e-6)
+        assert np.allclose(mesh.vertices[:, 2], 0.0)
+        pts = mesh.triangles_center[:, :2]
+        import shapely
+
+        assert shapely.contains_xy(free.buffer(1e-6), pts[:, 0], pts[:, 1]).all()
+    finally:
+        env.close()

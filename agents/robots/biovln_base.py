@@ -14,12 +14,15 @@ Control modes (ManiSkill controllers, so ``env.control_mode`` and ``env.step`` a
   angle, STOP when a2 > 0.
 
 Either sets the planar joints' drive targets to the commanded pose and remembers the command
-(:class:`NavCommand`) for the task's measures.
+(:class:`NavCommand`) for the task's measures. The task may cut a forward move short where the swept body
+would enter an obstacle (``limit``: no tunnelling at any step size) and hold sub-envs whose episode has
+ended (``frozen``).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -69,6 +72,11 @@ class NavBaseController(PDJointPosController):
         else:
             self.single_action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
 
+    #: (pose (N, 3), forward (N,)) -> the forward distance the swept body may travel (set by the task)
+    limit: Callable[[torch.Tensor, torch.Tensor], torch.Tensor] | None = None
+    #: (N,) sub-envs whose episode has ended: their actions are ignored until reset (set by the task)
+    frozen: torch.Tensor | None = None
+
     def set_motion(self, forward_step: float, turn_deg: float) -> None:
         """The distance of one FORWARD and the angle of one turn (the task's configuration)."""
         self.forward_step, self.turn = float(forward_step), math.radians(turn_deg)
@@ -117,12 +125,12 @@ class NavBaseController(PDJointPosController):
     def set_action(self, action: torch.Tensor):
         stop, forward, turn = self._decode(torch.as_tensor(action, device=self.device))
         pose = self.qpos.clone()
-        forward, turn = (
-            forward * ~stop,
-            turn * ~stop,
-        )  # float64: targets are computed as exactly as the pose allows
+        held = stop if self.frozen is None else stop | self.frozen  # STOP, or an ended episode: stay put
+        # float64: targets are computed as exactly as the pose allows
+        forward, turn = forward * ~held, turn * ~held
         p = pose.double()
-        delta = torch.stack([forward * torch.cos(p[:, 2]), forward * torch.sin(p[:, 2]), turn], dim=1)
+        moved = forward if self.limit is None else self.limit(p, forward)
+        delta = torch.stack([moved * torch.cos(p[:, 2]), moved * torch.sin(p[:, 2]), turn], dim=1)
         target = (p + delta).to(pose.dtype)
         self.command = NavCommand(pose, stop, forward, turn)
         self._start_qpos, self._target_qpos = pose, target

@@ -102,7 +102,8 @@ def write_dataset(
         for spec, n, cross in split.scenes:
             if spec.robot_radius != radius:
                 raise DatasetError(
-                    f"scene '{spec.name}' was checked for a {spec.robot_radius} m robot, the dataset is for {radius} m"
+                    f"scene '{spec.name}' was checked for a {spec.robot_radius} m robot, "
+                    f"the dataset is for {radius} m"
                 )
             if spec.name not in manifest["scenes"]:
                 data = spec.to_json().encode()

@@ -168,7 +168,8 @@ class EpisodeSampler:
 
     # --- episodes -------------------------------------------------------------------------------
     def episodes(self, n: int, seed: int, cross_room: bool = False, id_offset: int = 0) -> list[dict]:
-        """``n`` episodes cycling over the goal objects (shuffled); ``cross_room`` starts them in another room."""
+        """``n`` episodes cycling over the goal objects (shuffled); ``cross_room`` starts them in another
+        room."""
         rng = np.random.default_rng([stable_seed(self.spec.name), seed])
         objs = self.spec.goal_objects()
         order = [objs[i] for i in rng.permutation(len(objs))]

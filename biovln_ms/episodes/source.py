@@ -37,7 +37,8 @@ class EpisodeSource:
 
 class EpisodeCursor:
     """Which episode a reset starts (Habitat's episode iterator): dataset order, or (``shuffle``) a fixed
-    shuffle that keeps each scene's episodes together, so a scene is rebuilt once per pass, not per episode."""
+    shuffle that keeps each scene's episodes together, so a scene is rebuilt once per pass, not per
+    episode."""
 
     def __init__(self, source: EpisodeSource, shuffle: bool = False) -> None:
         self.source = source
@@ -62,8 +63,8 @@ class EpisodeCursor:
 
     def select(self, seed, options: dict) -> int:
         """The episode index a reset starts: ``options["episode_index"]`` or ``["episode_id"]`` (with an
-        optional ``["scene_id"]``), else the next in order; a ``seed`` jumps to position ``seed mod n``, so the
-        same seed gives the same episode and the same ones after it. Consumes those option keys."""
+        optional ``["scene_id"]``), else the next in order; a ``seed`` jumps to position ``seed mod n``, so
+        the same seed gives the same episode and the same ones after it. Consumes those option keys."""
         if "episode_index" in options:
             k = options.pop("episode_index")
             if not (

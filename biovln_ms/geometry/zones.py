@@ -84,7 +84,8 @@ class PlacedInstrument:
     def from_asset(
         cls, asset: AssetSpec, center: Sequence[float], yaw: float, name: str = ""
     ) -> PlacedInstrument:
-        """The asset placed at ``center`` and ``yaw``, with the epsilon_c (Eq. 2) of the catalog it came from."""
+        """The asset placed at ``center`` and ``yaw``, with the epsilon_c (Eq. 2) of the catalog it came
+        from."""
         face = asset.face_vector
         return cls(
             center=tuple(float(v) for v in center),

@@ -5,9 +5,9 @@ metadata and per-step records with the appendix's fields: ``step_idx``, ``action
 2=LEFT 3=RIGHT), ``obs.position`` [x, y, z], ``obs.heading`` [hx, hy], ``obs.goal_position`` [x, y],
 ``obs.rgb_path`` (full mode), ``obs.depth`` (base64 of a float16 depth array, full mode),
 ``dist_to_goal`` and ``success``. Frames are stored at 224 x 224 (the BC input size) unless
-``image_size=None``; PNG by default, JPEG (quality 90) as an option. Coordinates are this platform's world frame (Z up, metres), stated in
-each entry as ``"frame": "z_up"`` (the paper's Habitat recorder was Y-up). Full mode writes RGB PNGs
-to ``images/`` beside the JSONL; trace-only mode writes no images.
+``image_size=None``; PNG by default, JPEG (quality 90) as an option. Coordinates are this platform's
+world frame (Z up, metres), stated in each entry as ``"frame": "z_up"`` (the paper's Habitat recorder
+was Y-up). Full mode writes RGB PNGs to ``images/`` beside the JSONL; trace-only mode writes no images.
 
 Each worker appends complete gzip members to its own file (``trajectories-<pid>.jsonl.gz``); a killed
 run can leave only a truncated last member, which readers skip.

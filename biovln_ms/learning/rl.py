@@ -133,7 +133,8 @@ class RLResult:
 def train_rl(
     cfg: RLConfig, out: str | Path, echo: Callable[[str], None] = print, progress: bool = True
 ) -> RLResult:
-    """Train, save and plot (``biovln_ms.eval.learned.train_and_evaluate`` then evaluates through the harness)."""
+    """Train, save and plot (``biovln_ms.eval.learned.train_and_evaluate`` then evaluates through the
+    harness)."""
     cls = algo_class(cfg.algo)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -181,7 +182,8 @@ def train_rl(
         ),
     )
     echo(
-        f"{cfg.algo}: {model.num_timesteps} timesteps in {seconds / 60:.1f} min ({model.num_timesteps / seconds:.0f} steps/s), "
+        f"{cfg.algo}: {model.num_timesteps} timesteps in {seconds / 60:.1f} min "
+        f"({model.num_timesteps / seconds:.0f} steps/s), "
         f"{len(log.rows)} episodes, last-100 success {100 * sr:.0f}% -> {model_path}"
     )
     return RLResult(

@@ -308,7 +308,8 @@ def _pickled(value: Any) -> bool:
 
 
 def _constant(entry: dict) -> float | None:
-    """The value of a pickled ``FloatSchedule(ConstantSchedule(val=x))`` (a clip range), from its plain field."""
+    """The value of a pickled ``FloatSchedule(ConstantSchedule(val=x))`` (a clip range), from its plain
+    field."""
     m = _CONSTANT.fullmatch(str(entry.get("value_schedule", "")))
     try:
         return float(m.group(1)) if m else None
@@ -317,7 +318,8 @@ def _constant(entry: dict) -> float | None:
 
 
 def _policy_kwargs(entry: Any, refuse: _Refusal) -> dict:
-    """policy_kwargs of plain JSON values, where a pickled dict's class values map back only to known classes."""
+    """policy_kwargs of plain JSON values, where a pickled dict's class values map back only to known
+    classes."""
     if _pickled(entry):
         if entry.get(":type:") != str(dict):
             raise refuse("policy_kwargs is not a dict", "data.policy_kwargs")
@@ -382,7 +384,8 @@ def _space(entry: Any) -> spaces.Box | spaces.Discrete | None:
 
 
 def _observation_space_of(policy_state: Any, not_a_model: _Refusal) -> spaces.Box:
-    """The RL env's observation space (an unbounded float32 state vector), as wide as the policy's first layer."""
+    """The RL env's observation space (an unbounded float32 state vector), as wide as the policy's first
+    layer."""
     width = (
         next((t.shape[1] for t in policy_state.values() if isinstance(t, th.Tensor) and t.ndim == 2), None)
         if isinstance(policy_state, dict)

@@ -28,7 +28,8 @@ from biovln_ms.paths import ASSET_DIR
 
 ROOM = (8.0, 6.0, 3.0)  # x, y, wall height (m)
 
-# (node name, category, centre x, centre y, yaw in degrees, marker name or None, marker offset (along face, lateral) m)
+# (node name, category, centre x, centre y, yaw in degrees, marker name or None,
+# marker offset (along face, lateral) m)
 LAYOUT = [
     ("Lab Bench", "lab_bench", 4.0, 2.2, 90, None, None),
     ("Lab Table", "lab_table", 2.0, 5.55, 0, "target_lab_table", (0.55, 0.10)),

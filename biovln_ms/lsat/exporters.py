@@ -16,7 +16,8 @@ with the strategy that produced it (1: marker, 2: geometry + Eq. 1)::
     {"format": "lsat-scene", "version": 1, "scene": str, "frame": "z_up", "units": "m",
      "rooms": [{"id", "kind", "polygon": [[x, y], ...], "height"}],
      "objects": [{"id", "category", "node", "center": [x, y, z], "yaw", "size": [w, d, h], "placement",
-                  "support", "face": [fx, fy] | null, "zones": {"zone1": [[x, y], ...], "zone2": ..., "zone3": ...},
+                  "support", "face": [fx, fy] | null,
+                  "zones": {"zone1": [[x, y], ...], "zone2": ..., "zone3": ...},
                   "goal": {"position": [x, y], "success_radius", "strategy": 1 | 2} | null}],
      "coverage": {...}}
 

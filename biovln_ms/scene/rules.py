@@ -183,7 +183,8 @@ def _related(a: ObjectSpec, b: ObjectSpec) -> bool:
 
 
 def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation]:
-    """The generator's rules: inside rooms, flush walls, Zone 2 disjoint (Eq. 2), Zone 3 clear, goals navigable."""
+    """The generator's rules: inside rooms, flush walls, Zone 2 disjoint (Eq. 2), Zone 3 clear, goals
+    navigable."""
     out: list[Violation] = []
     floor = floor_polygon(spec)
     objs = spec.objects()
@@ -274,7 +275,8 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
                 Violation(
                     "goal navigable",
                     f"{_index(spec, o)}.goal",
-                    f"goal of '{o.id}' is not on navigable floor for a {spec.robot_radius if radius is None else radius} m robot",
+                    f"goal of '{o.id}' is not on navigable floor "
+                    f"for a {spec.robot_radius if radius is None else radius} m robot",
                     (o.id,),
                 )
             )

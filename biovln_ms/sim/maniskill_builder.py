@@ -10,10 +10,13 @@ from pathlib import Path
 from typing import Sequence, Union
 
 import numpy as np
+import shapely
 import torch
+import trimesh
 from mani_skill.utils.scene_builder import SceneBuilder
 from mani_skill.utils.scene_builder.registration import register_scene_builder
 
+from biovln_ms.scene.rules import scene_free_space
 from biovln_ms.sim.sapien_builder import BuiltScene, add_lights, add_spec_to_scene
 from biovln_ms.scene.spec import SceneSpec, load_spec
 
@@ -65,6 +68,16 @@ class LabSceneBuilder(SceneBuilder):
             for obj_id, actor in built.objects.items():
                 self.scene_objects[f"{prefix}{obj_id}"] = actor
 
+    @property
+    def navigable_positions(self) -> list[trimesh.Trimesh]:
+        """Per sub-env, the floor a robot of the spec's radius can stand on, as a flat triangle mesh at z = 0
+        (ManiSkill's ReplicaCAD / AI2-THOR builders expose the same property from precomputed files)."""
+        meshes = {}
+        for spec in self.env_specs:
+            if spec.name not in meshes:
+                meshes[spec.name] = free_space_mesh(scene_free_space(spec))
+        return [meshes[spec.name] for spec in self.env_specs]
+
     def initialize(self, env_idx: torch.Tensor, init_config_idxs: list[int] | None = None) -> None:
         """The scene is static: nothing to reset between episodes."""
 
@@ -77,3 +90,13 @@ class LabSceneBuilder(SceneBuilder):
             ):
                 out[int(sid)] = obj_id
         return out
+
+
+def free_space_mesh(free) -> trimesh.Trimesh:
+    """A (Multi)Polygon triangulated (constrained Delaunay, holes kept) into a mesh in the z = 0 plane."""
+    tris = shapely.constrained_delaunay_triangles(free)
+    coords = np.array([np.asarray(t.exterior.coords)[:3] for t in tris.geoms], float)  # (k, 3, 2)
+    vertices = np.concatenate([coords.reshape(-1, 2), np.zeros((coords.shape[0] * 3, 1))], axis=1)
+    mesh = trimesh.Trimesh(vertices, np.arange(len(vertices)).reshape(-1, 3), process=True)
+    mesh.fix_normals()
+    return mesh
