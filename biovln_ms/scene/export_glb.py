@@ -20,7 +20,7 @@ from biovln_ms.assetgen.generate import load_glb
 from biovln_ms.catalog import load_catalog
 from biovln_ms.io_utils import atomic_write_bytes
 from biovln_ms.scene.shell import shell_scene
-from biovln_ms.scene.spec import SceneSpec
+from biovln_ms.scene.spec import SceneSpec, SceneSpecError
 
 ROOM_CATEGORY = "room"
 
@@ -88,7 +88,15 @@ def _chunks(glb: bytes) -> tuple[dict, bytearray]:
 
 
 def _pack(gltf: dict, binary: bytearray) -> bytes:
-    j = json.dumps(gltf, separators=(",", ":"), sort_keys=True).encode()
+    # allow_nan=False is the last guard against non-finite output (unreachable for a validated spec): it
+    # covers extras, node matrices and, through the POSITION accessors' min/max, every vertex.
+    try:
+        j = json.dumps(gltf, separators=(",", ":"), sort_keys=True, allow_nan=False).encode()
+    except ValueError:
+        raise SceneSpecError(
+            "cannot export: the scene GLB would hold a non-finite number (NaN or infinity)",
+            fix="check the spec with `biovln-ms scene validate`",
+        ) from None
     j += b" " * (-len(j) % 4)
     binary += b"\0" * (-len(binary) % 4)
     total = 12 + 8 + len(j) + 8 + len(binary)

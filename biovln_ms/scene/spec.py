@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
@@ -20,8 +21,25 @@ from biovln_ms.geometry.zones import PlacedInstrument
 from biovln_ms.io_utils import atomic_write_text
 
 SCHEMA_VERSION = 1
-Vec2 = tuple[float, float]
-Vec3 = tuple[float, float, float]
+
+# Limits (README "Lab scenes"), checked before any geometry work. The templates use at most 7 rooms,
+# 28 walls, 6 openings and 13 objects; a spec file is ~15 kB.
+MAX_FILE_BYTES = 16 * 2**20
+MAX_JSON_DEPTH = 64
+MAX_ROOMS = 64
+MAX_POLYGON_VERTICES = 256
+MAX_WALLS = 512
+MAX_OPENINGS = 256
+MAX_OBJECTS = 512  # furniture + instruments
+MAX_COORDINATE = 1e4  # m, as the glTF reader (biovln_ms.lsat.gltf): farther is a units error, not a lab
+MIN_WALL_LENGTH = 1e-6  # m: shorter is a degenerate (zero-length) wall
+UNIT_TOL = 1e-4  # |v| of a unit vector (face, wall interior, opening normal)
+
+Coord = Annotated[float, Field(ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
+Length = Annotated[float, Field(gt=0, le=MAX_COORDINATE)]
+Vec2 = tuple[Coord, Coord]
+Vec3 = tuple[Coord, Coord, Coord]
+Size3 = tuple[Length, Length, Length]
 
 
 DESIGNER_TEMPLATE = "lsat"  # the ``template`` of designer-authored scenes imported from GLB
@@ -32,12 +50,22 @@ class SceneSpecError(BioVLNError):
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # allow_inf_nan=False: every float field, in tuples and lists too, refuses NaN and +-inf.
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
-def _finite(v):
-    if not all(math.isfinite(x) for x in np.ravel(v)):
-        raise ValueError("must be finite numbers")
+def _unit(v: Vec2 | None) -> Vec2 | None:
+    if v is not None and abs(math.hypot(*v) - 1.0) > UNIT_TOL:
+        raise ValueError("must be a unit vector")
+    return v
+
+
+def _simple_polygon(v: list[Vec2]) -> list[Vec2]:
+    from shapely.geometry import Polygon
+
+    poly = Polygon(v)
+    if not poly.is_valid or poly.area <= 0:
+        raise ValueError("must be a simple polygon with a positive area (no self-crossing, no repeats)")
     return v
 
 
@@ -46,9 +74,9 @@ class RoomSpec(_Strict):
 
     id: str
     kind: Literal["room", "corridor", "passage"]
-    polygon: list[Vec2] = Field(min_length=3)
-    height: float = Field(gt=0)
-    _check = field_validator("polygon")(lambda cls, v: _finite(v))
+    polygon: list[Vec2] = Field(min_length=3, max_length=MAX_POLYGON_VERTICES)
+    height: Length
+    _check = field_validator("polygon")(lambda cls, v: _simple_polygon(v))
 
 
 class WallSpec(_Strict):
@@ -58,8 +86,15 @@ class WallSpec(_Strict):
     start: Vec2
     end: Vec2
     interior: Vec2
-    thickness: float = Field(gt=0)
-    height: float = Field(gt=0)
+    thickness: Length
+    height: Length
+    _check = field_validator("interior")(lambda cls, v: _unit(v))
+
+    @model_validator(mode="after")
+    def _length(self) -> "WallSpec":
+        if math.dist(self.start, self.end) < MIN_WALL_LENGTH:
+            raise ValueError("end: the wall has zero length (start == end)")
+        return self
 
 
 class OpeningSpec(_Strict):
@@ -68,8 +103,9 @@ class OpeningSpec(_Strict):
     id: str
     rooms: tuple[str, str]
     center: Vec2
-    width: float = Field(gt=0)
+    width: Length
     normal: Vec2
+    _check = field_validator("normal")(lambda cls, v: _unit(v))
 
 
 class ObjectSpec(_Strict):
@@ -79,20 +115,20 @@ class ObjectSpec(_Strict):
     category: str
     position: Vec3
     yaw: float
-    size: Vec3
+    size: Size3
     placement: Literal["wall", "table_top", "floor", "furniture"]
     room: str
     support: str | None = None
     slot: str | None = None
     is_goal: bool = True
     face: Vec2 | None
-    d_half: float | None = None
-    approach_distance: float | None = None
-    success_radius: float | None = None
+    d_half: Length | None = None
+    approach_distance: Annotated[float, Field(ge=0, le=MAX_COORDINATE)] | None = None
+    success_radius: Length | None = None
     goal: Vec2 | None = None
     goal_source: Literal["marker"] | None = None  # None: Eq. 1; "marker": a designer's target_* marker (LSAT)
 
-    _check = field_validator("position", "size")(lambda cls, v: _finite(v))
+    _check = field_validator("face")(lambda cls, v: _unit(v))
 
     @model_validator(mode="after")
     def _goal_fields(self) -> "ObjectSpec":
@@ -100,8 +136,6 @@ class ObjectSpec(_Strict):
             for key in ("face", "d_half", "approach_distance", "success_radius", "goal"):
                 if getattr(self, key) is None:
                     raise ValueError(f"{key}: required for a goal object")
-            if abs(math.hypot(*self.face) - 1.0) > 1e-4:
-                raise ValueError("face: must be a unit vector")
         return self
 
     def placed(self) -> PlacedInstrument:
@@ -129,16 +163,18 @@ class SceneSpec(_Strict):
     template: str
     seed: int
     generator_version: int
-    robot_radius: float = Field(gt=0, description="radius the layout rules were checked for")
+    robot_radius: Length = Field(description="radius the layout rules were checked for")
     catalog_sha256: str
-    rooms: list[RoomSpec] = Field(min_length=1)
-    walls: list[WallSpec]
-    openings: list[OpeningSpec]
-    furniture: list[ObjectSpec]
-    instruments: list[ObjectSpec] = Field(min_length=1)
+    rooms: list[RoomSpec] = Field(min_length=1, max_length=MAX_ROOMS)
+    walls: list[WallSpec] = Field(max_length=MAX_WALLS)
+    openings: list[OpeningSpec] = Field(max_length=MAX_OPENINGS)
+    furniture: list[ObjectSpec] = Field(max_length=MAX_OBJECTS)
+    instruments: list[ObjectSpec] = Field(min_length=1, max_length=MAX_OBJECTS)
 
     @model_validator(mode="after")
     def _ids(self) -> "SceneSpec":
+        if len(self.furniture) + len(self.instruments) > MAX_OBJECTS:
+            raise ValueError(f"instruments: more than {MAX_OBJECTS} objects (furniture + instruments)")
         ids = [o.id for o in self.objects()]
         dup = sorted({i for i in ids if ids.count(i) > 1})
         if dup:
@@ -190,8 +226,42 @@ def _round(obj, nd: int = 6):
     return obj
 
 
+_COUNT_LIMITS = {"rooms": MAX_ROOMS, "walls": MAX_WALLS, "openings": MAX_OPENINGS}
+_BOUNDS_FIX = "lengths are positive and coordinates within 10 km (README: Lab scenes, Limits)"
+_LIMIT_FIXES = {  # pydantic error type -> fix, for the errors the limits raise
+    "finite_number": "use a finite number (NaN and Infinity are refused)",
+    "greater_than": _BOUNDS_FIX,
+    "greater_than_equal": _BOUNDS_FIX,
+    "less_than_equal": _BOUNDS_FIX,
+    "too_long": "see the limits in README (Lab scenes, Limits)",
+}
+
+
+def _check_counts(obj: dict, source: str) -> None:
+    """Refuse oversized lists before the schema and the geometry see them."""
+    sizes = {k: len(v) for k, v in obj.items() if isinstance(v, list)}
+    limits = {**_COUNT_LIMITS, "furniture": MAX_OBJECTS, "instruments": MAX_OBJECTS}
+    for key, limit in limits.items():
+        if sizes.get(key, 0) > limit:
+            raise SceneSpecError(
+                f"{sizes[key]} {key}, more than the limit of {limit}",
+                source=source,
+                field=key,
+                fix="split the lab into several scenes",
+            )
+    n_objects = sizes.get("furniture", 0) + sizes.get("instruments", 0)
+    if n_objects > MAX_OBJECTS:
+        raise SceneSpecError(
+            f"{n_objects} objects (furniture + instruments), more than the limit of {MAX_OBJECTS}",
+            source=source,
+            field="instruments",
+            fix="split the lab into several scenes",
+        )
+
+
 def parse_spec(obj: dict, source: str = "<scene spec>", check_rules: bool = True) -> SceneSpec:
-    """Validate a spec object: schema, then consistency with the catalog and the layout rules."""
+    """Validate a spec object: size limits, schema, then consistency with the catalog and the layout
+    rules. Every problem raises ``SceneSpecError`` naming the field."""
     if not isinstance(obj, dict):
         raise SceneSpecError("a scene spec must be a JSON object", source=source)
     version = obj.get("schema_version")
@@ -202,11 +272,13 @@ def parse_spec(obj: dict, source: str = "<scene spec>", check_rules: bool = True
             field="schema_version",
             fix="regenerate the spec with this version",
         )
+    _check_counts(obj, source)
     try:
         spec = SceneSpec.model_validate(obj)
     except ValidationError as e:
         field, msg = describe_validation_error(e)
-        raise SceneSpecError(msg, source=source, field=field) from None
+        fix = _LIMIT_FIXES.get(e.errors()[0]["type"])
+        raise SceneSpecError(msg, source=source, field=field, fix=fix) from None
     if check_rules:
         from biovln_ms.scene.rules import DESIGNER_RULES, check_consistency, check_layout
 
@@ -222,19 +294,56 @@ def parse_spec(obj: dict, source: str = "<scene spec>", check_rules: bool = True
     return spec
 
 
+_JSON_STRING = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"', re.DOTALL)
+
+
+def json_depth(raw: bytes) -> int:
+    """The deepest ``[``/``{`` nesting of JSON text (brackets inside strings skipped), without parsing it."""
+    b = np.frombuffer(_JSON_STRING.sub(b"", raw), np.uint8)
+    step = np.zeros(len(b), np.int8)
+    step[(b == ord("[")) | (b == ord("{"))] = 1
+    step[(b == ord("]")) | (b == ord("}"))] = -1
+    return int(np.cumsum(step, dtype=np.int32).max(initial=0))
+
+
 def load_spec(path: str | Path, check_rules: bool = True) -> SceneSpec:
+    """Read and validate a spec file: size, UTF-8 and nesting limits first, then ``parse_spec``."""
     path = Path(path)
+    src = str(path)
+
+    def refuse(message: str, fix: str) -> SceneSpecError:
+        return SceneSpecError(message, source=src, field="file", fix=fix)
+
     try:
-        text = path.read_text()
+        with path.open("rb") as f:
+            raw = f.read(MAX_FILE_BYTES + 1)
     except OSError as e:
-        raise SceneSpecError(f"cannot read the scene spec ({e.strerror})", source=str(path)) from None
+        raise SceneSpecError(f"cannot read the scene spec ({e.strerror})", source=src) from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise refuse(
+            f"larger than the limit of {MAX_FILE_BYTES // 2**20} MiB", "is this a scene spec? regenerate it"
+        )
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise refuse(
+            f"not UTF-8 text (byte 0x{raw[e.start]:02x} at offset {e.start})", "save the spec as UTF-8 JSON"
+        ) from None
+    depth = json_depth(raw)
+    if depth > MAX_JSON_DEPTH:
+        raise refuse(
+            f"JSON nested {depth} levels deep, more than the limit of {MAX_JSON_DEPTH}",
+            "a scene spec nests a few levels; regenerate it",
+        )
     try:
         obj = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise SceneSpecError(
-            f"not valid JSON at line {e.lineno} column {e.colno}: {e.msg}", source=str(path)
-        ) from None
-    return parse_spec(obj, str(path), check_rules)
+    except RecursionError:  # unreachable after the depth check; kept so no input gives a traceback
+        raise refuse("JSON nested too deeply", "regenerate the spec") from None
+    except ValueError as e:  # JSONDecodeError, or an integer literal with too many digits
+        where = f" at line {e.lineno} column {e.colno}" if isinstance(e, json.JSONDecodeError) else ""
+        msg = e.msg if isinstance(e, json.JSONDecodeError) else str(e)
+        raise refuse(f"not valid JSON{where}: {msg}", "fix the JSON syntax, or regenerate the spec") from None
+    return parse_spec(obj, src, check_rules)
 
 
 def save_spec(spec: SceneSpec, path: str | Path) -> Path:
