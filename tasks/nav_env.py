@@ -148,7 +148,7 @@ class BioVLNNavEnv(BaseEnv):
         super()._load_agent(options, sapien.Pose())
         for controller in self.agent.controllers.values():
             controller.set_motion(self.cfg.forward_step, self.cfg.turn_deg)
-            controller.limit = self._limit_forward
+            controller.limit = self._limit_targets
 
     def _load_scene(self, options: dict):
         scene_ids = list(dict.fromkeys(self._scene_ids))  # one build config per distinct scene
@@ -259,18 +259,35 @@ class BioVLNNavEnv(BaseEnv):
         self.agent.controller.frozen = self._frozen
         return super()._step_action(action)
 
-    def _limit_forward(self, pose: torch.Tensor, forward: torch.Tensor) -> torch.Tensor:
-        """Forward moves cut where the swept body would enter an obstacle (no tunnelling at any step size)."""
-        out = forward.clone()
-        for i in torch.nonzero(forward > 0).flatten().tolist():
-            x, y, yaw = pose[i].tolist()
-            out[i] = self._motions[i].max_forward(x, y, yaw, float(forward[i]))
+    def _limit_targets(self, pose: torch.Tensor, target: torch.Tensor, moving: torch.Tensor) -> torch.Tensor:
+        """Drive targets of forward moves cut before an obstacle the straight path would cross (per scene)."""
+        out = target.clone()
+        for i in torch.nonzero(moving).flatten().tolist():
+            x, y = pose[i, :2].tolist()
+            out[i, 0], out[i, 1] = self._motions[i].target(x, y, *target[i, :2].tolist())
         return out
+
+    def _undo_crossings(self, start: torch.Tensor, pose: torch.Tensor) -> torch.Tensor:
+        """Sub-envs whose body went through or deep into an obstacle this step go back to where the move
+        started (a blocked move); returns the poses after that."""
+        back = [
+            i
+            for i in range(self.num_envs)
+            if self._motions[i].crossed(*start[i, :2].tolist(), *pose[i, :2].tolist())
+        ]
+        if not back:
+            return pose
+        qpos = self.agent.robot.get_qpos().clone()
+        qpos[back] = start[back].to(qpos.dtype)
+        self.agent.robot.set_qpos(qpos)
+        self.agent.robot.set_qvel(torch.zeros_like(qpos))
+        self.agent.controller.set_drive_targets(qpos)
+        return self._pose()
 
     def _after_control_step(self):
         cmd = self.agent.controller.command
-        pose = self._pose()
         start = cmd.start_pose.to(torch.float64)
+        pose = self._undo_crossings(start, self._pose())
         heading = torch.stack([torch.cos(start[:, 2]), torch.sin(start[:, 2])], dim=1)
         moved = ((pose[:, :2] - start[:, :2]) * heading).sum(1)
         state = StepState(pose[:, :2], pose[:, 2], cmd.stop.clone(), cmd.forward.to(torch.float64), moved)

@@ -1,32 +1,44 @@
-"""Swept-motion limits (no tunnelling): pure geometry."""
-
-import math
+"""Swept-motion checks (no tunnelling; ordinary contact untouched): pure geometry."""
 
 import pytest
 from shapely.geometry import box
 
-from biovln_ms.geometry.motion import CONTACT_SLACK, SweptMotion
+from biovln_ms.geometry.motion import ALLOWANCE, SweptMotion
 
 # two 4 x 4 m rooms joined along x = 4, separated by a 0.1 m-thick wall (the floor stops at x = 3.95 / 4.05)
 FLOOR = box(0, 0, 3.95, 4).union(box(4.05, 0, 8, 4))
 PILLAR = box(1.9, 3.0, 2.1, 3.2)
+R = 0.2
 
 
-def test_a_long_move_stops_before_a_thin_wall():
-    m = SweptMotion(FLOOR, [PILLAR], 0.2)
-    allowed = m.max_forward(3.0, 1.0, 0.0, 2.0)  # would end at x = 5.0, in the other room
-    assert allowed == pytest.approx(3.95 - (0.2 - CONTACT_SLACK) - 3.0, abs=1e-6)
+@pytest.fixture(scope="module")
+def m():
+    return SweptMotion(FLOOR, [PILLAR], R)
 
 
-def test_free_moves_and_moves_along_walls_are_untouched():
-    m = SweptMotion(FLOOR, [PILLAR], 0.2)
-    assert m.max_forward(1.0, 1.0, 0.0, 0.25) == 0.25
-    assert m.max_forward(1.0, 0.5, 0.0, 2.0) == 2.0  # parallel to the south wall, 0.5 m from it
+def test_a_target_beyond_a_thin_wall_is_cut_where_the_path_meets_it(m):
+    tx, ty = m.target(3.0, 1.0, 5.0, 1.0)  # would end in the other room
+    assert (tx, ty) == pytest.approx((3.95 - (R - ALLOWANCE), 1.0), abs=1e-6)
 
 
-def test_an_instrument_stops_the_body_and_contact_can_be_left():
-    m = SweptMotion(FLOOR, [PILLAR], 0.2)
-    up = m.max_forward(2.0, 1.0, math.pi / 2, 3.0)  # straight at the pillar from below
-    assert up == pytest.approx(3.0 - (0.2 - CONTACT_SLACK) - 1.0, abs=1e-6)
-    assert m.max_forward(2.0, 2.9, -math.pi / 2, 0.25) == 0.25  # pressed against it, backing away
-    assert m.max_forward(1.0, 1.0, 0.0, 0.0) == 0.0
+def test_free_moves_and_pressing_into_a_wall_are_untouched(m):
+    assert m.target(1.0, 1.0, 1.25, 1.0) == (1.25, 1.0)
+    assert m.target(1.0, 0.5, 3.0, 0.5) == (3.0, 0.5)  # along the south wall, 0.5 m from it
+    assert m.target(3.75, 1.0, 4.0, 1.0) == (
+        4.0,
+        1.0,
+    )  # from contact, 0.25 m into the wall: the physics stops it
+
+
+def test_a_path_through_an_instrument_is_cut(m):
+    tx, ty = m.target(2.0, 2.0, 2.0, 4.0)  # straight through the pillar, free floor beyond it
+    assert ty == pytest.approx(3.0 - (R - ALLOWANCE), abs=1e-6) and tx == pytest.approx(2.0)
+
+
+def test_crossings_are_detected_and_contact_is_not(m):
+    assert not m.crossed(1.0, 1.0, 1.25, 1.0)
+    assert not m.crossed(3.6, 1.0, 3.75, 1.0)  # ends in contact with the wall
+    assert m.crossed(3.75, 1.0, 4.3, 1.0)  # through the wall into the other room
+    assert m.crossed(3.75, 1.0, 3.95, 1.0)  # deep inside the wall
+    assert m.crossed(2.0, 2.75, 2.0, 3.45)  # through the pillar, out on its far side
+    assert m.crossed(3.75, 1.0, 8.5, 1.0)  # out of the building

@@ -14,9 +14,9 @@ Control modes (ManiSkill controllers, so ``env.control_mode`` and ``env.step`` a
   angle, STOP when a2 > 0.
 
 Either sets the planar joints' drive targets to the commanded pose and remembers the command
-(:class:`NavCommand`) for the task's measures. The task may cut a forward move short where the swept body
-would enter an obstacle (``limit``: no tunnelling at any step size) and hold sub-envs whose episode has
-ended (``frozen``).
+(:class:`NavCommand`) for the task's measures. The task may move a forward target that lies beyond or deep
+inside an obstacle (``limit``: no tunnelling at any step size, see ``biovln_ms.geometry.motion``) and hold
+sub-envs whose episode has ended (``frozen``).
 """
 
 from __future__ import annotations
@@ -72,8 +72,8 @@ class NavBaseController(PDJointPosController):
         else:
             self.single_action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
 
-    #: (pose (N, 3), forward (N,)) -> the forward distance the swept body may travel (set by the task)
-    limit: Callable[[torch.Tensor, torch.Tensor], torch.Tensor] | None = None
+    #: (pose (N, 3), target (N, 3), moving (N,) bool) -> the drive targets the swept body may take (set by the task)
+    limit: Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor] | None = None
     #: (N,) sub-envs whose episode has ended: their actions are ignored until reset (set by the task)
     frozen: torch.Tensor | None = None
 
@@ -129,9 +129,11 @@ class NavBaseController(PDJointPosController):
         # float64: targets are computed as exactly as the pose allows
         forward, turn = forward * ~held, turn * ~held
         p = pose.double()
-        moved = forward if self.limit is None else self.limit(p, forward)
-        delta = torch.stack([moved * torch.cos(p[:, 2]), moved * torch.sin(p[:, 2]), turn], dim=1)
-        target = (p + delta).to(pose.dtype)
+        delta = torch.stack([forward * torch.cos(p[:, 2]), forward * torch.sin(p[:, 2]), turn], dim=1)
+        target = p + delta
+        if self.limit is not None:
+            target = self.limit(p, target, forward > 0)
+        target = target.to(pose.dtype)
         self.command = NavCommand(pose, stop, forward, turn)
         self._start_qpos, self._target_qpos = pose, target
         self.set_drive_targets(target)
