@@ -41,6 +41,8 @@ from biovln_ms.tasks.sensors import SENSORS, SensorInputs, semantic_category
 from biovln_ms.variants import VARIANTS
 
 GOAL_MODES = ("opface", "centroid")
+SIM_BACKENDS = ("auto", "cpu", "physx_cpu", "gpu", "cuda", "physx_cuda")  # ManiSkill's names
+RENDER_BACKENDS = ("auto", "cpu", "sapien_cpu", "gpu", "cuda", "sapien_cuda", "none")
 #: the follow camera of ``render()``: behind and above the robot, looking at a point ahead of it
 FOLLOW_CAMERA_EYE = (-2.2, 0.0, 2.3)
 FOLLOW_CAMERA_TARGET = (1.0, 0.0, 0.3)
@@ -182,7 +184,16 @@ class BioVLNNavEnv(BaseEnv):
         )
         return tuple(dict.fromkeys(c.measures + extra))
 
+    def close(self):
+        self._closed = True
+        super().close()
+
+    def _check_open(self) -> None:
+        if getattr(self, "_closed", False):
+            raise EnvConfigError("the env is closed", field="env", fix="make a new one with gym.make(...)")
+
     def reset(self, seed=None, options=None):
+        self._check_open()
         options = dict(options or {})
         env_idx = options.get("env_idx")
         rows = (
@@ -251,6 +262,7 @@ class BioVLNNavEnv(BaseEnv):
     def _step_action(self, action):
         """ManiSkill's, after turning what gymnasium users pass for ``Discrete(4)`` — ``2``, ``np.int64(2)``,
         0-d arrays and tensors, lists — into the (N,)-shaped tensor ManiSkill batches."""
+        self._check_open()
         if isinstance(action, (int, float, np.generic, list, tuple)) and not isinstance(action, bool):
             action = torch.as_tensor(np.asarray(action))
         if isinstance(action, (np.ndarray, torch.Tensor)) and action.ndim == 0:
@@ -466,6 +478,14 @@ def _check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> Non
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise EnvConfigError(
                 f"{name} must be a positive number, got {v!r}", field=name, fix=f"pass a positive {name}"
+            )
+    for key, known in (("sim_backend", SIM_BACKENDS), ("render_backend", RENDER_BACKENDS)):
+        name = str(kwargs.get(key, "auto")).split(":")[0]
+        if name not in known:
+            raise EnvConfigError(
+                f"unknown {key} '{kwargs[key]}'",
+                field=key,
+                fix=f"use one of: {', '.join(known)} (optionally ':<device id>')",
             )
     backend = str(kwargs.get("sim_backend", "auto"))
     if backend.startswith(("gpu", "physx_cuda", "cuda")) and not torch.cuda.is_available():

@@ -289,10 +289,27 @@ def load_bc(path: str | Path) -> tuple[BCNet, BCConfig, dict]:
             field="arch",
             fix="retrain with `biovln-ms train bc`",
         )
+    missing = [k for k in ("state_dict", "config", "meta") if k not in ck]
+    if missing:
+        raise CheckpointError(
+            f"the checkpoint has no {', '.join(missing)}",
+            source=str(path),
+            field=missing[0],
+            fix="pass the bc.pt written by `biovln-ms train bc`, or retrain",
+        )
+    try:
+        cfg, meta = BCConfig(**json.loads(ck["config"])), json.loads(ck["meta"])
+    except (TypeError, ValueError) as e:
+        raise CheckpointError(
+            f"unreadable training config or meta ({type(e).__name__})",
+            source=str(path),
+            field="config",
+            fix="retrain with `biovln-ms train bc`",
+        ) from None
     model = BCNet()
     try:
         model.load_state_dict(ck["state_dict"])
-    except (RuntimeError, KeyError) as e:
+    except (RuntimeError, KeyError, TypeError) as e:
         raise CheckpointError(
             f"weights do not fit the BC network: {str(e).splitlines()[0]}",
             source=str(path),
@@ -300,7 +317,7 @@ def load_bc(path: str | Path) -> tuple[BCNet, BCConfig, dict]:
             fix="retrain with `biovln-ms train bc`",
         ) from None
     model.eval()
-    return model, BCConfig(**json.loads(ck["config"])), json.loads(ck["meta"])
+    return model, cfg, meta
 
 
 def preprocess(rgb: np.ndarray, frame_size: tuple[int, int], image_size: int) -> torch.Tensor:
