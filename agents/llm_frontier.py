@@ -33,10 +33,10 @@ class LLMFrontierPolicy(FrontierPolicy):
         params: FrontierParams | None = None,
     ) -> None:
         super().__init__(params)
-        if client is None:
-            from biovln_ms.llm.client import JSONChatClient
+        if client is None:  # as `eval` builds it: the endpoint from the environment, the persistent cache
+            from biovln_ms.llm.client import JSONChatClient, default_cache_path
 
-            client = JSONChatClient()
+            client = JSONChatClient(cache_path=default_cache_path())
         self.client = client
         self.threshold, self.top_k = equidistance_threshold, top_k
         self.consulted = 0
@@ -75,15 +75,18 @@ class LLMFrontierPolicy(FrontierPolicy):
                 ],
             }
         )
-        answer = self.client.ask(
-            SYSTEM,
-            prompt,
-            validate=lambda o: (
-                isinstance(o.get("choice"), int)
-                and not isinstance(o.get("choice"), bool)
-                and 0 <= o["choice"] < len(near)
-            ),
-        )
+        try:
+            answer = self.client.ask(
+                SYSTEM,
+                prompt,
+                validate=lambda o: (
+                    isinstance(o.get("choice"), int)
+                    and not isinstance(o.get("choice"), bool)
+                    and 0 <= o["choice"] < len(near)
+                ),
+            )
+        except Exception:  # the client counts its failures and returns None; anything else falls back too
+            answer = None
         if answer is None:
             self.fallbacks += 1
             return ranked[0].position
