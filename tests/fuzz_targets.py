@@ -1,0 +1,419 @@
+"""Fuzz targets for every untrusted input (issue 20): each target mutates a valid input with a seeded RNG and
+classifies what the package did with it:
+
+* ``accepted``: it loaded, and the result passed the target's own validity check (finite numbers, ...);
+* ``clear``: it was refused with a ``BioVLNError`` (one line naming the file, the field and the fix), or a
+  CLI usage error (exit status 2);
+* ``other``: anything else (another exception, an invalid result accepted, a traceback): a bug.
+
+``tests/test_fuzz.py`` runs every target for a fixed budget in CI; ``scripts/fuzz_campaign.py`` runs the long
+campaign whose counts README reports. A seed always gives the same input.
+"""
+
+from __future__ import annotations
+
+import copy
+import io
+import json
+import math
+import zipfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from biovln_ms.errors import BioVLNError
+
+OUTCOMES = ("accepted", "clear", "other")
+LEAF_VALUES = (
+    float("nan"),
+    float("inf"),
+    -float("inf"),
+    0,
+    -1,
+    1e308,
+    -1e12,
+    "",
+    "x" * 300,
+    None,
+    True,
+    [],
+    {},
+    [[[[0]]]],
+    2**70,
+)
+
+
+# --- mutations ------------------------------------------------------------------------------------
+def _paths(obj, prefix=()):
+    """Every path (tuple of keys / indices) in a JSON value, containers included."""
+    yield prefix
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            yield from _paths(v, prefix + (k,))
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            yield from _paths(v, prefix + (i,))
+
+
+def mutate_json(obj, rng: np.random.Generator, edits: int | None = None):
+    """A copy of ``obj`` with 1-3 edits: a value replaced (NaN, inf, 0, huge, a string, a list, ...), a key
+    deleted, a list emptied or blown up, a number nudged, or a type swapped."""
+    out = copy.deepcopy(obj)
+    for _ in range(edits or int(rng.integers(1, 4))):
+        paths = [p for p in _paths(out) if p]
+        if not paths:
+            return rng.choice(np.array(LEAF_VALUES, dtype=object))
+        path = paths[int(rng.integers(len(paths)))]
+        parent = out
+        for k in path[:-1]:
+            parent = parent[k]
+        key, value = path[-1], parent[path[-1]]
+        op = int(rng.integers(6))
+        if op == 0:
+            parent[key] = copy.deepcopy(LEAF_VALUES[int(rng.integers(len(LEAF_VALUES)))])
+        elif op == 1:
+            del parent[key]
+        elif op == 2 and isinstance(value, (int, float)) and not isinstance(value, bool):
+            parent[key] = value * float(rng.choice([-1.0, 0.0, 1e-9, 1e6])) + float(rng.normal())
+        elif op == 3 and isinstance(value, list):
+            parent[key] = [] if rng.random() < 0.5 else value * int(rng.integers(2, 50))
+        elif op == 4:
+            parent[key] = str(value)
+        else:
+            parent[key] = [value] if rng.random() < 0.5 else {"x": value}
+    return out
+
+
+def mutate_bytes(data: bytes, rng: np.random.Generator) -> bytes:
+    """Byte flips, a truncation, inserted junk or a duplicated region."""
+    b = bytearray(data)
+    op = int(rng.integers(4))
+    if op == 0 and b:
+        for i in rng.integers(0, len(b), int(rng.integers(1, 9))):
+            b[int(i)] = int(rng.integers(256))
+    elif op == 1 and b:
+        b = b[: int(rng.integers(0, len(b)))]
+    elif op == 2:
+        at = int(rng.integers(0, len(b) + 1))
+        b[at:at] = bytes(rng.integers(0, 256, int(rng.integers(1, 64)), dtype=np.uint8))
+    elif b:
+        i, j = sorted(int(v) for v in rng.integers(0, len(b), 2))
+        b[j:j] = b[i : i + min(j - i, 4096)]
+    return bytes(b)
+
+
+def finite_everywhere(obj) -> bool:
+    """Whether every number in a nested value (pydantic models included) is finite."""
+    if hasattr(obj, "model_dump"):
+        obj = obj.model_dump()
+    if isinstance(obj, float):
+        return math.isfinite(obj)
+    if isinstance(obj, dict):
+        return all(finite_everywhere(v) for v in obj.values())
+    if isinstance(obj, (list, tuple)):
+        return all(finite_everywhere(v) for v in obj)
+    return True
+
+
+# --- targets --------------------------------------------------------------------------------------
+@dataclass
+class Target:
+    """``setup(tmp) -> state`` once; ``run(state, seed, tmp) -> outcome`` per input."""
+
+    name: str
+    what: str
+    setup: Callable[[Path], object]
+    run: Callable[[object, int, Path], str]
+
+
+def classify(fn: Callable[[], object], check: Callable[[object], bool] = lambda _: True) -> str:
+    try:
+        result = fn()
+    except BioVLNError as e:
+        return "clear" if "\n" not in str(e) else "other"
+    except Exception:  # noqa: BLE001 - the fuzzer's point: anything else is a finding
+        return "other"
+    return "accepted" if check(result) else "other"
+
+
+def _spec_setup(tmp: Path):
+    from biovln_ms.scene.generator import generate_scene
+
+    return json.loads(generate_scene("single_room", 154).model_dump_json())
+
+
+def _spec_dict(state, seed: int, tmp: Path) -> str:
+    from biovln_ms.scene.spec import parse_spec
+
+    bad = mutate_json(state, np.random.default_rng(seed))
+    return classify(lambda: parse_spec(bad if isinstance(bad, dict) else {"x": bad}), finite_everywhere)
+
+
+def _spec_file(state, seed: int, tmp: Path) -> str:
+    from biovln_ms.scene.spec import load_spec
+
+    rng = np.random.default_rng(seed)
+    raw = json.dumps(state).encode()
+    raw = mutate_bytes(raw, rng) if rng.random() < 0.5 else json.dumps(mutate_json(state, rng)).encode()
+    path = tmp / f"spec_{seed}.json"
+    path.write_bytes(raw)
+    try:
+        return classify(lambda: load_spec(path), finite_everywhere)
+    finally:
+        path.unlink()
+
+
+def _sb3_setup(tmp: Path):
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    class StateEnv(gym.Env):
+        observation_space = gym.spaces.Box(-np.inf, np.inf, (19,), np.float32)
+        action_space = gym.spaces.Discrete(4)
+
+        def reset(self, *, seed=None, options=None):
+            return np.zeros(19, np.float32), {}
+
+        def step(self, action):
+            return np.zeros(19, np.float32), 0.0, False, True, {}
+
+    path = tmp / "ppo.zip"
+    PPO(
+        "MlpPolicy", StateEnv(), n_steps=16, batch_size=16, device="cpu", policy_kwargs={"net_arch": [8]}
+    ).save(path)
+    with zipfile.ZipFile(path) as z:
+        return {n: z.read(n) for n in z.namelist()}
+
+
+def _sb3_zip(state: dict, seed: int, tmp: Path) -> str:
+    from biovln_ms.learning.sb3_safe import load_sb3_model
+
+    rng = np.random.default_rng(seed)
+    entries = dict(state)
+    name = sorted(entries)[int(rng.integers(len(entries)))]
+    if name == "data" and rng.random() < 0.7:
+        entries[name] = json.dumps(mutate_json(json.loads(entries[name]), rng)).encode()
+    else:
+        entries[name] = mutate_bytes(entries[name], rng)
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        for n, data in entries.items():
+            z.writestr(n, data)
+    raw = mutate_bytes(buf.getvalue(), rng) if rng.random() < 0.3 else buf.getvalue()
+    path = tmp / f"model_{seed}.zip"
+    path.write_bytes(raw)
+    try:
+        return classify(lambda: load_sb3_model(path, "ppo"))
+    finally:
+        path.unlink()
+
+
+def _bc_setup(tmp: Path):
+    import torch
+
+    from biovln_ms.learning.bc import ARCH, BCConfig
+
+    buf = io.BytesIO()
+    state = {
+        "head.0.weight": torch.zeros(4, 4),
+        "head.0.bias": torch.zeros(4),
+    }  # small: loading is what's fuzzed
+    meta = {"frame_size": [96, 72]}
+    torch.save(
+        {
+            "arch": ARCH,
+            "config": json.dumps(BCConfig().__dict__),
+            "meta": json.dumps(meta),
+            "state_dict": state,
+        },
+        buf,
+    )
+    return buf.getvalue()
+
+
+def _bc_checkpoint(state: bytes, seed: int, tmp: Path) -> str:
+    from biovln_ms.learning.bc import load_bc
+
+    path = tmp / f"bc_{seed}.pt"
+    path.write_bytes(mutate_bytes(state, np.random.default_rng(seed)))
+    try:
+        return classify(lambda: load_bc(path))
+    finally:
+        path.unlink()
+
+
+#: cheap CLI commands and their options' valid values (the mutator swaps in junk)
+CLI_GRAMMAR = {
+    ("catalog",): {"--json": None},
+    ("scene", "templates"): {},
+    ("scene", "generate"): {
+        "--template": "single_room",
+        "--seed": "3",
+        "--require": "centrifuge",
+        "-o": "OUT.json",
+    },
+    ("scene", "validate"): {"": "SPEC"},
+    ("scene", "map"): {"": "SPEC", "-o": "OUT.png"},
+    ("dataset", "stats"): {"": "NOWHERE"},
+    ("layout", "solve"): {"": "REQ"},
+}
+JUNK = (
+    "",
+    "-1",
+    "1e999",
+    "nan",
+    "../../etc/passwd",
+    "\x00",
+    "x" * 500,
+    "--seed",
+    "[red]x[/]",
+    "-o",
+    "0",
+    "ö",
+)
+
+
+def _cli_setup(tmp: Path):
+    from biovln_ms.scene.generator import generate_scene
+    from biovln_ms.scene.spec import save_spec
+
+    spec = tmp / "spec.json"
+    save_spec(generate_scene("single_room", 154), spec)
+    req = tmp / "req.yaml"
+    req.write_text("room: {width: 8, depth: 6}\ninstruments:\n  - {category: centrifuge, count: 1}\n")
+    return {"SPEC": str(spec), "REQ": str(req), "NOWHERE": str(tmp / "no_dataset")}
+
+
+def _cli_args(state: dict, seed: int, tmp: Path) -> str:
+    from typer.testing import CliRunner
+
+    from biovln_ms.cli import app
+
+    rng = np.random.default_rng(seed)
+    cmds = list(CLI_GRAMMAR)
+    cmd = cmds[int(rng.integers(len(cmds)))]
+    argv = list(cmd)
+    for opt, value in CLI_GRAMMAR[cmd].items():
+        if rng.random() < 0.2:
+            continue  # leave it out
+        v = state.get(value, value)
+        if v in ("OUT.json", "OUT.png"):
+            v = str(tmp / f"out_{seed}{Path(v).suffix}")
+        if rng.random() < 0.4:
+            v = JUNK[int(rng.integers(len(JUNK)))]
+        argv += ([opt] if opt else []) + ([v] if v is not None else [])
+    if rng.random() < 0.2:
+        argv.insert(int(rng.integers(len(argv) + 1)), JUNK[int(rng.integers(len(JUNK)))])
+    result = CliRunner().invoke(app, argv, catch_exceptions=True)
+    if result.exit_code == 0:
+        return "accepted"
+    if isinstance(result.exception, BioVLNError) and "\n" not in str(result.exception):
+        return "clear"
+    if result.exit_code == 2 and not isinstance(result.exception, Exception):
+        return "clear"  # click's usage error: one message and the usage line
+    return "other"
+
+
+#: env keyword arguments and candidate values (valid ones first)
+ENV_ARGS = {
+    "num_envs": (1, 0, -3, 2.5, "2", None, 10**9),
+    "camera_width": (64, 0, -64, 1e9, float("nan"), "64"),
+    "camera_height": (48, 0, -1, float("inf")),
+    "forward_step": (0.25, 0.0, -0.25, float("nan"), 1e6, "0.25"),
+    "turn_deg": (30.0, 0, -30, float("inf")),
+    "goal_mode": ("opface", "centroid", "bogus", 3),
+    "control_mode": ("discrete", "continuous", "teleport", None),
+    "sim_backend": ("physx_cpu", "cpu", "bogus", "gpu", "cuda:0"),
+    "render_backend": ("cpu", "sapien_cpu", "none", "vulkan9"),
+    "max_episode_steps": (500, 0, -1, float("nan")),
+}
+
+
+def _env_args(state, seed: int, tmp: Path) -> str:
+    """The env's argument checks (``gym.make`` would build a scene for each accepted set; the checks are what
+    decides acceptance, and CI builds real envs from a few accepted sets in tests/test_fuzz.py)."""
+    from dataclasses import fields, replace
+
+    from biovln_ms.tasks.nav_env import BioVLNNavEnv, _check_arguments
+
+    rng = np.random.default_rng(seed)
+    kw = {k: v[0] if rng.random() < 0.5 else v[int(rng.integers(len(v)))] for k, v in ENV_ARGS.items()}
+    control = kw.pop("control_mode")
+    names = {f.name for f in fields(BioVLNNavEnv.config)}
+
+    def make():
+        cfg = replace(BioVLNNavEnv.config, **{k: v for k, v in kw.items() if k in names})
+        _check_arguments(cfg, control, {k: v for k, v in kw.items() if k not in names})
+        return cfg
+
+    def sane(cfg) -> bool:
+        return all(
+            isinstance(getattr(cfg, n), (int, float))
+            and getattr(cfg, n) > 0
+            and math.isfinite(getattr(cfg, n))
+            for n in ("forward_step", "turn_deg", "camera_width", "camera_height", "max_episode_steps")
+        )
+
+    return classify(make, sane)
+
+
+def _llm_setup(tmp: Path):
+    answer = json.dumps({"choice": 1})
+    return {
+        "id": "x",
+        "object": "chat.completion",
+        "model": "m",
+        "choices": [
+            {"index": 0, "finish_reason": "stop", "message": {"role": "assistant", "content": answer}}
+        ],
+    }
+
+
+def _llm_response(state: dict, seed: int, tmp: Path) -> str:
+    """A chat-completion body as an endpoint might send it, parsed and validated as LLM-Frontier does (the
+    client counts every refusal as a failure and falls back; only an escaping exception is a finding)."""
+    from biovln_ms.llm.client import _answer, _Failure
+
+    rng = np.random.default_rng(seed)
+    body = copy.deepcopy(state)
+    if rng.random() < 0.5:  # edit the answer inside the content string
+        content = mutate_json({"choice": 1, "why": "nearest"}, rng)
+        body["choices"][0]["message"]["content"] = json.dumps(content)
+    raw = json.dumps(mutate_json(body, rng) if rng.random() < 0.7 else body).encode()
+    raw = mutate_bytes(raw, rng) if rng.random() < 0.3 else raw
+
+    def valid(o: dict) -> bool:
+        return (
+            isinstance(o.get("choice"), int)
+            and not isinstance(o.get("choice"), bool)
+            and 0 <= o["choice"] < 3
+        )
+
+    try:
+        obj = _answer(raw, valid)
+    except _Failure:
+        return "clear"
+    except Exception:  # noqa: BLE001
+        return "other"
+    return "accepted" if valid(obj) else "other"
+
+
+TARGETS: dict[str, Target] = {
+    t.name: t
+    for t in (
+        Target("spec_dict", "scene spec objects (parse_spec)", _spec_setup, _spec_dict),
+        Target("spec_file", "scene spec files (load_spec): bytes and JSON edits", _spec_setup, _spec_file),
+        Target("sb3_zip", "Stable-Baselines3 checkpoints (load_sb3_model)", _sb3_setup, _sb3_zip),
+        Target("bc_checkpoint", "BC checkpoints (load_bc)", _bc_setup, _bc_checkpoint),
+        Target("cli_args", "CLI arguments of the cheap commands", _cli_setup, _cli_args),
+        Target("env_args", "env arguments (gym.make's checks)", lambda tmp: None, _env_args),
+        Target(
+            "llm_response",
+            "LLM endpoint answers (LLM-Frontier's parser and validator)",
+            _llm_setup,
+            _llm_response,
+        ),
+    )
+}
