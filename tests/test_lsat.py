@@ -205,6 +205,13 @@ def _mini_scene(**node_extra) -> dict:
             "missing mesh",
         ),
         (_glb({"asset": {"version": "1.0"}, "nodes": []}), "asset.version"),
+        (
+            struct.pack("<III", 0x46546C67, 2, 12 + 8 + 200_000)
+            + struct.pack("<II", 200_000, 0x4E4F534A)
+            + b"[" * 100_000
+            + b"]" * 100_000,
+            "nests deeper than 64",
+        ),
     ],
 )
 def test_hostile_glbs_are_refused_clearly(tmp_path, data, message):

@@ -258,7 +258,13 @@ def _split_glb(raw: bytes, path: Path) -> tuple[dict, bytes | None]:
     return doc, binary
 
 
-def _parse_json(body: bytes, path: Path) -> dict:
+def _parse_json(body: bytes, path: Path, max_depth: int = Limits.max_depth) -> dict:
+    from biovln_ms.scene.spec import json_depth
+
+    if json_depth(body) > max_depth:
+        raise GLTFError(
+            f"the JSON chunk nests deeper than {max_depth} levels", source=str(path), fix="re-export the file"
+        )
     try:
         doc = json.loads(body.decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError) as e:
