@@ -9,6 +9,7 @@ from typing import Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from typer.core import TyperCommand
 
 from biovln_ms.errors import BioVLNError
@@ -124,7 +125,8 @@ def assets_generate(
             cat.get(name)  # raises with the list of known names
     manifest = generate_assets(out or ASSET_DIR, cat, names=list(only) if only else None)
     typer.echo(
-        f"wrote {len(manifest['files'])} GLBs and {len(manifest['collision'])} collision caches to {out or ASSET_DIR}"
+        f"wrote {len(manifest['files'])} GLBs and {len(manifest['collision'])} collision caches "
+        f"to {out or ASSET_DIR}"
     )
 
 
@@ -164,7 +166,7 @@ def assets_preview(
 def demo(
     out: Path = typer.Option(Path("outputs/demo"), "-o", "--out", help="Folder for the demo's files."),
 ) -> None:
-    """Run the demo: asset sheet, catalog, scene lab_s150_v0 (spec, view, episode map), an oracle episode MP4 and metrics."""
+    """Run the demo: asset sheet, catalog, scene lab_s150_v0 (spec, view, episode map), an oracle episode MP4 and metrics."""  # noqa: E501
     from biovln_ms.demo import run_demo
 
     run_demo(out, typer.echo)
@@ -178,7 +180,8 @@ def scene_templates() -> None:
     for name in template_names():
         t = get_template(name)
         typer.echo(
-            f"{name:<12} {len(t.slots)} slots, {t.active_slots[0]}-{t.active_slots[1]} active: {t.description}"
+            f"{name:<12} {len(t.slots)} slots, {t.active_slots[0]}-{t.active_slots[1]} active: "
+            f"{t.description}"
         )
 
 
@@ -251,7 +254,8 @@ def scene_validate(spec_path: Path = typer.Argument(..., help="Scene spec JSON."
 
     spec = load_spec(spec_path)
     typer.echo(
-        f"{spec_path}: valid ({spec.name}, {len(spec.instruments)} instruments, {len(spec.furniture)} furniture)"
+        f"{spec_path}: valid ({spec.name}, {len(spec.instruments)} instruments, "
+        f"{len(spec.furniture)} furniture)"
     )
 
 
@@ -416,6 +420,8 @@ def record(
 @app.command(
     "eval",
     help="Evaluate a method on a split: per-episode JSONL (resumable) and summary.json.\n\n"
+    "Exit status 1 when an episode failed to run (it counts as a failure; running again retries it), "
+    "2 on a usage error or when another eval is writing the same results folder (eval.lock).\n\n"
     "Methods (--method):\n\n" + _methods_help(),
 )
 def eval_cmd(
@@ -476,8 +482,17 @@ def eval_cmd(
     o = evaluate(cfg, echo=typer.echo)["overall"]
     typer.echo(
         f"{cfg.run_name} on {split}: {o['episodes']} episodes, SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, "
-        f"DTG {o['dtg']:.2f} m, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}% -> {cfg.run_dir}"
+        f"DTG {o['dtg']:.2f} m, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}%, errors: {o['errors']} "
+        f"-> {cfg.run_dir}"
     )
+    if o["errors"]:  # counted as failures; the exit status says the numbers include them
+        typer.echo(
+            f"error: {o['errors']} of {o['episodes']} episodes failed to run (counted as failures, "
+            f"left out of DTG/MCR/VRT); their reasons are the \"error\" fields in "
+            f"{cfg.run_dir / 'episodes.jsonl'} (fix: run the same command again to retry them)",
+            err=True,
+        )
+        raise typer.Exit(1)
 
 
 @app.command()
@@ -490,7 +505,7 @@ def report(
     videos: int = typer.Option(1, help="How many episode MP4s to record."),
     hard: int = typer.Option(2, help="How many hard-episode figures (re-runs frontier)."),
 ) -> None:
-    """Write the report: the paper's tables with its numbers beside ours, McNemar tests, plots, renders, MP4s."""
+    """Write the report: the paper's tables with its numbers beside ours, McNemar tests, plots, renders, MP4s."""  # noqa: E501
     from biovln_ms.eval.report import write_report
 
     write_report(results, out, str(dataset) if dataset else None, videos, hard, typer.echo)
@@ -517,7 +532,8 @@ def lsat_import(
     c = rep.coverage()
     typer.echo(
         f"wrote {out}: {c['instruments_found']} instruments, goals from markers {c['goals_strategy1']}, "
-        f"from Eq. 1 {c['goals_strategy2']}, missing {len(c['missing'])}, {len(rep.warnings)} warning(s) -> {rpath}"
+        f"from Eq. 1 {c['goals_strategy2']}, missing {len(c['missing'])}, "
+        f"{len(rep.warnings)} warning(s) -> {rpath}"
     )
 
 
@@ -587,7 +603,8 @@ def _write_layout(spec, notes, out: Path, map_png: Optional[Path]) -> None:
 
         save_map(spec, map_png)
     typer.echo(
-        f"wrote {out}: {len(spec.instruments)} instruments, {len(spec.furniture)} furniture; passes every generator rule"
+        f"wrote {out}: {len(spec.instruments)} instruments, {len(spec.furniture)} furniture; "
+        "passes every generator rule"
     )
 
 
@@ -697,7 +714,8 @@ def _train_rl(
     if r.eval_summary:
         o = r.eval_summary["overall"]
         typer.echo(
-            f"{algo} on {eval_split}: SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}%"
+            f"{algo} on {eval_split}: SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, "
+            f"MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}%"
         )
 
 
@@ -739,7 +757,7 @@ def main() -> None:
     try:
         app()
     except BioVLNError as e:
-        console.print(f"[bold red]error:[/] {e}", highlight=False, soft_wrap=True)
+        console.print(f"[bold red]error:[/] {escape(str(e))}", highlight=False, soft_wrap=True)
         sys.exit(2)
 
 

@@ -66,6 +66,8 @@ def test_aggregate_follows_section_4_2():
     assert a["steps_success"] == pytest.approx(15)  # successful ones only
     assert a["mcr"] == pytest.approx(0.6) and a["vrt"] == pytest.approx(20.0)
     full = aggregate_all(recs + [dict(error="boom", object_category="cabinet", difficulty="easy")])
-    assert full["overall"]["errors"] == 1 and full["overall"]["episodes"] == 3
+    assert full["overall"]["errors"] == 1 and full["overall"]["episodes"] == 4  # it counts, as a failure
+    assert full["overall"]["sr"] == 50.0 and full["overall"]["spl"] == pytest.approx(1.8 / 4)
+    assert full["overall"]["dtg"] == pytest.approx(3.3 / 3)  # over the episodes that ran
     assert set(full["per_category"]) == {"cabinet", "refrigerator"}
     assert full["per_difficulty"]["hard"]["sr"] == 0.0

@@ -3,7 +3,17 @@
 ``out/<run>/<split>/episodes.jsonl`` is append-only: each finished episode is written as one line and
 flushed to disk, so a killed run resumes (``evaluate`` again) without losing or repeating an episode;
 a half-written last line from a kill is repaired. Episodes run in worker processes (``workers``,
-default one per core, started with ``spawn``). ``summary.json`` holds the aggregates.
+default one per core, started with ``spawn``); they return records, and the driver alone writes.
+``summary.json`` holds the aggregates.
+
+One writer per run folder: ``evaluate`` holds an exclusive ``flock`` on ``<run folder>/eval.lock`` for
+the whole run; a second one fails at once naming the first (pid, start, command). The kernel frees the
+lock when its process dies, so a killed run's folder is taken over by the next ``evaluate``.
+
+An episode that raises, or whose record has a missing or non-finite metric, is recorded with an
+``error`` and counts as a failure (``metrics.record_error``); a resume runs it again, replacing that
+record. A file with more than one finished record of an episode (two writers of an older version) is
+repaired on resume: the first record of each episode is kept, and the repaired keys are named.
 """
 
 from __future__ import annotations
@@ -17,11 +27,12 @@ from pathlib import Path
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import method_spec
-from biovln_ms.eval.metrics import aggregate_all
+from biovln_ms.eval.metrics import METRICS, aggregate_all, record_error
 from biovln_ms.eval.rollout import rollout
-from biovln_ms.io_utils import atomic_write_text
+from biovln_ms.io_utils import atomic_write_text, exclusive_lock
 
 DEFAULT_ENV = "BioVLN-OpFace-v0"
+LOCK_FILE = "eval.lock"  # in the run folder, held by the one process writing there
 
 
 class ResultsError(BioVLNError):
@@ -98,6 +109,28 @@ def load_records(path: Path, repair: bool = True) -> list[dict]:
                 fix="delete that line (the episode will be run again) or the file",
             ) from None
     return out
+
+
+def unique_records(records: list[dict]) -> tuple[list[dict], list[str]]:
+    """One record per episode, in file order: its first finished record, else (only errors) its last
+    errored one. Also the keys that had more than one finished record (duplicates)."""
+    chosen: dict[str, dict] = {}
+    finished: dict[str, int] = {}
+    for r in records:
+        key = episode_key(r)
+        if record_error(r) is None:
+            finished[key] = finished.get(key, 0) + 1
+            if finished[key] == 1:
+                chosen[key] = r
+        elif key not in finished:
+            chosen.pop(key, None)  # re-inserted last: a retried episode's record is where it was written
+            chosen[key] = r
+    return list(chosen.values()), [k for k, c in finished.items() if c > 1]
+
+
+def _name_keys(keys: list[str], limit: int = 5) -> str:
+    more = f" and {len(keys) - limit} more" if len(keys) > limit else ""
+    return ", ".join(keys[:limit]) + more
 
 
 # --- workers -------------------------------------------------------------------------------------
@@ -196,6 +229,10 @@ def _run(index: int) -> dict:
         }
         if hasattr(policy, "episode_stats"):
             rec["policy_stats"] = policy.episode_stats()
+        bad = record_error(rec)
+        if bad:  # a failure, never a silent gap in a mean; JSON gets null, not NaN
+            rec["error"] = f"invalid record: {bad}"
+            rec.update({k: None for k in METRICS[1:] if not math.isfinite(rec[k])})
         if recorder is not None:
             recorder.finish(rec["success"])
     except Exception as e:  # recorded; the run goes on with the next episode
@@ -223,12 +260,9 @@ def _run(index: int) -> dict:
 
 # --- driver --------------------------------------------------------------------------------------
 def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
-    """Run (or resume) a method on a split; returns the summary (also written to summary.json)."""
-    from tqdm import tqdm
+    """Run (or resume) a method on a split; returns the summary (also written to summary.json).
 
-    from biovln_ms.benchmark import dataset_root
-    from biovln_ms.episodes.source import DatasetEpisodes
-
+    Raises ``LockedError`` at once when another process is writing the same run folder."""
     spec = method_spec(cfg.method, cfg.method_kwargs)
     if spec.preflight:
         spec.preflight(**cfg.method_kwargs)
@@ -244,22 +278,49 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
             field="record_mode",
             fix="use --record-mode trace",
         )
+    with exclusive_lock(
+        cfg.run_dir / LOCK_FILE,
+        "writing this results folder",
+        fix="wait for it to finish, or stop it (`kill {pid}`; running this again resumes), "
+        "or write elsewhere (--out or --name)",
+    ):
+        return _evaluate_locked(cfg, progress, echo)
+
+
+def _evaluate_locked(cfg: EvalConfig, progress: bool, echo) -> dict:
+    """``evaluate``'s work, run while holding the run folder's lock."""
+    from tqdm import tqdm
+
+    from biovln_ms.benchmark import dataset_root
+    from biovln_ms.episodes.source import DatasetEpisodes
+
     source = DatasetEpisodes(cfg.split, dataset_root(cfg.dataset))
     episodes = source.episodes[: cfg.max_episodes] if cfg.max_episodes else source.episodes
     run_dir = cfg.run_dir
-    run_dir.mkdir(parents=True, exist_ok=True)
     path = run_dir / "episodes.jsonl"
-    previous = load_records(path)
-    done = {episode_key(r) for r in previous if not r.get("error")}
+    raw = load_records(path)
+    previous, dups = unique_records(raw)
+    wanted = {episode_key(e) for e in episodes}
+    retry = {episode_key(r) for r in previous if record_error(r) and episode_key(r) in wanted}
+    previous = [r for r in previous if episode_key(r) not in retry]
+    if len(previous) != len(raw):  # duplicates dropped, errored episodes to run again
+        atomic_write_text(path, "".join(json.dumps(r, separators=(",", ":")) + "\n" for r in previous))
+    if dups:
+        echo(
+            f"repaired {path}: {len(dups)} episodes had more than one record (two writers at once, "
+            f"before the lock): {_name_keys(dups)}; kept the first record of each"
+        )
+    done = {episode_key(r) for r in previous}
     todo = [i for i, e in enumerate(episodes) if episode_key(e) not in done]
     if done:
-        echo(f"resuming {cfg.run_name} on {cfg.split}: {len(done)} done, {len(todo)} to go")
+        again = f" ({len(retry)} that errored run again)" if retry else ""
+        echo(f"resuming {cfg.run_name} on {cfg.split}: {len(done)} done, {len(todo)} to go{again}")
     workers = max(1, min(cfg.workers or os.cpu_count() or 1, len(todo) or 1))
     wcfg = {k: v for k, v in asdict(cfg).items()}
     bar = tqdm(
         total=len(episodes), initial=len(done), desc=f"{cfg.run_name} {cfg.split}", disable=not progress
     )
-    n_ok = sum(1 for r in previous if r.get("success"))
+    n_ok = sum(1 for r in previous if r.get("success") and not record_error(r))
     with open(path, "a") as f:
 
         def write(rec):
@@ -267,7 +328,7 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
             f.write(json.dumps(rec, separators=(",", ":")) + "\n")
             f.flush()
             os.fsync(f.fileno())
-            n_ok += bool(rec.get("success"))
+            n_ok += bool(rec.get("success")) and not rec.get("error")
             bar.update(1)
             bar.set_postfix(SR=f"{100 * n_ok / max(bar.n, 1):.1f}%")
 
@@ -335,21 +396,19 @@ def _run_on_ray(address: str, wcfg: dict, todo: list[int], workers: int, write) 
 
 
 def write_summary(cfg: EvalConfig, expected: int) -> dict:
-    records = load_records(cfg.run_dir / "episodes.jsonl")
-    keys = [episode_key(r) for r in records if not r.get("error")]
-    if len(keys) != len(set(keys)):
-        raise ResultsError("an episode appears twice", source=str(cfg.run_dir / "episodes.jsonl"))
+    """Aggregate the run's records (one per episode, errored ones as failures) into summary.json."""
+    records, _ = unique_records(load_records(cfg.run_dir / "episodes.jsonl"))
+    aggregates = aggregate_all(records)
     summary = {
         "method": cfg.method,
         "env_id": cfg.env_id,
         "split": cfg.split,
         "run": cfg.run_name,
         "expected_episodes": expected,
-        **aggregate_all(records),
+        "errors": aggregates["overall"]["errors"],
+        **aggregates,
         "failed_episodes": [
-            {"key": f"{r['scene_id']}/{r['episode_id']}", "error": r["error"]}
-            for r in records
-            if r.get("error")
+            {"key": episode_key(r), "error": record_error(r)} for r in records if record_error(r)
         ],
     }
     atomic_write_text(

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from itertools import combinations
 from pathlib import Path
+from typing import Callable
 
 import matplotlib
 
@@ -17,9 +18,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from biovln_ms.eval import paper
-from biovln_ms.eval.harness import EvalConfig, episode_key, load_records
+from biovln_ms.eval.harness import EvalConfig, episode_key, load_records, unique_records
 from biovln_ms.eval.methods import METHODS, method_of_paper_key, report_methods
-from biovln_ms.eval.metrics import aggregate, aggregate_all
+from biovln_ms.eval.metrics import aggregate, aggregate_all, record_error, succeeded
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.eval.stats import mcnemar
 
@@ -32,12 +33,21 @@ def _run_name(method: str, env_id: str | None = None) -> str:
     return EvalConfig(method=method, split="", out="", env_id=env_id).run_name
 
 
-def load_runs(results: Path) -> dict[tuple[str, str], list[dict]]:
-    """Episode records by (run, split). A method's run on its own env is keyed by the method's name (PPO's
-    ``ppo@opface-rl`` folder as ``ppo``); any other run by its folder's name (``frontier@centroid``)."""
+def load_runs(results: Path, echo: Callable[[str], None] = print) -> dict[tuple[str, str], list[dict]]:
+    """Episode records by (run, split), one per episode, errored ones included (they count as failures).
+    A method's run on its own env is keyed by the method's name (PPO's ``ppo@opface-rl`` folder as
+    ``ppo``); any other run by its folder's name (``frontier@centroid``). A file with more than one
+    finished record of an episode (two writers of an older version) is read with the first of each,
+    and named (``biovln-ms eval`` on that run repairs the file)."""
     runs = {}
     for f in sorted(Path(results).glob("*/*/episodes.jsonl")):
-        recs = [r for r in load_records(f, repair=False) if not r.get("error")]
+        recs, dups = unique_records(load_records(f, repair=False))
+        if dups:
+            echo(
+                f"warning: {f} has more than one record of {len(dups)} episodes ({', '.join(dups[:5])}"
+                f"{', ...' if len(dups) > 5 else ''}); the first of each is used (fix: run `biovln-ms "
+                "eval` again on that run: it repairs the file)"
+            )
         if recs:
             folder, method = f.parent.parent.name, recs[0].get("method")
             run = method if method in METHODS and folder == _run_name(method) else folder
@@ -100,7 +110,8 @@ def table5(runs) -> list[str]:
 
 def table10(runs) -> list[str]:
     rows = [
-        "| Method | DEV SR | DEV DTG | DEV Steps | VAL SR | VAL DTG | VAL Steps | TEST SR | TEST DTG | TEST Steps |",
+        "| Method | DEV SR | DEV DTG | DEV Steps | VAL SR | VAL DTG | VAL Steps | "
+        "TEST SR | TEST DTG | TEST Steps |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for m in report_methods():
@@ -165,8 +176,9 @@ def table17(runs) -> list[str]:
 
 
 def _paired(a: list[dict], b: list[dict]):
-    ka = {episode_key(r): r["success"] for r in a}
-    kb = {episode_key(r): r["success"] for r in b}
+    """Outcomes of the episodes both runs hold, errored ones as failures."""
+    ka = {episode_key(r): succeeded(r) for r in a}
+    kb = {episode_key(r): succeeded(r) for r in b}
     keys = sorted(set(ka) & set(kb))
     return [ka[k] for k in keys], [kb[k] for k in keys]
 
@@ -334,6 +346,8 @@ def plot_safety(runs, out: Path) -> Path:
     fig, ax = plt.subplots(figsize=(6, 4.5))
     for (m, s), recs in sorted(runs.items()):
         a = aggregate(recs)
+        if not (math.isfinite(a["mcr"]) and math.isfinite(a["vrt"])):  # every episode errored
+            continue
         ax.scatter(a["mcr"], a["vrt"], s=40)
         ax.annotate(f"{m} {s}", (a["mcr"], a["vrt"]), fontsize=7, xytext=(3, 3), textcoords="offset points")
     ax.axvline(0.5, color="#d62728", ls="--", lw=1)
@@ -351,7 +365,8 @@ def plot_trajectories(recs: list[dict], specs, out: Path, title: str, limit: int
 
     by_scene: dict = {}
     for r in recs:
-        by_scene.setdefault(r["scene_id"], []).append(r)
+        if record_error(r) is None:  # an errored episode has no trajectory
+            by_scene.setdefault(r["scene_id"], []).append(r)
     scenes = list(by_scene)[:2]
     fig, axes = plt.subplots(1, len(scenes), figsize=(7 * len(scenes), 5.5), squeeze=False)
     for ax, scene in zip(axes[0], scenes):
@@ -424,8 +439,10 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
         ax.plot(*rec["start"], "o", color="#1f77b4", ms=9, zorder=11)
         ax.plot(*rec["goal"], "X", color="#d62728", ms=11, zorder=11)
         ax.set_title(
-            f"Hard episode {rec['scene_id']}/{rec['episode_id']} (geodesic {rec['geodesic_distance']:.1f} m): "
-            f"{'success' if bool(info['success']) else 'failure'}; blue = free, black = occupied on the agent's map"
+            f"Hard episode {rec['scene_id']}/{rec['episode_id']} "
+            f"(geodesic {rec['geodesic_distance']:.1f} m): "
+            f"{'success' if bool(info['success']) else 'failure'}; "
+            "blue = free, black = occupied on the agent's map"
         )
         ax.legend(loc="upper left", fontsize=8)
         fig.tight_layout()
@@ -434,6 +451,25 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
     finally:
         env.close()
     return out
+
+
+def runs_header(runs, results) -> list[str]:
+    """The report's first lines: each run with its episodes and how many of them errored (when any), and
+    what an errored episode counts as."""
+    listed, errored = [], 0
+    for (m, s), recs in sorted(runs.items()):
+        a = aggregate(recs)
+        errored += a["errors"]
+        listed.append(
+            f"{m} on {s} ({a['episodes']} episodes" + (f", {a['errors']} errored)" if a["errors"] else ")")
+        )
+    return [
+        f"Results: `{results}`. Runs: " + ", ".join(listed) + ".",
+        "",
+        f"Errored episodes: {errored or 'none'}. An errored episode (it failed to run; its reason is the "
+        "`error` field of `episodes.jsonl`) counts as a failure: in SR, and with SPL 0 in SPL. It has no "
+        "trajectory, so DTG, steps, MCR and VRT are means over the episodes that ran.",
+    ]
 
 
 def tables(runs) -> list[list[str]]:
@@ -457,7 +493,7 @@ def write_report(
     from biovln_ms.benchmark import ensure_default_dataset
     from biovln_ms.errors import BioVLNError
 
-    runs = load_runs(Path(results))
+    runs = load_runs(Path(results), echo)
     if not runs:
         raise BioVLNError(
             f"no results under {results}", fix="run `biovln-ms eval --method M --split S --out DIR` first"
@@ -465,13 +501,13 @@ def write_report(
     out = Path(out)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     ds = EpisodeDataset(dataset or ensure_default_dataset(echo))
-    lines = [
-        "# BioVLN-MS evaluation report",
-        "",
-        f"Results: `{results}`. Runs: "
-        + ", ".join(f"{m} on {s} ({len(r)} episodes)" for (m, s), r in sorted(runs.items())),
-        "",
-    ]
+    lines = ["# BioVLN-MS evaluation report", "", *runs_header(runs, results), ""]
+    errored = {k: aggregate(r)["errors"] for k, r in sorted(runs.items())}
+    if any(errored.values()):
+        echo(
+            "errored episodes (counted as failures): "
+            + ", ".join(f"{m} on {s}: {n}" for (m, s), n in errored.items() if n)
+        )
     for block in tables(runs):
         lines += block + [""]
     figs = [
@@ -479,17 +515,20 @@ def write_report(
         plot_safety(runs, out / "figures" / "safety.png"),
     ]
     for (m, s), recs in sorted(runs.items()):
+        if all(record_error(r) for r in recs):  # no trajectory to draw
+            continue
         figs.append(
             plot_trajectories(recs, ds.spec, out / "figures" / f"trajectories_{m}_{s}.png", f"{m} on {s}")
         )
     lines += ["## Figures", ""] + [f"![{f.stem}](figures/{f.name})" for f in figs] + [""]
+    ran = {k: [r for r in recs if record_error(r) is None] for k, recs in runs.items()}
     hard = sorted(
-        (r for (m, s), recs in runs.items() if m == "frontier" for r in recs if r["difficulty"] == "hard"),
+        (r for (m, s), recs in ran.items() if m == "frontier" for r in recs if r["difficulty"] == "hard"),
         key=lambda r: -r["geodesic_distance"],
     )[:hard_figures]
     if not hard:
         hard = sorted(
-            (r for (m, s), recs in runs.items() if m == "frontier" for r in recs),
+            (r for (m, s), recs in ran.items() if m == "frontier" for r in recs),
             key=lambda r: -r["geodesic_distance"],
         )[:hard_figures]
     hard_files = [
@@ -507,8 +546,8 @@ def write_report(
 
         (out / "videos").mkdir(exist_ok=True)
         vids = []
-        for (m, s), recs in sorted(runs.items()):
-            if len(vids) >= videos or m not in METHODS or not METHODS[m].recordable:
+        for (m, s), recs in sorted(ran.items()):
+            if len(vids) >= videos or m not in METHODS or not METHODS[m].recordable or not recs:
                 continue
             r = recs[0]
             path = out / "videos" / f"{m}_{s}_{r['scene_id']}_{r['episode_id']}.mp4"

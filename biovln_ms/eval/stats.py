@@ -58,8 +58,11 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[f
 
 
 def mean_interval(values: Sequence[float], confidence: float = 0.95) -> tuple[float, float]:
-    """Student-t interval of a mean (nan with fewer than two finite values)."""
-    v = np.asarray([x for x in values if x is not None and math.isfinite(x)], float)
+    """Student-t interval of a mean (nan with fewer than two values). A missing or non-finite value is an
+    error (``ValueError``), never silently left out: the caller decides what such a value means."""
+    v = np.asarray([math.nan if x is None else x for x in values], float)
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"non-finite value in a mean: {v[~np.isfinite(v)][:3].tolist()}")
     if len(v) < 2:
         return (math.nan, math.nan)
     half = stats.t.ppf(0.5 + confidence / 2, len(v) - 1) * v.std(ddof=1) / math.sqrt(len(v))

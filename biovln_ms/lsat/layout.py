@@ -12,7 +12,8 @@ Request schema (YAML or JSON)::
 
     name: cell_culture_room            # optional
     room: {width: 8.0, depth: 6.0, height: 3.0}   # metres, 3-30 m
-    furniture: {lab_bench: 1, lab_table: 1}        # along the walls; added when table-top instruments need one
+    furniture: {lab_bench: 1, lab_table: 1}        # along the walls; added when table-top instruments
+                                                   # need one
     instruments:
       - {category: incubator, count: 2, wall: N}   # wall: N/E/S/W for wall instruments (optional)
       - {category: biosafety_cabinet}
@@ -275,7 +276,8 @@ Answer with one JSON object and nothing else, with these keys:
   "name": snake_case name (optional),
   "room": {"width": metres 3-30, "depth": metres 3-30, "height": metres 2.2-6},
   "furniture": {"lab_bench": 0-2, "lab_table": 0-3},
-  "instruments": [{"category": one of the categories below, "count": 1-4, "wall": "N"|"E"|"S"|"W" (optional, wall instruments only)}],
+  "instruments": [{"category": one of the categories below, "count": 1-4, \
+"wall": "N"|"E"|"S"|"W" (optional, wall instruments only)}],
   "seed": 0.
 Instrument categories (placement): %s.
 Pick a room size that fits the instruments with aisles of at least 1 m. Do not invent categories."""
