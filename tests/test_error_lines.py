@@ -19,7 +19,8 @@ def test_cli_error_lines_keep_square_brackets(tmp_path):
     """rich markup used to eat ``[...]`` (e.g. the expected goal in the Eq. 1 message)."""
     code = (
         "import sys; from biovln_ms import cli; from biovln_ms.errors import BioVLNError\n"
-        "def boom(): raise BioVLNError('goal is [1.0, 2.0], expected [3.0, 4.0]', field='goals[0]', fix='use [3, 4]')\n"
+        "def boom():\n"
+        "    raise BioVLNError('goal [1.0, 2.0], expected [3.0, 4.0]', field='goals[0]', fix='use [3, 4]')\n"
         "cli.app = boom\ncli.main()\n"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)

@@ -72,7 +72,8 @@ class NavBaseController(PDJointPosController):
         else:
             self.single_action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
 
-    #: (pose (N, 3), target (N, 3), moving (N,) bool) -> the drive targets the swept body may take (set by the task)
+    #: (pose (N, 3), target (N, 3), moving (N,) bool) -> the drive targets the swept body may take
+    #: (set by the task)
     limit: Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor] | None = None
     #: (N,) sub-envs whose episode has ended: their actions are ignored until reset (set by the task)
     frozen: torch.Tensor | None = None
