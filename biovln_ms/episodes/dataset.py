@@ -6,9 +6,12 @@ Layout of a dataset folder::
     scenes/<scene>.json             the scene specs
     <split>/content/<scene>.json.gz {"episodes": [...]} per scene
 
-A build writes into a sibling temporary folder and renames it into place at the end, so a killed
-build never leaves a dataset that loads. Loading refuses a dataset made for another agent radius or
-catalog (Habitat's NaN-SPL trap) and any file whose hash does not match the manifest.
+A build writes into a sibling temporary folder (``.<name>.partial-<pid>``, locked while the build runs)
+and renames it into place at the end, so a killed build never leaves a dataset that loads; the next
+build into the same parent removes what a killed one left. Loading refuses a dataset made for another
+agent radius or catalog (Habitat's NaN-SPL trap), any file whose hash does not match the manifest, any
+path that leads outside the folder, and anything malformed or over the limits below — always with one
+``DatasetError`` naming the file and the field.
 """
 
 from __future__ import annotations
@@ -17,24 +20,232 @@ import gzip
 import hashlib
 import io
 import json
+import math
 import os
+import re
 import shutil
+import stat
+import time
+import zlib
 from collections import Counter
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Iterator
+from pathlib import Path, PurePosixPath
+from typing import Annotated, BinaryIO, Iterator, Literal
+
+from pydantic import AfterValidator, ConfigDict, Field, TypeAdapter, ValidationError, with_config
+from typing_extensions import NotRequired, TypedDict
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import ROBOT_RADIUS, SCENE_GENERATOR_VERSION
-from biovln_ms.errors import BioVLNError
-from biovln_ms.scene.spec import SceneSpec, load_spec
+from biovln_ms.errors import BioVLNError, describe_validation_error
+from biovln_ms.scene.spec import (
+    MAX_COORDINATE,
+    MAX_JSON_DEPTH,
+    SceneSpec,
+    SceneSpecError,
+    json_depth,
+    load_spec,
+)
+from biovln_ms.scene.spec import MAX_FILE_BYTES as MAX_SCENE_FILE_BYTES
 
 DATASET_FORMAT_VERSION = 2  # 2: the lsat_target split and marker goals (goal_source)
 EPISODE_GENERATOR_VERSION = 1
 
+# Limits (README "Episodes and datasets"), checked before parsing. The paper's datasets: a 29 kB
+# manifest, episode files of at most 86 kB decompressed (~1.7 kB an episode), 1,669 episodes in a split.
+MAX_MANIFEST_BYTES = 16 * 2**20
+MAX_EPISODE_FILE_BYTES = 256 * 2**20  # decompressed (read in bounded chunks), and on disk
+MAX_EPISODES_PER_SPLIT = 1_000_000
+MAX_GOALS = 64  # per episode
+MAX_VIEW_POINTS = 1024  # per goal
+STALE_BUILD_AGE_S = 3600  # an unlocked build folder whose pid runs (reused?) is stale after this
+_READ_CHUNK = 2**20
+_REBUILD = "rebuild it: biovln-ms dataset build --out DIR"
+
 
 class DatasetError(BioVLNError):
     """A missing, incomplete, corrupt or mismatching dataset."""
+
+
+def _oneline(text: str) -> str:
+    """``text`` with control characters escaped, so an error stays one line."""
+    return text if text.isprintable() else ascii(text)[1:-1]
+
+
+def _schema_error(e: ValidationError, source: str, prefix: str = "") -> DatasetError:
+    loc, msg = describe_validation_error(e)
+    if prefix:
+        loc = prefix if loc == "<root>" else (f"{prefix}{loc}" if loc.startswith("[") else f"{prefix}.{loc}")
+    fix = (
+        "use a finite number (NaN and Infinity are refused)"
+        if e.errors()[0]["type"] == "finite_number"
+        else _REBUILD
+    )
+    return DatasetError(_oneline(msg), source=source, field=_oneline(loc), fix=fix)
+
+
+# --- schemas (validated only: loading returns the JSON objects themselves, unchanged) -------------
+# strict: no "1.5" -> 1.5 or true -> 1 coercion; allow_inf_nan=False: NaN and +-inf refused; unknown
+# keys ignored. TypedDicts, not models: validating 1,000 episodes takes ~15 ms.
+_STRICT = ConfigDict(strict=True, allow_inf_nan=False)
+_SHA256 = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
+_RelPath = Annotated[str, Field(min_length=1, max_length=4096)]
+_Count = Annotated[int, Field(ge=0)]
+_Coord = Annotated[float, Field(ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
+_Distance = Annotated[float, Field(ge=0)]
+
+
+def _unit_quaternion(q: list[float]) -> list[float]:
+    if abs(math.hypot(*q) - 1.0) > 1e-3:
+        raise ValueError("must be a unit quaternion [w, x, y, z]")
+    return q
+
+
+_Vec2 = Annotated[list[_Coord], Field(min_length=2, max_length=2)]
+_Vec3 = Annotated[list[_Coord], Field(min_length=3, max_length=3)]
+_Quat = Annotated[list[float], Field(min_length=4, max_length=4), AfterValidator(_unit_quaternion)]
+
+
+@with_config(_STRICT)
+class _SceneEntry(TypedDict):
+    file: _RelPath
+    sha256: _SHA256
+    template: str
+    seed: int
+
+
+@with_config(_STRICT)
+class _FileEntry(TypedDict):
+    file: _RelPath
+    sha256: _SHA256
+    episodes: _Count
+
+
+@with_config(_STRICT)
+class _SplitEntry(TypedDict):
+    description: NotRequired[str]
+    scenes: list[str]
+    episodes: _Count
+    files: dict[str, _FileEntry]
+    missing: NotRequired[str | None]
+    view_of: NotRequired[str | None]
+
+
+@with_config(_STRICT)
+class _Manifest(TypedDict):
+    agent_radius: Annotated[float, Field(gt=0, le=MAX_COORDINATE)]
+    catalog_sha256: str
+    scene_generator_version: int
+    episode_generator_version: int
+    scenes: dict[str, _SceneEntry]
+    splits: dict[str, _SplitEntry]
+
+
+@with_config(_STRICT)
+class _AgentState(TypedDict):
+    position: _Vec3
+    rotation: _Quat
+
+
+@with_config(_STRICT)
+class _ViewPoint(TypedDict):
+    agent_state: _AgentState
+
+
+@with_config(_STRICT)
+class _Goal(TypedDict):
+    position: _Vec3
+    radius: Annotated[float, Field(gt=0, le=MAX_COORDINATE)]
+    object_id: str
+    object_category: str
+    eq1_goal: _Vec2
+    view_points: Annotated[list[_ViewPoint], Field(max_length=MAX_VIEW_POINTS)]
+
+
+@with_config(_STRICT)
+class _Info(TypedDict):
+    geodesic_distance: _Distance
+    euclidean_distance: _Distance
+    difficulty: Literal["easy", "medium", "hard"]
+    start_clearance: _Coord
+    start_clearance_fallback: bool
+    cross_room: bool
+
+
+@with_config(_STRICT)
+class _Episode(TypedDict):
+    episode_id: str
+    scene_id: str
+    start_position: _Vec3
+    start_rotation: _Quat
+    object_category: str
+    object_id: str
+    goals: Annotated[list[_Goal], Field(min_length=1, max_length=MAX_GOALS)]
+    info: _Info
+
+
+_MANIFEST = TypeAdapter(_Manifest)
+_EPISODES = TypeAdapter(list[_Episode])
+
+
+# --- bounded reading ------------------------------------------------------------------------------
+def _regular_size(path: Path, source: str, limit: int, what: str) -> int:
+    """The size of ``path``, a regular file (never a FIFO or device, which could block or never end)."""
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        listed = "" if what == "manifest" else " (listed in the manifest)"
+        raise DatasetError(f"the {what} is missing{listed}", source=source, fix=_REBUILD) from None
+    except (OSError, ValueError) as e:
+        raise DatasetError(f"cannot read the {what} ({e})", source=source, fix=_REBUILD) from None
+    if not stat.S_ISREG(st.st_mode):
+        raise DatasetError(f"the {what} is not a regular file", source=source, fix=_REBUILD)
+    if st.st_size > limit:
+        raise DatasetError(
+            f"{what} is {st.st_size:,} bytes, more than the limit of {limit // 2**20} MiB",
+            source=source,
+            fix=_REBUILD,
+        )
+    return st.st_size
+
+
+def _read_bounded(stream: BinaryIO, limit: int) -> bytes | None:
+    """All of ``stream``, read in chunks, or None as soon as it is over ``limit`` bytes (a gzip bomb
+    stops there)."""
+    chunks, n = [], 0
+    while chunk := stream.read(_READ_CHUNK):
+        n += len(chunk)
+        if n > limit:
+            return None
+        chunks.append(chunk)
+    return b"".join(chunks)
+
+
+def _parse_json(raw: bytes, source: str, what: str):
+    """JSON of ``raw`` after the UTF-8 and depth checks; every failure is one ``DatasetError``."""
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise DatasetError(
+            f"{what} is not UTF-8 text (byte 0x{raw[e.start]:02x} at offset {e.start})",
+            source=source,
+            fix=_REBUILD,
+        ) from None
+    depth = json_depth(raw)
+    if depth > MAX_JSON_DEPTH:
+        raise DatasetError(
+            f"{what} JSON is nested {depth} levels deep, more than the limit of {MAX_JSON_DEPTH}",
+            source=source,
+            fix=_REBUILD,
+        )
+    try:
+        return json.loads(text)
+    except RecursionError:  # unreachable after the depth check; kept so no input gives a traceback
+        raise DatasetError(f"{what} JSON is nested too deeply", source=source, fix=_REBUILD) from None
+    except ValueError as e:  # JSONDecodeError, or an integer literal with too many digits
+        where = f" at line {e.lineno} column {e.colno}" if isinstance(e, json.JSONDecodeError) else ""
+        msg = e.msg if isinstance(e, json.JSONDecodeError) else str(e)
+        raise DatasetError(f"{what} is not valid JSON{where}: {msg}", source=source, fix=_REBUILD) from None
 
 
 def gz_json(obj) -> bytes:
@@ -60,19 +271,94 @@ class SplitPlan:
     view_of: str | None = None  # reuse these scenes' episode files from another split
 
 
+# --- building -------------------------------------------------------------------------------------
+def _pid_running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (OverflowError, ValueError):  # not a pid this machine can have
+        return False
+    except OSError:  # EPERM: it runs, as another user
+        return True
+    return True
+
+
+def _lock_folder(path: Path) -> int | None:
+    """A descriptor holding an exclusive ``flock`` on folder ``path``, or None if another process holds it.
+    The kernel drops the lock when its holder dies, however it dies."""
+    import fcntl
+
+    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        return None
+    return fd
+
+
+def remove_stale_builds(out: str | Path, max_age_s: float = STALE_BUILD_AGE_S) -> list[Path]:
+    """Remove the ``.<name>.partial-<pid>`` siblings of dataset folder ``out`` left by killed builds.
+
+    A build folder is stale when no process holds its lock (a running build always does) and either its
+    pid is not running on this machine or it was last modified more than ``max_age_s`` ago (the pid was
+    reused). A live concurrent build's folder is never removed. Returns the removed folders."""
+    out = Path(out)
+    prefix = f".{out.name}.partial-"
+    try:
+        siblings = list(out.parent.iterdir())
+    except OSError:
+        return []
+    removed = []
+    for p in siblings:
+        pid = p.name[len(prefix) :] if p.name.startswith(prefix) else ""
+        if not re.fullmatch(r"[0-9]{1,12}", pid) or int(pid) == os.getpid() or p.is_symlink():
+            continue
+        try:
+            fd = _lock_folder(p)
+        except OSError:  # gone meanwhile (renamed into place), or not a folder
+            continue
+        if fd is None:  # a live build holds it
+            continue
+        try:
+            age = time.time() - os.fstat(fd).st_mtime
+            if _pid_running(int(pid)) and age < max_age_s:
+                continue
+            shutil.rmtree(p, ignore_errors=True)
+            removed.append(p)
+        finally:
+            os.close(fd)
+    return removed
+
+
 def write_dataset(
     out: Path, splits: list[SplitPlan], progress: bool = True, radius: float = ROBOT_RADIUS
 ) -> dict:
-    """Build every split's episodes and write the dataset atomically; returns the manifest."""
-    from tqdm import tqdm
+    """Build every split's episodes and write the dataset atomically; returns the manifest.
 
-    from biovln_ms.episodes.generator import EpisodeSampler
-
+    Writes into ``.<name>.partial-<pid>`` beside ``out`` (locked while this build runs) and renames it
+    into place; first removes what killed builds left there (``remove_stale_builds``)."""
     out = Path(out)
+    remove_stale_builds(out)
     tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
     if tmp.exists():
         shutil.rmtree(tmp)
     (tmp / "scenes").mkdir(parents=True)
+    lock = _lock_folder(tmp)
+    try:
+        return _build(out, tmp, splits, progress, radius)
+    finally:
+        if lock is not None:
+            os.close(lock)
+
+
+def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, radius: float) -> dict:
+    """``write_dataset``'s work: every file into ``tmp``, the manifest last, then the rename to ``out``."""
+    from tqdm import tqdm
+
+    from biovln_ms.episodes.generator import EpisodeSampler
+
     cat = load_catalog()
     manifest: dict = {
         "format_version": DATASET_FORMAT_VERSION,
@@ -144,15 +430,32 @@ def stable_split_seed(name: str) -> int:
     return stable_seed("split", name)
 
 
+# --- loading --------------------------------------------------------------------------------------
+def _show(value: object, limit: int = 60) -> str:
+    """A user value for an error message: repr, one line, at most ``limit`` characters."""
+    text = _oneline(repr(value))
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 class EpisodeDataset:
-    """A validated dataset folder: splits, scene specs and episodes."""
+    """A validated dataset folder: splits, scene specs and episodes.
+
+    Every malformed, oversized or mismatching manifest or file, and every manifest path leading outside
+    the folder (absolute, ``..``, or a symbolic link), raises one ``DatasetError`` naming the file and
+    the field. Episodes are returned exactly as stored."""
 
     def __init__(
         self, root: str | Path, agent_radius: float | None = ROBOT_RADIUS, verify: bool = True
     ) -> None:
         self.root = Path(root)
         mpath = self.root / "manifest.json"
-        if not mpath.exists():
+        self._manifest_path = str(mpath)
+        try:
+            self._base = self.root.resolve()
+            exists = mpath.exists()
+        except (OSError, RuntimeError, ValueError) as e:
+            raise DatasetError(f"cannot open the dataset folder ({e})", source=str(self.root)) from None
+        if not exists:
             partial = list(self.root.parent.glob(f".{self.root.name}.partial-*"))
             hint = " (an interrupted build left a partial folder: run the build again)" if partial else ""
             raise DatasetError(
@@ -160,21 +463,21 @@ class EpisodeDataset:
                 source=str(self.root),
                 fix="build it: biovln-ms dataset build --out DIR",
             )
-        try:
-            self.manifest = json.loads(mpath.read_text())
-        except json.JSONDecodeError as e:
-            raise DatasetError(f"manifest is not valid JSON ({e.msg})", source=str(mpath)) from None
-        m = self.manifest
+        self.manifest = m = self._read_manifest(mpath)
         if not m.get("complete"):
             raise DatasetError("the dataset is incomplete", source=str(mpath), fix="rebuild it")
         if m.get("format_version") != DATASET_FORMAT_VERSION:
             raise DatasetError(
-                f"format_version {m.get('format_version')} is not {DATASET_FORMAT_VERSION}",
+                f"format_version {_show(m.get('format_version'))} is not {DATASET_FORMAT_VERSION}",
                 source=str(mpath),
                 field="format_version",
                 fix="rebuild it with this version of biovln-ms",
             )
-        if agent_radius is not None and abs(m.get("agent_radius", -1) - agent_radius) > 1e-9:
+        try:
+            _MANIFEST.validate_python(m)
+        except ValidationError as e:
+            raise _schema_error(e, str(mpath)) from None
+        if agent_radius is not None and abs(m["agent_radius"] - agent_radius) > 1e-9:
             raise DatasetError(
                 f"built for a {m.get('agent_radius')} m agent, not the {agent_radius} m agent in use: its "
                 f"geodesic distances (hence SPL) would be wrong",
@@ -195,31 +498,129 @@ class EpisodeDataset:
                     field=key,
                     fix="rebuild it: biovln-ms dataset build --out DIR",
                 )
-        if m.get("catalog_sha256") != load_catalog().sha256:
+        cat = load_catalog()
+        if m.get("catalog_sha256") != cat.sha256:
             raise DatasetError(
                 "built from another instrument catalog (goals and radii may differ)",
                 source=str(mpath),
                 field="catalog_sha256",
                 fix="rebuild the dataset with the installed catalog",
             )
+        self._goal_categories = frozenset(cat.goal_categories())
+        self._check_splits()
+        files = [(info, f"scenes.{name}", MAX_SCENE_FILE_BYTES) for name, info in m["scenes"].items()]
+        for split, sinfo in m["splits"].items():
+            for scene, info in sinfo["files"].items():
+                files.append((info, f"splits.{split}.files.{scene}", MAX_EPISODE_FILE_BYTES))
+        for info, entry, _ in files:  # every path inside the folder, even unverified
+            self._resolve(info["file"], f"{entry}.file")
         if verify:
-            for name, info in m["scenes"].items():
-                self._check(info["file"], info["sha256"])
-            for split in m["splits"].values():
-                for info in split["files"].values():
-                    self._check(info["file"], info["sha256"])
+            for info, entry, limit in files:
+                self._check(info["file"], info["sha256"], f"{entry}.file", limit)
         self._specs: dict[str, SceneSpec] = {}
 
-    def _check(self, rel: str, digest: str) -> None:
-        p = self.root / rel
-        if not p.exists():
+    def _read_manifest(self, mpath: Path) -> dict:
+        src = str(mpath)
+        try:
+            path = mpath.resolve()
+        except (OSError, RuntimeError) as e:
+            raise DatasetError(f"cannot resolve the manifest ({e})", source=src) from None
+        if not path.is_relative_to(self._base):
             raise DatasetError(
-                "file listed in the manifest is missing", source=str(p), fix="rebuild the dataset"
+                f"a symbolic link leading outside the dataset folder (to {_show(str(path))})",
+                source=src,
+                fix="copy the manifest into the dataset folder, or rebuild the dataset",
             )
-        if sha256(p.read_bytes()) != digest:
+        _regular_size(path, src, MAX_MANIFEST_BYTES, "manifest")
+        try:
+            with path.open("rb") as f:
+                raw = _read_bounded(f, MAX_MANIFEST_BYTES)
+        except OSError as e:
+            raise DatasetError(f"cannot read the manifest ({e.strerror or e})", source=src) from None
+        if raw is None:
+            raise DatasetError(
+                f"manifest is larger than the limit of {MAX_MANIFEST_BYTES // 2**20} MiB", source=src
+            )
+        m = _parse_json(raw, src, "manifest")
+        if not isinstance(m, dict):
+            raise DatasetError(
+                f"the manifest must be a JSON object, not {type(m).__name__}", source=src, fix=_REBUILD
+            )
+        return m
+
+    def _check_splits(self) -> None:
+        """Each split's scenes have files and manifest scenes; episode counts add up and keep the limit."""
+        m = self.manifest
+        for name, split in m["splits"].items():
+            where = f"splits.{_oneline(name)}"
+
+            def refuse(field: str, message: str, fix: str = _REBUILD) -> DatasetError:
+                return DatasetError(message, source=self._manifest_path, field=field, fix=fix)
+
+            total = 0
+            for scene in split["scenes"]:
+                if scene not in split["files"]:
+                    raise refuse(f"{where}.files", f"no file for scene {_show(scene)} of {where}.scenes")
+                total += split["files"][scene]["episodes"]
+            for scene in split["files"]:
+                if scene not in m["scenes"]:
+                    raise refuse(f"{where}.files.{_oneline(scene)}", "scene not in the manifest's scenes")
+            if total > MAX_EPISODES_PER_SPLIT:
+                raise refuse(
+                    f"{where}.episodes",
+                    f"{total:,} episodes, more than the limit of {MAX_EPISODES_PER_SPLIT:,} per split",
+                    "make several splits",
+                )
+            if split["episodes"] != total:
+                raise refuse(
+                    f"{where}.episodes", f"{split['episodes']:,} episodes, but its files hold {total:,}"
+                )
+
+    def _resolve(self, rel: str, entry: str) -> Path:
+        """The real path of manifest entry ``entry`` (path ``rel``); refused unless inside the folder."""
+
+        def refuse(message: str) -> DatasetError:
+            return DatasetError(
+                message,
+                source=self._manifest_path,
+                field=_oneline(entry),
+                fix="list files by their relative path inside the dataset folder, or rebuild it",
+            )
+
+        pure = PurePosixPath(rel)
+        if "\x00" in rel:
+            raise refuse(f"path {_show(rel)} holds a NUL character")
+        if pure.is_absolute() or Path(rel).is_absolute():
+            raise refuse(f"absolute path {_show(rel)}: files must be inside the dataset folder")
+        if ".." in pure.parts:
+            raise refuse(f"path {_show(rel)} leads outside the dataset folder ('..')")
+        try:
+            path = (self._base / rel).resolve()
+        except (OSError, RuntimeError, ValueError) as e:
+            raise refuse(f"path {_show(rel)} cannot be resolved ({_oneline(str(e))})") from None
+        if not path.is_relative_to(self._base):
+            raise refuse(
+                f"path {_show(rel)} leads outside the dataset folder (a symbolic link to {_show(str(path))})"
+            )
+        return path
+
+    def _check(self, rel: str, digest: str, entry: str, limit: int) -> None:
+        path, src = self._resolve(rel, entry), str(self.root / rel)
+        _regular_size(path, src, limit, "file")
+        h, n = hashlib.sha256(), 0
+        try:
+            with path.open("rb") as f:
+                while n <= limit and (chunk := f.read(_READ_CHUNK)):
+                    h.update(chunk)
+                    n += len(chunk)
+        except OSError as e:
+            raise DatasetError(
+                f"cannot read the file ({e.strerror or e})", source=src, fix=_REBUILD
+            ) from None
+        if h.hexdigest() != digest:
             raise DatasetError(
                 "file does not match its hash in the manifest (corrupt or edited)",
-                source=str(p),
+                source=src,
                 fix="rebuild the dataset",
             )
 
@@ -244,14 +645,79 @@ class EpisodeDataset:
         if scene not in self._specs:
             if scene not in self.manifest["scenes"]:
                 raise DatasetError(f"unknown scene '{scene}'", field="scene_id")
-            self._specs[scene] = load_spec(self.root / self.manifest["scenes"][scene]["file"])
+            rel = self.manifest["scenes"][scene]["file"]
+            path, src = self._resolve(rel, f"scenes.{scene}.file"), str(self.root / rel)
+            _regular_size(path, src, MAX_SCENE_FILE_BYTES, "scene file")
+            try:
+                spec = load_spec(path)
+            except SceneSpecError as e:
+                raise DatasetError(e.message, source=src, field=e.field, fix=e.fix) from None
+            if spec.name != scene:
+                raise DatasetError(
+                    f"holds scene {_show(spec.name)}, the manifest lists it as {_show(scene)}",
+                    source=src,
+                    field="name",
+                    fix=_REBUILD,
+                )
+            self._specs[scene] = spec
         return self._specs[scene]
 
     def episodes(self, split: str) -> Iterator[dict]:
         info = self.split_info(split)
         for scene in info["scenes"]:
-            with gzip.open(self.root / info["files"][scene]["file"], "rt") as f:
-                yield from json.load(f)["episodes"]
+            yield from self._read_episodes(split, scene, info["files"][scene])
+
+    def _read_episodes(self, split: str, scene: str, entry: dict) -> list[dict]:
+        """The episodes of one file: bounded gunzip, JSON limits, schema, scene and category checks."""
+        rel = entry["file"]
+        path, src = self._resolve(rel, f"splits.{split}.files.{scene}.file"), str(self.root / rel)
+        _regular_size(path, src, MAX_EPISODE_FILE_BYTES, "episode file")
+        try:
+            with path.open("rb") as f, gzip.GzipFile(fileobj=f, mode="rb") as g:
+                raw = _read_bounded(g, MAX_EPISODE_FILE_BYTES)
+        except (OSError, EOFError, zlib.error) as e:
+            raise DatasetError(
+                f"not a readable gzip file ({_oneline(str(e))})", source=src, fix=_REBUILD
+            ) from None
+        if raw is None:
+            raise DatasetError(
+                f"decompresses to more than the limit of {MAX_EPISODE_FILE_BYTES // 2**20} MiB",
+                source=src,
+                fix=_REBUILD,
+            )
+        obj = _parse_json(raw, src, "episode file")
+        if not isinstance(obj, dict) or not isinstance(obj.get("episodes"), list):
+            raise DatasetError(
+                'must be a JSON object {"episodes": [...]}', source=src, field="episodes", fix=_REBUILD
+            )
+        eps = obj["episodes"]
+        if len(eps) != entry["episodes"]:
+            raise DatasetError(
+                f"holds {len(eps):,} episodes, the manifest says {entry['episodes']:,}",
+                source=src,
+                field="episodes",
+                fix=_REBUILD,
+            )
+        try:
+            _EPISODES.validate_python(eps)
+        except ValidationError as e:
+            raise _schema_error(e, src, "episodes") from None
+        for i, ep in enumerate(eps):
+            if ep["scene_id"] != scene:
+                raise DatasetError(
+                    f"{_show(ep['scene_id'])} in the episode file of scene {_show(scene)}",
+                    source=src,
+                    field=f"episodes[{i}].scene_id",
+                    fix=_REBUILD,
+                )
+            if ep["object_category"] not in self._goal_categories:
+                raise DatasetError(
+                    f"{_show(ep['object_category'])} is not a goal category of the catalog",
+                    source=src,
+                    field=f"episodes[{i}].object_category",
+                    fix=_REBUILD,
+                )
+        return eps
 
     def stats(self, split: str) -> dict:
         eps = list(self.episodes(split))
