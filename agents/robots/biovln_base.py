@@ -81,6 +81,12 @@ class NavBaseController(PDJointPosController):
     def set_motion(self, forward_step: float, turn_deg: float) -> None:
         """The distance of one FORWARD and the angle of one turn (the task's configuration)."""
         self.forward_step, self.turn = float(forward_step), math.radians(turn_deg)
+        # per discrete action: stop, forward (m), turn (rad)
+        self._table = torch.tensor(
+            [[1.0, 0.0, 0.0], [0.0, self.forward_step, 0.0], [0.0, 0.0, self.turn], [0.0, 0.0, -self.turn]],
+            dtype=torch.float64,
+            device=self.device,
+        )
 
     def reset(self):
         super().reset()
@@ -97,22 +103,17 @@ class NavBaseController(PDJointPosController):
         n = self.scene.num_envs
         if self.config.mode == "discrete":
             a = action.reshape(-1)
-            if a.numel() != n or a.is_complex() or not torch.equal(a, torch.round(a.double()).to(a.dtype)):
+            k = a.long()
+            if a.numel() != n or a.is_complex() or (a.is_floating_point() and not torch.equal(a, k.to(a.dtype))):
                 raise ActionError(
                     f"action {action.tolist()} is not {n} integer(s)", field="action", fix=action_help()
                 )
-            k = a.long()
             if ((k < 0) | (k >= len(ACTIONS))).any():
                 raise ActionError(
                     f"action {k.tolist()} is outside Discrete(4)", field="action", fix=action_help()
                 )
-            f64 = dict(dtype=torch.float64, device=self.device)
-            turn = torch.where(
-                k == 2,
-                torch.tensor(self.turn, **f64),
-                torch.where(k == 3, torch.tensor(-self.turn, **f64), torch.tensor(0.0, **f64)),
-            )
-            return k == 0, (k == 1).double() * self.forward_step, turn
+            row = self._table[k]
+            return row[:, 0] > 0, row[:, 1], row[:, 2]
         a = action.reshape(n, -1).double()
         if a.shape[1] != 3 or not torch.isfinite(a).all() or a.abs().max() > 1.0 + 1e-6:
             raise ActionError(

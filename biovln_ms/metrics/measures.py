@@ -154,12 +154,38 @@ def measure_names() -> list[str]:
     return list(_REGISTRY)
 
 
-def _per_env(ctx: BatchContext, s: StepState, idx: torch.Tensor, fn: Callable, dtype=F64) -> torch.Tensor:
-    """``fn(episode_context, position)`` for each sub-env in ``idx`` (per-scene geometry)."""
-    pos = s.position[idx].cpu().numpy()
-    return torch.tensor(
-        [fn(ctx.episode(i), p) for i, p in zip(idx.tolist(), pos)], dtype=dtype, device=s.position.device
-    )
+Rows = torch.Tensor | slice  # the sub-envs a measure call touches: an index tensor, or all of them
+
+
+def rows(idx: Rows, n: int) -> list[int]:
+    """The sub-env indices of ``idx``."""
+    return list(range(n))[idx] if isinstance(idx, slice) else idx.tolist()
+
+
+class SceneQueryMeasure(Measure):
+    """A value of the robot's position read from its own sub-env's scene geometry (numpy / shapely), queried
+    again only for sub-envs whose position changed since the last query (a turn keeps it)."""
+
+    state_names = ("value", "at")
+
+    def __init__(self, n: int, device: torch.device, cfg: NavTaskConfig) -> None:
+        super().__init__(n, device, cfg)
+        self.at = torch.full((n, 2), math.nan, dtype=F64, device=device)  # where each value was queried
+
+    def query(self, ctx: EpisodeContext, p: np.ndarray):
+        raise NotImplementedError
+
+    def reset(self, ctx, s, m, idx):
+        self.at[idx] = math.nan
+        self.update(ctx, s, m, idx)
+
+    def update(self, ctx, s, m, idx):
+        pos, at = s.position.cpu().numpy(), self.at.cpu().numpy()
+        todo = [i for i in rows(idx, ctx.n) if not np.array_equal(pos[i], at[i])]
+        if todo:
+            values = [self.query(ctx.episode(i), pos[i]) for i in todo]
+            self.value[todo] = torch.tensor(values, dtype=self.dtype, device=self.value.device)
+            self.at[todo] = s.position[todo]
 
 
 @register_measure
@@ -171,28 +197,28 @@ class DistanceToGoal(Measure):
 
 
 @register_measure
-class GeodesicDistanceToGoal(Measure):
+class GeodesicDistanceToGoal(SceneQueryMeasure):
     uuid = "geodesic_distance_to_goal"
 
-    def compute(self, ctx, s, m, idx):
-        return _per_env(ctx, s, idx, lambda c, p: float(c.geodesic(p)))
+    def query(self, c, p):
+        return float(c.geodesic(p))
 
 
 @register_measure
-class Clearance(Measure):
+class Clearance(SceneQueryMeasure):
     uuid = "clearance"
 
-    def compute(self, ctx, s, m, idx):
-        return _per_env(ctx, s, idx, lambda c, p: c.array.clearance(p))
+    def query(self, c, p):
+        return c.array.clearance(p)
 
 
 @register_measure
-class Zone2Violation(Measure):
+class Zone2Violation(SceneQueryMeasure):
     uuid = "zone2_violation"
     dtype = torch.bool
 
-    def compute(self, ctx, s, m, idx):
-        return _per_env(ctx, s, idx, lambda c, p: c.array.in_zone2(p), torch.bool)
+    def query(self, c, p):
+        return c.array.in_zone2(p)
 
 
 @register_measure
@@ -457,8 +483,9 @@ class MeasureSet:
     def __getitem__(self, name: str) -> torch.Tensor:
         return self.measures[name].value
 
-    def _idx(self, env_idx: torch.Tensor | None) -> torch.Tensor:
-        return torch.arange(self.n, device=self.device) if env_idx is None else env_idx.to(self.device)
+    def _idx(self, env_idx: torch.Tensor | None) -> torch.Tensor | slice:
+        """Rows to touch: a slice for all of them (basic indexing is several times cheaper than a tensor)."""
+        return slice(None) if env_idx is None else env_idx.to(self.device)
 
     def reset(self, ctx: BatchContext, state: StepState, env_idx: torch.Tensor | None = None) -> None:
         """Start the episodes of sub-envs ``env_idx`` (all by default)."""
