@@ -402,11 +402,73 @@ def _llm_response(state: dict, seed: int, tmp: Path) -> str:
     return "accepted" if valid(obj) else "other"
 
 
+DATASET_EPISODES = "ms_val/content/lab_s154_v0.json.gz"
+
+
+def _dataset_setup(tmp: Path):
+    from biovln_ms.benchmark import FOUR_CATEGORIES
+    from biovln_ms.episodes.dataset import SplitPlan, write_dataset
+    from biovln_ms.scene.generator import generate_scene
+
+    root = tmp / "ds"
+    scene = generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES)
+    write_dataset(root, [SplitPlan("ms_val", [(scene, 3, False)])], progress=False)
+    return {
+        "root": root,
+        "manifest": (root / "manifest.json").read_bytes(),
+        "episodes": (root / DATASET_EPISODES).read_bytes(),
+    }
+
+
+def _dataset(state: dict, seed: int, tmp: Path) -> str:
+    """A dataset whose manifest, one episode record or the episode file's bytes were damaged (the manifest's
+    hashes rewritten to match, as a careless hand edit would), loaded as the CLI and the env read it."""
+    import gzip
+    import hashlib
+
+    from biovln_ms.episodes.dataset import EpisodeDataset, gz_json
+
+    rng = np.random.default_rng(seed)
+    root = state["root"]
+    manifest, blob = json.loads(state["manifest"]), state["episodes"]
+    kind = int(rng.integers(3))
+    if kind == 0:
+        obj = json.loads(gzip.decompress(blob))
+        k = int(rng.integers(len(obj["episodes"])))
+        obj["episodes"][k] = mutate_json(obj["episodes"][k], rng)
+        blob = gz_json(obj)
+    elif kind == 1:
+        blob = (
+            mutate_bytes(blob, rng)
+            if rng.random() < 0.5
+            else gzip.compress(mutate_bytes(gzip.decompress(blob), rng))
+        )
+    digest = hashlib.sha256(blob).hexdigest()
+    for split in manifest["splits"].values():
+        for entry in split["files"].values():
+            entry["sha256"] = digest
+    if kind == 2:
+        manifest = mutate_json(manifest, rng)
+    (root / DATASET_EPISODES).write_bytes(blob)
+    (root / "manifest.json").write_text(json.dumps(manifest))
+
+    def load():
+        ds = EpisodeDataset(root)
+        return [ep for split in ds.split_names() for ep in ds.episodes(split)]
+
+    try:
+        return classify(load, finite_everywhere)
+    finally:
+        (root / DATASET_EPISODES).write_bytes(state["episodes"])
+        (root / "manifest.json").write_bytes(state["manifest"])
+
+
 TARGETS: dict[str, Target] = {
     t.name: t
     for t in (
         Target("spec_dict", "scene spec objects (parse_spec)", _spec_setup, _spec_dict),
         Target("spec_file", "scene spec files (load_spec): bytes and JSON edits", _spec_setup, _spec_file),
+        Target("dataset", "dataset manifests, episode records and episode files", _dataset_setup, _dataset),
         Target("sb3_zip", "Stable-Baselines3 checkpoints (load_sb3_model)", _sb3_setup, _sb3_zip),
         Target("bc_checkpoint", "BC checkpoints (load_bc)", _bc_setup, _bc_checkpoint),
         Target("cli_args", "CLI arguments of the cheap commands", _cli_setup, _cli_args),
