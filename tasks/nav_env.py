@@ -167,7 +167,7 @@ class BioVLNNavEnv(BaseEnv):
         self._ctx = BatchContext(self.num_envs, self.device)
         self._measures = MeasureSet(self._measure_names(), self.num_envs, self.device, self.cfg)
         self._start = torch.zeros(self.num_envs, 3, dtype=torch.float64, device=self.device)
-        self._category = torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
+        self._objectgoal = torch.zeros(self.num_envs, len(self.category_names), device=self.device)
         self._done = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)  # the episode has ended
         self._frozen = self._done.clone()  # ... already before the current step
 
@@ -227,7 +227,8 @@ class BioVLNNavEnv(BaseEnv):
             w, _, _, z = ep["start_rotation"]
             qpos[k] = torch.tensor([x, y, 2 * math.atan2(z, w)])
             self._ctx.set(i, self._episode_context(i))
-            self._category[i] = self.category_names.index(ep["object_category"])
+            self._objectgoal[i] = 0.0
+            self._objectgoal[i, self.category_names.index(ep["object_category"])] = 1.0
         self.agent.reset(qpos if self.num_envs > 1 else qpos[:1])
         pose = self._pose()
         self._start[idx] = pose[idx]
@@ -282,11 +283,8 @@ class BioVLNNavEnv(BaseEnv):
     def _undo_crossings(self, start: torch.Tensor, pose: torch.Tensor) -> torch.Tensor:
         """Sub-envs whose body went through or deep into an obstacle this step go back to where the move
         started (a blocked move); returns the poses after that."""
-        back = [
-            i
-            for i in range(self.num_envs)
-            if self._motions[i].crossed(*start[i, :2].tolist(), *pose[i, :2].tolist())
-        ]
+        moved = torch.nonzero((pose[:, :2] != start[:, :2]).any(1)).flatten().tolist()
+        back = [i for i in moved if self._motions[i].crossed(*start[i, :2].tolist(), *pose[i, :2].tolist())]
         if not back:
             return pose
         qpos = self.agent.robot.get_qpos().clone()
@@ -303,7 +301,7 @@ class BioVLNNavEnv(BaseEnv):
         heading = torch.stack([torch.cos(start[:, 2]), torch.sin(start[:, 2])], dim=1)
         moved = ((pose[:, :2] - start[:, :2]) * heading).sum(1)
         state = StepState(pose[:, :2], pose[:, 2], cmd.stop.clone(), cmd.forward.to(torch.float64), moved)
-        active = torch.nonzero(~self._frozen).flatten()
+        active = None if not self._frozen.any() else torch.nonzero(~self._frozen).flatten()
         self._measures.update(self._ctx, state, active)
         c = self.cfg
         ended = self._measures[c.success_measure] | self._measures[c.fail_measure]
@@ -328,8 +326,7 @@ class BioVLNNavEnv(BaseEnv):
             self._measures["agent_pose"],
             self._start,
             self._ctx.goal,
-            self._category,
-            len(self.category_names),
+            self._objectgoal,
             self._measures["clearance"],
             self.cfg,
         )

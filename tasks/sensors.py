@@ -20,8 +20,7 @@ class SensorInputs:
     pose: torch.Tensor  # (N, 3) x, y, yaw now
     start: torch.Tensor  # (N, 3) x, y, yaw at the episode's start
     goal: torch.Tensor  # (N, 2) the task's goal
-    category: torch.Tensor  # (N,) index of the target category in the goal-category list
-    n_categories: int
+    objectgoal: torch.Tensor  # (N, C) float32 one-hot target category (set at reset)
     clearance: torch.Tensor  # (N,) the clearance measure
     cfg: NavTaskConfig
 
@@ -69,7 +68,7 @@ def pointgoal_with_gps_compass(x: SensorInputs) -> torch.Tensor:
 @register_sensor("objectgoal")
 def objectgoal(x: SensorInputs) -> torch.Tensor:
     """One-hot target category (the catalog's goal categories, in order)."""
-    return torch.nn.functional.one_hot(x.category, x.n_categories).float()
+    return x.objectgoal
 
 
 @register_sensor("rl_state")
