@@ -32,8 +32,9 @@ from biovln_ms.catalog import load_catalog
 from biovln_ms.episodes.source import DatasetEpisodes, EpisodeCursor, EpisodeSource, GeneratedEpisodes
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.motion import SweptMotion
-from biovln_ms.scene.rules import floor_polygon, obstacle_footprints, scene_navigation
+from biovln_ms.scene.rules import floor_polygon, scene_navigation
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, MeasureSet, StepState
+from biovln_ms.sim.footprints import collision_footprints
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
 from biovln_ms.tasks.privileged import PrivilegedView
@@ -136,7 +137,7 @@ class BioVLNNavEnv(BaseEnv):
         self.scene_specs = [self.source.spec(s) for s in scene_ids]
         self.navs = [scene_navigation(s) for s in self.scene_specs]
         self._motions = [
-            SweptMotion(floor_polygon(s), obstacle_footprints(s), s.robot_radius) for s in self.scene_specs
+            SweptMotion(floor_polygon(s), collision_footprints(s), s.robot_radius) for s in self.scene_specs
         ]
         self._scene_ids = scene_ids
 

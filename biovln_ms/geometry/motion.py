@@ -1,11 +1,10 @@
 """Swept-motion checks for a disc robot, so that no step size can tunnel through a thin wall or an
 instrument between two physics substeps, while ordinary contact (pressing, sliding) stays the physics'.
 
-``B`` is every obstacle (the outside of the floor and each footprint) grown by ``radius - ALLOWANCE``: a
-robot centre inside ``B`` is more than ``ALLOWANCE`` (18 cm) inside contact with a footprint box, which the
-contact solver never allows for the benchmark's 0.25 m steps (footprints are boxes; round instruments'
-collision hulls lie inside them, so the allowance leaves room to pass close to their corners). Two checks
-use it:
+``B`` is every obstacle (the outside of the floor and each collision footprint: boxes, or the convex hull
+of a round instrument's collision parts) grown by ``radius - ALLOWANCE``: a robot centre inside ``B`` is
+more than ``ALLOWANCE`` (5 cm) inside contact, which the contact solver never allows for the benchmark's
+0.25 m steps (it stays within about 1 cm). Two checks use it:
 
 * before a move (:meth:`SweptMotion.target`): a straight path that enters ``B`` and leaves it again before
   its end would cross an obstacle; the drive target is cut to where the path first enters ``B``;
@@ -24,7 +23,7 @@ from shapely.geometry import LineString, MultiPolygon, Point, Polygon, box
 from shapely.ops import unary_union
 
 #: how deep inside contact (m) a robot centre or a path may go before a move counts as crossing
-ALLOWANCE = 0.18
+ALLOWANCE = 0.05
 
 
 class SweptMotion:
