@@ -95,6 +95,7 @@ class BioVLNNavEnv(BaseEnv):
         self.cursor = EpisodeCursor(self.source, self.cfg.shuffle_episodes)
         self.category_names = load_catalog().goal_categories()
         n = int(kwargs.get("num_envs", 1))
+        self._episode_index: list[int] = [self.cursor.first] * n  # per sub-env, into source.episodes
         self._episodes: list[dict] = [self.source.episodes[self.cursor.first]] * n
         self._scene_ids: list[str | None] = [None] * n
         self._set_scenes()
@@ -204,7 +205,8 @@ class BioVLNNavEnv(BaseEnv):
         )
         cursor_seed = seed
         for i in rows:
-            self._episodes[i] = self.source.episodes[self.cursor.select(cursor_seed, options)]
+            self._episode_index[i] = self.cursor.select(cursor_seed, options)
+            self._episodes[i] = self.source.episodes[self._episode_index[i]]
             cursor_seed = (
                 None  # a seed positions the cursor once; further sub-envs take the episodes after it
             )
@@ -400,7 +402,7 @@ class BioVLNNavEnv(BaseEnv):
         self._measures.load_state_dict(task["measures"], idx)
 
     def _episode_indices(self) -> torch.Tensor:
-        return torch.tensor([self.source.episodes.index(ep) for ep in self._episodes], device=self.device)
+        return torch.tensor(self._episode_index, device=self.device)
 
     # --- rendering -----------------------------------------------------------------------------
     def render_rgb_array(self, camera_name: str | None = None):

@@ -20,19 +20,22 @@ def _installed_layout(dest: Path) -> Path:
     return dest
 
 
-def test_import_contracts_hold(tmp_path):
-    src = _installed_layout(tmp_path)
-    env = {**os.environ, "PYTHONPATH": str(src)}
+def _lint(src: Path) -> subprocess.CompletedProcess:
+    """import-linter on the copied sources (run from there, so the repo's own folders are not imported)."""
     lint = Path(sys.executable).with_name("lint-imports")
-    r = subprocess.run(
+    return subprocess.run(
         [str(lint), "--config", str(ROOT / "pyproject.toml"), "--no-cache"],
         cwd=src,
-        env=env,
+        env={**os.environ, "PYTHONPATH": str(src)},
         capture_output=True,
         text=True,
         timeout=300,
         check=False,
     )
+
+
+def test_import_contracts_hold(tmp_path):
+    r = _lint(_installed_layout(tmp_path))
     assert r.returncode == 0, r.stdout[-6000:] + r.stderr[-2000:]
     assert "4 kept, 0 broken" in r.stdout, r.stdout[-2000:]
 
@@ -42,15 +45,5 @@ def test_a_violation_is_caught(tmp_path):
     src = _installed_layout(tmp_path)
     bad = src / "biovln_ms" / "geometry" / "zones.py"
     bad.write_text(bad.read_text() + "\nfrom biovln_ms.sim import sapien_builder  # noqa\n")
-    env = {**os.environ, "PYTHONPATH": str(src)}
-    lint = Path(sys.executable).with_name("lint-imports")
-    r = subprocess.run(
-        [str(lint), "--config", str(ROOT / "pyproject.toml"), "--no-cache"],
-        cwd=src,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
+    r = _lint(src)
     assert r.returncode != 0 and "biovln_ms.geometry.zones -> biovln_ms.sim" in r.stdout, r.stdout[-3000:]
