@@ -443,7 +443,7 @@ def test_nothing_happens_after_the_episode_ends(env):
 
 def test_no_tunnelling_at_any_step_size(dataset):
     """Large forward steps (up to 2 m, through 0.1 m walls and thin instruments) and random continuous actions
-    never take the body more than ALLOWANCE (5 cm) into a wall or an instrument's collision footprint.
+    never take the body more than ALLOWANCE (8 cm) into a wall or an instrument's collision footprint.
     ``BIOVLN_MOTION_RUNS`` runs per step size (episodes cycle); README gives a longer campaign's count."""
     import os
 

@@ -3,8 +3,9 @@ instrument between two physics substeps, while ordinary contact (pressing, slidi
 
 ``B`` is every obstacle (the outside of the floor and each collision footprint: boxes, or the convex hull
 of a round instrument's collision parts) grown by ``radius - ALLOWANCE``: a robot centre inside ``B`` is
-more than ``ALLOWANCE`` (5 cm) inside contact, which the contact solver never allows for the benchmark's
-0.25 m steps (it stays within about 1 cm). Two checks use it:
+more than ``ALLOWANCE`` (8 cm) inside contact, which the contact solver never allows for the benchmark's
+0.25 m steps (the deepest of 500 baseline episodes on MS VAL and Two-Room came 5.4 cm inside a round
+instrument's footprint, pushing against its convex parts). Two checks use it:
 
 * before a move (:meth:`SweptMotion.target`): a straight path that enters ``B`` and leaves it again before
   its end would cross an obstacle; the drive target is cut to where the path first enters ``B``;
@@ -23,7 +24,7 @@ from shapely.geometry import LineString, MultiPolygon, Point, Polygon, box
 from shapely.ops import unary_union
 
 #: how deep inside contact (m) a robot centre or a path may go before a move counts as crossing
-ALLOWANCE = 0.05
+ALLOWANCE = 0.08
 
 
 class SweptMotion:
