@@ -104,7 +104,8 @@ class NavBaseController(PDJointPosController):
         if self.config.mode == "discrete":
             a = action.reshape(-1)
             k = a.long()
-            if a.numel() != n or a.is_complex() or (a.is_floating_point() and not torch.equal(a, k.to(a.dtype))):
+            fractional = a.is_floating_point() and not torch.equal(a, k.to(a.dtype))
+            if a.numel() != n or a.is_complex() or fractional:
                 raise ActionError(
                     f"action {action.tolist()} is not {n} integer(s)", field="action", fix=action_help()
                 )
