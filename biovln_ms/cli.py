@@ -752,12 +752,25 @@ def _register_rl_commands() -> None:
 _register_rl_commands()
 
 
+#: what a user can cause and fix: printed as one line, exit status 2
+USER_ERRORS = (BioVLNError, OSError)
+
+
+def user_error_line(e: BaseException) -> str:
+    """The one line a user error prints: a BioVLNError as it says; a file the command could not read or
+    write (too long a name, no permission, a missing folder) with the path and the system's reason."""
+    if isinstance(e, OSError):
+        where = e.filename if e.filename is not None else "a file"
+        return f"{where}: {e.strerror or e} (fix: check the path, its folder and its permissions)"
+    return str(e)
+
+
 def main() -> None:
     """Entry point: user-facing errors print as one clear line, not a traceback."""
     try:
         app()
-    except BioVLNError as e:
-        console.print(f"[bold red]error:[/] {escape(str(e))}", highlight=False, soft_wrap=True)
+    except USER_ERRORS as e:
+        console.print(f"[bold red]error:[/] {escape(user_error_line(e))}", highlight=False, soft_wrap=True)
         sys.exit(2)
 
 

@@ -290,7 +290,7 @@ def _cli_setup(tmp: Path):
 def _cli_args(state: dict, seed: int, tmp: Path) -> str:
     from typer.testing import CliRunner
 
-    from biovln_ms.cli import app
+    from biovln_ms.cli import USER_ERRORS, app, user_error_line
 
     rng = np.random.default_rng(seed)
     cmds = list(CLI_GRAMMAR)
@@ -311,8 +311,8 @@ def _cli_args(state: dict, seed: int, tmp: Path) -> str:
         result = CliRunner().invoke(app, argv, catch_exceptions=True)
     if result.exit_code == 0:
         return "accepted"
-    if isinstance(result.exception, BioVLNError) and "\n" not in str(result.exception):
-        return "clear"
+    if isinstance(result.exception, USER_ERRORS) and "\n" not in user_error_line(result.exception):
+        return "clear"  # what biovln_ms.cli.main prints as one line (exit status 2)
     if result.exit_code == 2 and not isinstance(result.exception, Exception):
         return "clear"  # click's usage error: one message and the usage line
     return "other"

@@ -42,3 +42,18 @@ def test_accepted_env_arguments_really_build_an_env():
         if built == 2:
             break
     assert built == 2
+
+
+#: inputs the 10,000-per-target campaign found (each fixed; kept as regressions)
+FOUND = {
+    "spec_dict": (4993, 9011),  # a spec without walls crashed the flush-wall rule
+    "spec_file": (8444,),
+    "sb3_zip": (2142, 6994),  # zip entry names flagged UTF-8 that are not
+    "cli_args": (190, 232, 1341, 2743),  # unwritable output paths; a negative seed
+}
+
+
+@pytest.mark.parametrize("name, seed", [(n, s) for n, seeds in FOUND.items() for s in seeds])
+def test_campaign_findings_stay_fixed(name, seed, tmp_path):
+    target = TARGETS[name]
+    assert target.run(target.setup(tmp_path), seed, tmp_path) != "other"

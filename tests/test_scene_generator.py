@@ -256,3 +256,11 @@ def test_wall_normals_point_into_the_floor(template):
         n = np.asarray(w.interior)
         assert floor.contains(Point(*(mid + 0.05 * n))), w.id
         assert not floor.contains(Point(*(mid - 0.05 * n))), w.id
+
+
+def test_a_negative_seed_is_one_clear_line():
+    """Found by the fuzz campaign: ``scene generate --seed -1`` crashed inside numpy."""
+    from biovln_ms.scene.generator import GenerationError
+
+    with pytest.raises(GenerationError, match="seed -1 is not a non-negative integer"):
+        generate_scene("single_room", -1)

@@ -217,6 +217,7 @@ def _read_zip(path: Path, not_a_model: _Refusal, refuse: _Refusal) -> dict[str, 
         EOFError,
         OSError,
         zlib.error,
+        UnicodeDecodeError,  # an entry name flagged UTF-8 that is not
     ) as e:
         raise not_a_model(f"unreadable zip ({_brief(e)})") from None
 

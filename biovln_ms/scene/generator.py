@@ -316,6 +316,10 @@ def generate_scene(
     catalog: Catalog | None = None,
 ) -> SceneSpec:
     """Generate the scene of ``seed``: byte-identical spec JSON for the same inputs on any machine."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise GenerationError(
+            f"seed {seed!r} is not a non-negative integer", field="seed", fix="use a seed >= 0"
+        )
     t = get_template(template)
     cat = catalog or load_catalog()
     for c in required_categories:

@@ -202,7 +202,7 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
             )
         if o.placement == "wall":
             back = np.asarray(o.position[:2]) - np.asarray(o.face) * o.d_half
-            if min(w.distance(Point(back)) for w in walls) > 0.01:
+            if min((w.distance(Point(back)) for w in walls), default=math.inf) > 0.01:
                 out.append(
                     Violation(
                         "flush with wall",
