@@ -3,9 +3,11 @@ may download anything at run time, and a test that tries fails loudly."""
 
 from __future__ import annotations
 
+import atexit
 import ipaddress
 import json
 import os
+import shutil
 import socket
 import tempfile
 import threading
@@ -17,6 +19,7 @@ from hypothesis import settings
 # Hermetic caches: the default dataset and the room-shell meshes go to a fresh folder per run
 # (subprocesses inherit it).
 _TMP = tempfile.mkdtemp(prefix="biovln-tests-")
+atexit.register(shutil.rmtree, _TMP, ignore_errors=True)  # the run's caches go with it
 os.environ["BIOVLN_DATA_DIR"] = os.path.join(_TMP, "data")
 os.environ["BIOVLN_CACHE_DIR"] = os.path.join(_TMP, "cache")
 
