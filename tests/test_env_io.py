@@ -96,4 +96,6 @@ def test_gpu_parallel_without_gpu_is_a_clear_error():
     from biovln_ms.errors import BioVLNError
 
     with pytest.raises(BioVLNError, match="num_envs > 1 needs sim_backend='physx_cuda' and a CUDA GPU"):
+        gym.make("BioVLN-OpFace-v0", num_envs=4, sim_backend="physx_cpu")
+    with pytest.raises(BioVLNError, match="sim_backend='physx_cuda' needs a CUDA GPU and none is visible"):
         gym.make("BioVLN-OpFace-v0", num_envs=4, sim_backend="physx_cuda")

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from itertools import combinations
+from typing import TYPE_CHECKING
 
 import numpy as np
 from shapely.geometry import LineString, Point
@@ -16,9 +17,11 @@ from shapely.ops import unary_union
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import SUPPORT_EDGE_MARGIN
 from biovln_ms.geometry.freespace import free_space, island_of
-from biovln_ms.geometry.navigation import NavGeometry
 from biovln_ms.geometry.zones import goal_position, placement_z, zone2_disjoint
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
+
+if TYPE_CHECKING:
+    from biovln_ms.geometry.navigation import NavGeometry
 
 TOL = 1e-4
 
@@ -51,7 +54,10 @@ def scene_free_space(spec: SceneSpec, radius: float | None = None):
 def scene_navigation(
     spec: SceneSpec, radius: float | None = None, grid_resolution: float = 0.05
 ) -> NavGeometry:
-    """NavGeometry of a scene spec (radius defaults to the spec's robot radius)."""
+    """NavGeometry of a scene spec (radius defaults to the spec's robot radius). Imported here, not at the
+    top: the rules also run inside Blender (the LSAT add-on), whose environment has no scipy."""
+    from biovln_ms.geometry.navigation import NavGeometry
+
     r = spec.robot_radius if radius is None else radius
     return NavGeometry(scene_free_space(spec, r), r, grid_resolution)
 
