@@ -76,9 +76,7 @@ class BioVLNNavEnv(BaseEnv):
         overrides = {f.name: kwargs.pop(f.name) for f in fields(NavTaskConfig) if f.name in kwargs}
         self.cfg = replace(self.config, **overrides)
         kwargs.setdefault("obs_mode", self.cfg.default_obs_mode)
-        if (
-            not torch.cuda.is_available()
-        ):  # ManiSkill's default asks for "sapien_cuda" and warns on every make
+        if not torch.cuda.is_available():  # ManiSkill's default asks for "sapien_cuda" and warns each make
             kwargs.setdefault("render_backend", "cpu")
         _check_arguments(self.cfg, control_mode, kwargs)
         split = split or self.cfg.default_split
@@ -109,8 +107,7 @@ class BioVLNNavEnv(BaseEnv):
     @property
     def _default_sensor_configs(self):
         c, visual = self.cfg, self.obs_mode_struct.visual
-        # ManiSkill's fast "minimal" shader renders rgb, depth and segmentation; normals and albedo need
-        # "default"
+        # ManiSkill's fast "minimal" shader gives rgb, depth, segmentation; normals and albedo need "default"
         shader = "default" if visual.normal or visual.albedo else "minimal"
         return [
             CameraConfig(
