@@ -132,11 +132,14 @@ class BioVLNNavEnv(BaseEnv):
     def _set_scenes(self) -> None:
         """Scene specs and navigation geometry of every sub-env's current episode."""
         scene_ids = [ep["scene_id"] for ep in self._episodes]
-        self.scene_specs = [self.source.spec(s) for s in scene_ids]
-        self.navs = [scene_navigation(s) for s in self.scene_specs]
-        self._motions = [
-            SweptMotion(floor_polygon(s), collision_footprints(s), s.robot_radius) for s in self.scene_specs
-        ]
+        built = {}  # once per distinct scene: sub-envs sharing a scene share its geometry
+        for sid in dict.fromkeys(scene_ids):
+            spec = self.source.spec(sid)
+            motion = SweptMotion(floor_polygon(spec), collision_footprints(spec), spec.robot_radius)
+            built[sid] = (spec, scene_navigation(spec), motion)
+        self.scene_specs, self.navs, self._motions = (
+            list(v) for v in zip(*(built[sid] for sid in scene_ids))
+        )
         self._scene_ids = scene_ids
 
     @property
@@ -164,24 +167,17 @@ class BioVLNNavEnv(BaseEnv):
 
     def _after_reconfigure(self, options: dict):
         self._ctx = BatchContext(self.num_envs, self.device)
-        self._measures = MeasureSet(self._measure_names(), self.num_envs, self.device, self.cfg)
+        c = self.cfg
+        # what info reports, and what the task needs besides (reward, success, fail, the sensors' clearance)
+        self._info_names = tuple(dict.fromkeys(c.measures + ("stopped", "agent_pose", "goal_position")))
+        needed = (c.reward_measure, c.success_measure, c.fail_measure, "clearance")
+        self._measures = MeasureSet(
+            tuple(dict.fromkeys(self._info_names + needed)), self.num_envs, self.device, c
+        )
         self._start = torch.zeros(self.num_envs, 3, dtype=torch.float64, device=self.device)
         self._objectgoal = torch.zeros(self.num_envs, len(self.category_names), device=self.device)
         self._done = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)  # the episode has ended
         self._frozen = self._done.clone()  # ... already before the current step
-
-    def _measure_names(self) -> tuple[str, ...]:
-        c = self.cfg
-        extra = (
-            c.reward_measure,
-            c.success_measure,
-            c.fail_measure,
-            "stopped",
-            "clearance",
-            "agent_pose",
-            "goal_position",
-        )
-        return tuple(dict.fromkeys(c.measures + extra))
 
     def close(self):
         self._closed = True
@@ -311,9 +307,7 @@ class BioVLNNavEnv(BaseEnv):
     def evaluate(self) -> dict:
         """The measures' values (a pure query: it changes nothing)."""
         c = self.cfg
-        info = self._measures.info(
-            tuple(dict.fromkeys(c.measures + ("stopped", "agent_pose", "goal_position")))
-        )
+        info = self._measures.info(self._info_names)
         info["success"] = self._measures[c.success_measure].clone()
         info["fail"] = self._measures[c.fail_measure].clone()
         return info
@@ -485,7 +479,8 @@ def _check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> Non
                 fix=f"use one of: {', '.join(known)} (optionally ':<device id>')",
             )
     backend = str(kwargs.get("sim_backend", "auto"))
-    if backend.startswith(("gpu", "physx_cuda", "cuda")) and not torch.cuda.is_available():
+    gpu_backend = backend.split(":")[0] in ("gpu", "cuda", "physx_cuda")
+    if gpu_backend and not torch.cuda.is_available():
         raise EnvConfigError(
             f"sim_backend='{backend}' needs a CUDA GPU and none is visible",
             field="sim_backend",
@@ -496,7 +491,7 @@ def _check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> Non
         raise EnvConfigError(
             f"num_envs must be a positive integer, got {n!r}", field="num_envs", fix="pass num_envs=1 or more"
         )
-    if n > 1 and not (torch.cuda.is_available() and backend.startswith(("gpu", "physx_cuda", "cuda"))):
+    if n > 1 and not (gpu_backend and torch.cuda.is_available()):
         raise EnvConfigError(
             "num_envs > 1 needs sim_backend='physx_cuda' and a CUDA GPU; on the CPU run one env per "
             "process (gymnasium AsyncVectorEnv or SB3 SubprocVecEnv, see README)",
