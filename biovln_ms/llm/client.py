@@ -102,7 +102,9 @@ class _Sockets:
         return Tracked
 
 
-class _TrackedHTTP(urllib.request.HTTPHandler):
+class _Tracked:
+    """Mixed into urllib's HTTP and HTTPS handlers: their connections' sockets go to ``sockets``."""
+
     def __init__(self, sockets: _Sockets) -> None:
         super().__init__()
         self._sockets = sockets
@@ -113,15 +115,12 @@ class _TrackedHTTP(urllib.request.HTTPHandler):
         return super().do_open(self._sockets.connection_class(http_class), req, **kwargs)
 
 
-class _TrackedHTTPS(urllib.request.HTTPSHandler):
-    def __init__(self, sockets: _Sockets) -> None:
-        super().__init__()
-        self._sockets = sockets
+class _TrackedHTTP(_Tracked, urllib.request.HTTPHandler):
+    pass
 
-    def do_open(
-        self, http_class: type[http.client.HTTPConnection], req: urllib.request.Request, **kwargs: object
-    ) -> http.client.HTTPResponse:
-        return super().do_open(self._sockets.connection_class(http_class), req, **kwargs)
+
+class _TrackedHTTPS(_Tracked, urllib.request.HTTPSHandler):
+    pass
 
 
 class _NoRedirect(urllib.request.HTTPRedirectHandler):
