@@ -4,6 +4,7 @@ may download anything at run time, and a test that tries fails loudly."""
 from __future__ import annotations
 
 import atexit
+import contextlib
 import ipaddress
 import json
 import os
@@ -107,12 +108,22 @@ class FakeOpenAIHandler(BaseHTTPRequestHandler):
         pass
 
 
+@contextlib.contextmanager
+def loopback_server(handler: type[BaseHTTPRequestHandler], **attrs):
+    """A threaded HTTP server with ``handler`` on 127.0.0.1 (free port), ``attrs`` set; stopped after."""
+    srv = ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    for k, v in attrs.items():
+        setattr(srv, k, v)
+    threading.Thread(target=srv.serve_forever, daemon=True).start()
+    try:
+        yield srv
+    finally:
+        srv.shutdown()
+        srv.server_close()
+
+
 @pytest.fixture
 def openai_server():
     """A local OpenAI-compatible server on loopback (set ``.reply``; ``.requests`` records the calls)."""
-    srv = ThreadingHTTPServer(("127.0.0.1", 0), FakeOpenAIHandler)
-    srv.requests, srv.reply = [], lambda body: "{}"
-    threading.Thread(target=srv.serve_forever, daemon=True).start()
-    yield srv
-    srv.shutdown()
-    srv.server_close()
+    with loopback_server(FakeOpenAIHandler, requests=[], reply=lambda body: "{}") as srv:
+        yield srv

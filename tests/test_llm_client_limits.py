@@ -9,12 +9,13 @@ import threading
 import time
 import tracemalloc
 from collections.abc import Callable
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from http.server import BaseHTTPRequestHandler
 
 import numpy as np
 import pytest
 
 from biovln_ms.llm.client import JSONChatClient, LLMConfig, LLMConfigError
+from conftest import loopback_server
 
 KEY = "sk-limits-test"
 
@@ -183,12 +184,8 @@ class PayloadHandler(BaseHTTPRequestHandler):
 
 @pytest.fixture
 def payload_server():
-    srv = ThreadingHTTPServer(("127.0.0.1", 0), PayloadHandler)
-    srv.requests, srv.payload = 0, b"{}"
-    threading.Thread(target=srv.serve_forever, daemon=True).start()
-    yield srv
-    srv.shutdown()
-    srv.server_close()
+    with loopback_server(PayloadHandler, requests=0, payload=b"{}") as srv:
+        yield srv
 
 
 def completion(message: dict) -> bytes:

@@ -77,7 +77,7 @@ class _Answer:
         return {"choice": 0} if validate({"choice": 0}) else None
 
 
-def _policies(tmp_path):
+def _policies(tmp_path, dataset):
     """Non-privileged policies with what they need: an untrained BC checkpoint and an untrained PPO."""
     from stable_baselines3 import PPO
 
@@ -101,7 +101,7 @@ def _policies(tmp_path):
         },
         bc,
     )
-    env = make_gym_env("BioVLN-OpFace-RL-v0", split="ms_val", dataset=str(_dataset(tmp_path)))
+    env = make_gym_env("BioVLN-OpFace-RL-v0", split="ms_val", dataset=str(dataset))
     PPO("MlpPolicy", env, n_steps=16, batch_size=16, device="cpu").save(tmp_path / "ppo.zip")
     env.close()
     return {
@@ -114,39 +114,28 @@ def _policies(tmp_path):
     }
 
 
-_DATA: dict = {}
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    """Two MS VAL episodes of the held-out scene of seed 154."""
+    from biovln_ms.benchmark import FOUR_CATEGORIES
+    from biovln_ms.episodes.dataset import SplitPlan, write_dataset
+    from biovln_ms.scene.generator import generate_scene
+
+    root = tmp_path_factory.mktemp("data") / "ds"
+    scene = generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES)
+    write_dataset(root, [SplitPlan("ms_val", [(scene, 2, False)])], progress=False)
+    return root
 
 
-def _dataset(tmp_path):
-    if "root" not in _DATA:
-        from biovln_ms.benchmark import FOUR_CATEGORIES
-        from biovln_ms.episodes.dataset import SplitPlan, write_dataset
-        from biovln_ms.scene.generator import generate_scene
-
-        root = tmp_path / "ds"
-        write_dataset(
-            root,
-            [
-                SplitPlan(
-                    "ms_val",
-                    [(generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES), 2, False)],
-                )
-            ],
-            progress=False,
-        )
-        _DATA["root"] = root
-    return _DATA["root"]
-
-
-def test_non_privileged_methods_run_from_observations_alone(tmp_path, guarded):
-    policies = _policies(tmp_path)
+def test_non_privileged_methods_run_from_observations_alone(tmp_path, dataset, guarded):
+    policies = _policies(tmp_path, dataset)
     assert set(policies) | {"a2c", "sac"} == {m for m, s in METHODS.items() if not s.privileged}
     for name, policy in policies.items():
         spec = METHODS[name]
         env = gym.make(
             spec.env_id or "BioVLN-OpFace-v0",
             split="ms_val",
-            dataset=str(_dataset(tmp_path)),
+            dataset=str(dataset),
             obs_mode=spec.obs_mode,
             camera_width=96,
             camera_height=72,
@@ -165,10 +154,8 @@ def test_non_privileged_methods_run_from_observations_alone(tmp_path, guarded):
             env.close()
 
 
-def test_only_oracles_get_the_read_only_privileged_view(tmp_path):
-    env = gym.make(
-        "BioVLN-OpFace-v0", split="ms_val", dataset=str(_dataset(tmp_path)), obs_mode="none", **CPU
-    )
+def test_only_oracles_get_the_read_only_privileged_view(dataset):
+    env = gym.make("BioVLN-OpFace-v0", split="ms_val", dataset=str(dataset), obs_mode="none", **CPU)
     try:
         env.reset(options={"episode_index": 0})
         u = env.unwrapped
@@ -186,13 +173,11 @@ def test_only_oracles_get_the_read_only_privileged_view(tmp_path):
         env.close()
 
 
-def test_the_guard_catches_a_policy_reading_env_internals(tmp_path, guarded):
+def test_the_guard_catches_a_policy_reading_env_internals(dataset, guarded):
     """A policy module that reads ``env._measures`` is stopped (so the guard above is real)."""
     ns = {"__name__": "biovln_ms.agents.cheat"}
     exec("def peek(env):\n    return env._measures\n", ns)
-    env = gym.make(
-        "BioVLN-OpFace-v0", split="ms_val", dataset=str(_dataset(tmp_path)), obs_mode="none", **CPU
-    )
+    env = gym.make("BioVLN-OpFace-v0", split="ms_val", dataset=str(dataset), obs_mode="none", **CPU)
     try:
         env.reset(options={"episode_index": 0})
         with pytest.raises(AttributeError, match="private attribute '_measures'"):
