@@ -166,7 +166,7 @@ class BioVLNNavEnv(BaseEnv):
         """Lights come from the scene builder."""
 
     def _after_reconfigure(self, options: dict):
-        self._ctx = BatchContext(self.num_envs, self.device)
+        self._ctx = BatchContext(self.num_envs)
         c = self.cfg
         # what info reports, and what the task needs besides (reward, success, fail, the sensors' clearance)
         self._info_names = tuple(dict.fromkeys(c.measures + ("stopped", "agent_pose", "goal_position")))
@@ -174,10 +174,11 @@ class BioVLNNavEnv(BaseEnv):
         self._measures = MeasureSet(
             tuple(dict.fromkeys(self._info_names + needed)), self.num_envs, self.device, c
         )
-        self._start = torch.zeros(self.num_envs, 3, dtype=torch.float64, device=self.device)
-        self._objectgoal = torch.zeros(self.num_envs, len(self.category_names), device=self.device)
-        self._done = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)  # the episode has ended
-        self._frozen = self._done.clone()  # ... already before the current step
+        # the task's per-sub-env bookkeeping is on the host, like the measures (biovln_ms.metrics.measures)
+        self._start = np.zeros((self.num_envs, 3))
+        self._objectgoal = np.zeros((self.num_envs, len(self.category_names)), np.float32)
+        self._done = np.zeros(self.num_envs, dtype=bool)  # the episode has ended
+        self._frozen = self._done.copy()  # ... already before the current step
 
     def close(self):
         self._closed = True
@@ -215,7 +216,7 @@ class BioVLNNavEnv(BaseEnv):
         return super().reset(seed=seed, options=options)
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
-        idx = env_idx.to(self.device)
+        idx = env_idx.cpu().numpy()
         qpos = torch.zeros(len(idx), 3, dtype=torch.float32, device=self.device)
         for k, i in enumerate(idx.tolist()):
             ep = self._episodes[i]
@@ -252,9 +253,9 @@ class BioVLNNavEnv(BaseEnv):
             hfov=self.cfg.hfov,
         )
 
-    def _pose(self) -> torch.Tensor:
-        """(N, 3) float64 planar poses from the base joints."""
-        return self.agent.planar_pose().to(torch.float64)
+    def _pose(self) -> np.ndarray:
+        """(N, 3) float64 planar poses from the base joints (host)."""
+        return self.agent.planar_pose().cpu().numpy().astype(np.float64)
 
     def _step_action(self, action):
         """ManiSkill's, after turning what gymnasium users pass for ``Discrete(4)`` — ``2``, ``np.int64(2)``,
@@ -264,27 +265,27 @@ class BioVLNNavEnv(BaseEnv):
             action = torch.as_tensor(np.asarray(action))
         if isinstance(action, (np.ndarray, torch.Tensor)) and action.ndim == 0:
             action = action.reshape(1)
-        self._frozen = self._done.clone()  # an ended episode ignores actions until reset (Habitat's rule)
+        self._frozen = self._done.copy()  # an ended episode ignores actions until reset (Habitat's rule)
         self.agent.controller.frozen = self._frozen
         return super()._step_action(action)
 
-    def _limit_targets(self, pose: torch.Tensor, target: torch.Tensor, moving: torch.Tensor) -> torch.Tensor:
+    def _limit_targets(self, pose: np.ndarray, target: np.ndarray, moving: np.ndarray) -> np.ndarray:
         """Drive targets of forward moves cut before an obstacle the straight path would cross (per scene)."""
-        out = target.clone()
-        for i in torch.nonzero(moving).flatten().tolist():
+        out = target.copy()
+        for i in np.flatnonzero(moving).tolist():
             x, y = pose[i, :2].tolist()
             out[i, 0], out[i, 1] = self._motions[i].target(x, y, *target[i, :2].tolist())
         return out
 
-    def _undo_crossings(self, start: torch.Tensor, pose: torch.Tensor) -> torch.Tensor:
+    def _undo_crossings(self, start: np.ndarray, pose: np.ndarray) -> np.ndarray:
         """Sub-envs whose body went through or deep into an obstacle this step go back to where the move
         started (a blocked move); returns the poses after that."""
-        moved = torch.nonzero((pose[:, :2] != start[:, :2]).any(1)).flatten().tolist()
+        moved = np.flatnonzero((pose[:, :2] != start[:, :2]).any(1)).tolist()
         back = [i for i in moved if self._motions[i].crossed(*start[i, :2].tolist(), *pose[i, :2].tolist())]
         if not back:
             return pose
         qpos = self.agent.robot.get_qpos().clone()
-        qpos[back] = start[back].to(qpos.dtype)
+        qpos[back] = torch.from_numpy(start[back]).to(qpos.device, qpos.dtype)
         self.agent.robot.set_qpos(qpos)
         self.agent.robot.set_qvel(torch.zeros_like(qpos))
         self.agent.controller.set_drive_targets(qpos)
@@ -292,24 +293,23 @@ class BioVLNNavEnv(BaseEnv):
 
     def _after_control_step(self):
         cmd = self.agent.controller.command
-        start = cmd.start_pose.to(torch.float64)
+        start = cmd.start_pose
         pose = self._undo_crossings(start, self._pose())
-        heading = torch.stack([torch.cos(start[:, 2]), torch.sin(start[:, 2])], dim=1)
-        moved = ((pose[:, :2] - start[:, :2]) * heading).sum(1)
-        state = StepState(pose[:, :2], pose[:, 2], cmd.stop.clone(), cmd.forward.to(torch.float64), moved)
-        active = None if not self._frozen.any() else torch.nonzero(~self._frozen).flatten()
+        d = pose[:, :2] - start[:, :2]
+        moved = d[:, 0] * np.cos(start[:, 2]) + d[:, 1] * np.sin(start[:, 2])
+        state = StepState(pose[:, :2], pose[:, 2], cmd.stop, cmd.forward, moved)
+        active = None if not self._frozen.any() else np.flatnonzero(~self._frozen)
         self._measures.update(self._ctx, state, active)
         c = self.cfg
-        ended = self._measures[c.success_measure] | self._measures[c.fail_measure]
-        ended |= torch.as_tensor(self._elapsed_steps, device=self.device) + 1 >= c.max_episode_steps
-        self._done |= ended
+        self._done |= self._measures[c.success_measure] | self._measures[c.fail_measure]
+        self._done |= self._elapsed_steps.cpu().numpy() + 1 >= c.max_episode_steps
 
     def evaluate(self) -> dict:
         """The measures' values (a pure query: it changes nothing)."""
         c = self.cfg
         info = self._measures.info(self._info_names)
-        info["success"] = self._measures[c.success_measure].clone()
-        info["fail"] = self._measures[c.fail_measure].clone()
+        info["success"] = self._measures.tensor(c.success_measure)
+        info["fail"] = self._measures.tensor(c.fail_measure)
         return info
 
     def _get_obs_agent(self):
@@ -324,7 +324,7 @@ class BioVLNNavEnv(BaseEnv):
             self._measures["clearance"],
             self.cfg,
         )
-        return {name: SENSORS[name](x) for name in self.cfg.sensors}
+        return {name: torch.from_numpy(SENSORS[name](x)).to(self.device) for name in self.cfg.sensors}
 
     def _get_obs_with_sensor_data(self, info: dict, apply_texture_transforms: bool = True) -> dict:
         obs = super()._get_obs_with_sensor_data(info, apply_texture_transforms)
@@ -349,14 +349,14 @@ class BioVLNNavEnv(BaseEnv):
 
     # --- rewards: measures chosen by the config (Eq. 5) ----------------------------------------
     def compute_dense_reward(self, obs, action, info):
-        reward = self._measures[self.cfg.reward_measure].to(torch.float32)
-        return torch.where(self._frozen, torch.zeros_like(reward), reward)  # nothing after the episode's end
+        reward = np.where(self._frozen, 0.0, self._measures[self.cfg.reward_measure])  # nothing after the end
+        return torch.tensor(reward, dtype=torch.float32, device=self.device)
 
     def compute_normalized_dense_reward(self, obs, action, info):
         return self.compute_dense_reward(obs, action, info) / self.cfg.success_bonus
 
     def compute_sparse_reward(self, obs, action, info):
-        return (info["success"] & ~self._frozen).to(torch.float32)
+        return (info["success"] & ~torch.tensor(self._frozen, device=self.device)).to(torch.float32)
 
     # --- state: the simulator's and the task's -------------------------------------------------
     def get_state_dict(self):
@@ -365,9 +365,9 @@ class BioVLNNavEnv(BaseEnv):
         state = super().get_state_dict()
         state["task"] = dict(
             episode=self._episode_indices(),
-            start=self._start.clone(),
+            start=torch.tensor(self._start, device=self.device),
             elapsed_steps=torch.as_tensor(self._elapsed_steps).clone(),
-            done=self._done.clone(),
+            done=torch.tensor(self._done, device=self.device),
             measures=self._measures.state_dict(),
         )
         return state
@@ -385,11 +385,12 @@ class BioVLNNavEnv(BaseEnv):
                 field="state['task']['episode']",
                 fix="reset to that episode first: env.reset(options={'episode_index': k})",
             )
-        self._start[idx] = torch.as_tensor(task["start"], device=self.device)[idx].to(torch.float64)
+        rows = idx.cpu().numpy()
+        self._start[rows] = torch.as_tensor(task["start"]).cpu().numpy()[rows]
         self._elapsed_steps[idx] = torch.as_tensor(task["elapsed_steps"], device=self.device)[idx].to(
             self._elapsed_steps.dtype
         )
-        self._done[idx] = torch.as_tensor(task["done"], device=self.device)[idx]
+        self._done[rows] = torch.as_tensor(task["done"]).cpu().numpy()[rows]
         self._measures.load_state_dict(task["measures"], idx)
 
     def _episode_indices(self) -> torch.Tensor:
@@ -438,7 +439,7 @@ class BioVLNNavEnv(BaseEnv):
         view = None
         if privileged:
             view = PrivilegedView(
-                self._ctx.episode(i), self.navs[i], lambda: self._pose()[i].cpu().numpy(), self.cfg.goal_mode
+                self._ctx.episode(i), self.navs[i], lambda: self._pose()[i], self.cfg.goal_mode
             )
         return EpisodeInfo(ep["scene_id"], ep["episode_id"], ep["object_category"], self.task_spec(), view)
 

@@ -42,11 +42,11 @@ def ctx(goal=GOAL, radius=0.8, start_geodesic=4.0):
 def state(points, yaws, stopped=None, commanded=None, moved=None) -> StepState:
     """A batch of robots: one row per sub-env."""
     n = len(points)
-    f = lambda v: torch.tensor(v, dtype=torch.float64)  # noqa: E731
+    f = lambda v: np.array(v, dtype=np.float64)  # noqa: E731
     return StepState(
         f(points),
         f(yaws),
-        torch.tensor(stopped or [False] * n),
+        np.array(stopped or [False] * n),
         f(commanded or [0.0] * n),
         f(moved or [0.0] * n),
     )
@@ -185,9 +185,9 @@ def test_rl_variant_proportional_penalty_and_normalised_reward():
 def test_sparse_reward_is_success_only():
     pts = [(0.0, -2.0), (0.0, -1.75), (0.0, -1.5)]
     m, _ = run(pts, stop_last=True)
-    assert m["success"].float().tolist() == [1.0]
+    assert m["success"].astype(float).tolist() == [1.0]
     m, _ = run(pts, stop_last=False)
-    assert m["success"].float().tolist() == [0.0]
+    assert m["success"].astype(float).tolist() == [0.0]
 
 
 # --- batched == separate --------------------------------------------------------------------------
@@ -231,10 +231,10 @@ def test_batch_of_64_equals_64_single_runs(variant):
     for i in range(n):
         bctx.set(i, contexts[i])
     batch.reset(bctx, st(0, slice(None)))
-    history = [{k: batch[k].clone() for k in NAMES}]
+    history = [{k: batch[k].copy() for k in NAMES}]
     for t in range(1, steps + 1):
         batch.update(bctx, st(t, slice(None)))
-        history.append({k: batch[k].clone() for k in NAMES})
+        history.append({k: batch[k].copy() for k in NAMES})
     for i in range(n):
         single, sctx = MeasureSet(NAMES, 1, cfg=cfg), BatchContext(1)
         sctx.set(0, contexts[i])
@@ -242,7 +242,7 @@ def test_batch_of_64_equals_64_single_runs(variant):
         for t in range(1, steps + 1):
             single.update(sctx, st(t, [i]))
             for k in NAMES:
-                assert torch.equal(single[k][0], history[t][k][i]), (i, t, k)
+                assert np.array_equal(single[k][0], history[t][k][i]), (i, t, k)
 
 
 def test_partial_reset_touches_only_the_named_rows():
@@ -258,10 +258,10 @@ def test_partial_reset_touches_only_the_named_rows():
     m.reset(b, full(0))
     for t in range(1, 6):
         m.update(b, full(t))
-    before = {k: m[k].clone() for k in NAMES}
+    before = {k: m[k].copy() for k in NAMES}
     m.reset(b, full(0), torch.tensor([1, 3]))
     for k in NAMES:
-        assert torch.equal(m[k][[0, 2]], before[k][[0, 2]]), k
+        assert np.array_equal(m[k][[0, 2]], before[k][[0, 2]]), k
     assert m["steps"].tolist() == [5, 0, 5, 0] and m["path_length"][[1, 3]].tolist() == [0.0, 0.0]
 
 
@@ -282,4 +282,4 @@ def test_state_dict_round_trip_continues_identically():
         a.update(b, full(t))
         c.update(b, full(t))
         for k in NAMES:
-            assert torch.equal(a[k], c[k]), (t, k)
+            assert np.array_equal(a[k], c[k]), (t, k)

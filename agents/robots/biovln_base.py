@@ -53,16 +53,18 @@ class ActionError(BioVLNError):
 
 @dataclass
 class NavCommand:
-    """The last command, per sub-env: the pose it started from and what was asked."""
+    """The last command, per sub-env: the pose it started from and what was asked (host arrays, like the
+    task's measures that read it)."""
 
-    start_pose: torch.Tensor  # (N, 3)
-    stop: torch.Tensor  # (N,) bool
-    forward: torch.Tensor  # (N,) m, float64
-    turn: torch.Tensor  # (N,) rad, float64
+    start_pose: np.ndarray  # (N, 3) float64
+    stop: np.ndarray  # (N,) bool
+    forward: np.ndarray  # (N,) m, float64
+    turn: np.ndarray  # (N,) rad, float64
 
 
 class NavBaseController(PDJointPosController):
-    """Discrete or continuous navigation commands on the planar joints' stiff PD position drive."""
+    """Discrete or continuous navigation commands on the planar joints' stiff PD position drive. The command
+    arithmetic is NumPy on the host (a few numbers per sub-env; the drive targets go to the device)."""
 
     config: "NavBaseControllerConfig"
 
@@ -74,18 +76,16 @@ class NavBaseController(PDJointPosController):
 
     #: (pose (N, 3), target (N, 3), moving (N,) bool) -> the drive targets the swept body may take
     #: (set by the task)
-    limit: Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor] | None = None
+    limit: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
     #: (N,) sub-envs whose episode has ended: their actions are ignored until reset (set by the task)
-    frozen: torch.Tensor | None = None
+    frozen: np.ndarray | None = None
 
     def set_motion(self, forward_step: float, turn_deg: float) -> None:
         """The distance of one FORWARD and the angle of one turn (the task's configuration)."""
         self.forward_step, self.turn = float(forward_step), math.radians(turn_deg)
         # per discrete action: stop, forward (m), turn (rad)
-        self._table = torch.tensor(
-            [[1.0, 0.0, 0.0], [0.0, self.forward_step, 0.0], [0.0, 0.0, self.turn], [0.0, 0.0, -self.turn]],
-            dtype=torch.float64,
-            device=self.device,
+        self._table = np.array(
+            [[1.0, 0.0, 0.0], [0.0, self.forward_step, 0.0], [0.0, 0.0, self.turn], [0.0, 0.0, -self.turn]]
         )
 
     def reset(self):
@@ -93,51 +93,52 @@ class NavBaseController(PDJointPosController):
         if not hasattr(self, "forward_step"):
             self.set_motion(self.config.forward_step, self.config.turn_deg)
         n = self.scene.num_envs
-        zeros = torch.zeros(n, dtype=torch.float64, device=self.device)
-        self.command = NavCommand(
-            self.qpos.clone(), torch.zeros(n, dtype=torch.bool, device=self.device), zeros, zeros
-        )
+        pose = self.qpos.cpu().numpy().astype(np.float64)
+        self.command = NavCommand(pose, np.zeros(n, dtype=bool), np.zeros(n), np.zeros(n))
 
-    def _decode(self, action: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def _decode(self, action) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(stop, forward metres, turn radians) per sub-env, or an ActionError naming the action."""
         n = self.scene.num_envs
+        a = action.cpu().numpy() if isinstance(action, torch.Tensor) else np.asarray(action)
+        kind = a.dtype.kind
+        finite = kind in "biu" or (kind == "f" and bool(np.isfinite(a).all()))
         if self.config.mode == "discrete":
-            a = action.reshape(-1)
-            k = a.long()
-            fractional = a.is_floating_point() and not torch.equal(a, k.to(a.dtype))
-            if a.numel() != n or a.is_complex() or fractional:
+            a = a.reshape(-1)
+            if a.size != n or not finite or (kind == "f" and (a != np.round(a)).any()):
                 raise ActionError(
-                    f"action {action.tolist()} is not {n} integer(s)", field="action", fix=action_help()
+                    f"action {a.tolist()} is not {n} integer(s)", field="action", fix=action_help()
                 )
+            k = a.astype(np.int64)
             if ((k < 0) | (k >= len(ACTIONS))).any():
                 raise ActionError(
                     f"action {k.tolist()} is outside Discrete(4)", field="action", fix=action_help()
                 )
             row = self._table[k]
             return row[:, 0] > 0, row[:, 1], row[:, 2]
-        a = action.reshape(n, -1).double()
-        if a.shape[1] != 3 or not torch.isfinite(a).all() or a.abs().max() > 1.0 + 1e-6:
+        if a.size != 3 * n or not finite or np.abs(a).max() > 1.0 + 1e-6:
             raise ActionError(
                 f"action {a.tolist()} is outside Box(-1, 1, (3,))",
                 field="action",
                 fix="continuous actions are [forward, turn, stop] in [-1, 1]: forward (a0+1)/2 * step, "
                 "turn a1 * turn angle, stop when a2 > 0",
             )
+        a = a.reshape(n, 3).astype(np.float64)
         return a[:, 2] > 0, (a[:, 0] + 1) / 2 * self.forward_step, a[:, 1] * self.turn
 
     def set_action(self, action: torch.Tensor):
-        stop, forward, turn = self._decode(torch.as_tensor(action, device=self.device))
-        pose = self.qpos.clone()
+        stop, forward, turn = self._decode(action)
+        pose = self.qpos
+        p = pose.cpu().numpy().astype(np.float64)  # targets are computed as exactly as the pose allows
         held = stop if self.frozen is None else stop | self.frozen  # STOP, or an ended episode: stay put
-        # float64: targets are computed as exactly as the pose allows
-        forward, turn = forward * ~held, turn * ~held
-        p = pose.double()
-        delta = torch.stack([forward * torch.cos(p[:, 2]), forward * torch.sin(p[:, 2]), turn], dim=1)
-        target = p + delta
+        forward, turn = np.where(held, 0.0, forward), np.where(held, 0.0, turn)
+        target = p.copy()
+        target[:, 0] += forward * np.cos(p[:, 2])
+        target[:, 1] += forward * np.sin(p[:, 2])
+        target[:, 2] += turn
         if self.limit is not None:
             target = self.limit(p, target, forward > 0)
-        target = target.to(pose.dtype)
-        self.command = NavCommand(pose, stop, forward, turn)
+        self.command = NavCommand(p, stop, forward, turn)
+        target = torch.from_numpy(target).to(device=pose.device, dtype=pose.dtype)
         self._start_qpos, self._target_qpos = pose, target
         self.set_drive_targets(target)
 
@@ -183,6 +184,11 @@ class BioVLNBase(BaseAgent):
             )
             for mode in CONTROL_MODES
         }
+
+    def set_action(self, action):
+        """The controller's, without ManiSkill's NumPy NaN scan of the action (a twentieth of a CPU step): the
+        navigation controllers reject non-finite actions themselves, with a one-line ActionError."""
+        self.controller.set_action(action)
 
     def _after_init(self):
         self.base_link = self.robot.links_map["base_link"]

@@ -46,7 +46,7 @@ class SweptMotion:
         """The drive target for a move from (x, y) toward (tx, ty): cut where the straight path first enters
         ``B`` when it would leave ``B`` again (cross an obstacle), else unchanged."""
         seg = LineString([(x, y), (tx, ty)])
-        if self.blocked.contains(Point(x, y)) or not self.blocked.intersects(seg):
+        if shapely.contains_xy(self.blocked, x, y) or not self.blocked.intersects(seg):
             return tx, ty
         inside = seg.intersection(self.blocked)
         pieces = sorted(
@@ -61,12 +61,12 @@ class SweptMotion:
 
     def crossed(self, x: float, y: float, ex: float, ey: float) -> bool:
         """Whether a move from (x, y) that ended at (ex, ey) went through or deep into an obstacle."""
-        start, end = Point(x, y), Point(ex, ey)
-        if self.blocked.contains(start):  # it started deep in contact: only a crossing counts
+        # (for a point and a polygon, intersects_xy is covers)
+        if shapely.contains_xy(self.blocked, x, y):  # it started deep in contact: only a crossing counts
             return self.core.intersects(LineString([(x, y), (ex, ey)])) if (x, y) != (ex, ey) else False
-        if self.blocked.contains(end):
+        if shapely.contains_xy(self.blocked, ex, ey):
             return True
-        own = next((c for c in self.components if c.covers(start)), None)
-        if own is not None and not own.covers(end):
+        own = next((c for c in self.components if shapely.intersects_xy(c, x, y)), None)
+        if own is not None and not shapely.intersects_xy(own, ex, ey):
             return True
         return (x, y) != (ex, ey) and self.core.intersects(LineString([(x, y), (ex, ey)]))

@@ -249,12 +249,12 @@ class InstrumentArray:
         self.eps = np.array([i.eps_c for i in instruments])
 
     def _local(self, p: np.ndarray) -> np.ndarray:
+        """|p| in each instrument's frame, (n, 2)."""
         d = np.asarray(p, float)[:2] - self.centers
-        return np.abs(
-            np.stack(
-                [self.cos * d[:, 0] + self.sin * d[:, 1], -self.sin * d[:, 0] + self.cos * d[:, 1]], axis=1
-            )
-        )
+        out = np.empty_like(d)
+        out[:, 0] = np.abs(self.cos * d[:, 0] + self.sin * d[:, 1])
+        out[:, 1] = np.abs(-self.sin * d[:, 0] + self.cos * d[:, 1])
+        return out
 
     def clearance(self, p) -> float:
         """Planar distance from p to the nearest body (inf when there are none)."""

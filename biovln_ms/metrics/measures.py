@@ -1,9 +1,15 @@
 """Per-step and per-episode measures, batched over ``num_envs`` (habitat-lab's measures, ManiSkill's tensors).
 
 A :class:`MeasureSet` resets (rows ``env_idx``) and updates registered measures in dependency order from a
-:class:`StepState` (the robots' planar poses and commands, tensors with a leading ``num_envs`` dimension)
-and a :class:`BatchContext` (each sub-env's episode), and exposes their values as an ``info`` dict.
-Reward, success and fail are measures too; the task config names which. Conventions (paper §4.2):
+:class:`StepState` (the robots' planar poses and commands, arrays with a leading ``num_envs`` dimension)
+and a :class:`BatchContext` (each sub-env's episode), and exposes their values as an ``info`` dict of torch
+tensors on the env's device. Reward, success and fail are measures too; the task config names which.
+
+The bookkeeping is NumPy on the host, whatever the simulation backend: the geometry that differs per
+scene (geodesics, clearance, Zone 2) is host-side anyway (shapely, visibility graphs), so the poses come
+to the host once a step; a NumPy operation on a few rows costs a quarter of a torch one on the CPU, and
+a measure update is a handful of them. Torch appears only at the boundary (:meth:`MeasureSet.info`,
+:meth:`MeasureSet.tensor`, state dicts). Conventions (paper §4.2):
 
 * ``clearance`` is the planar distance from the robot's centre (the agent position, as Habitat and
   the paper record trajectories) to the nearest instrument body (Zone 1); the robot radius is NOT
@@ -16,8 +22,8 @@ Reward, success and fail are measures too; the task config names which. Conventi
   (the start included) with clearance < 0.5 m; MCR = minimum clearance over the trajectory.
 * ``nav_reward`` is Eq. 5: (d_{t-1} - d_t) - step penalty + success bonus * success - safety penalty.
 
-Geometry that differs per scene (geodesics, clearance, Zone 2) is queried per sub-env; everything else
-is one tensor operation over the batch.
+Geometry that differs per scene is queried per sub-env; everything else is one array operation over the
+batch.
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ import torch
 from biovln_ms.geometry.zones import SAFETY_THRESHOLD, InstrumentArray, PlacedInstrument
 from biovln_ms.task_config import NavTaskConfig
 
-F64 = torch.float64
+F64 = np.float64
 
 
 @dataclass
@@ -55,20 +61,18 @@ class EpisodeContext:
 class BatchContext:
     """The episodes of ``n`` sub-envs, with the per-env numbers the batched measures need as tensors."""
 
-    def __init__(self, n: int, device: torch.device | str = "cpu") -> None:
-        self.n, self.device = n, torch.device(device)
+    def __init__(self, n: int) -> None:
+        self.n = n
         self.episodes: list[EpisodeContext | None] = [None] * n
-        z = lambda *shape: torch.zeros(n, *shape, dtype=F64, device=self.device)  # noqa: E731
-        self.goal, self.target_centre = z(2), z(2)
-        self.radius, self.start_geodesic, self.hfov = z(), z(), z()
-        self.zone3 = z(8)  # centre (2), unit axes u, v (2 + 2), half extents (2)
-        self.has_zone3 = torch.zeros(n, dtype=torch.bool, device=self.device)
+        self.goal, self.target_centre = np.zeros((n, 2)), np.zeros((n, 2))
+        self.radius, self.start_geodesic, self.hfov = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.zone3 = np.zeros((n, 8))  # centre (2), unit axes u, v (2 + 2), half extents (2)
+        self.has_zone3 = np.zeros(n, dtype=bool)
 
     def set(self, i: int, ctx: EpisodeContext) -> None:
         """Sub-env ``i`` starts the episode ``ctx``."""
         self.episodes[i] = ctx
-        t = lambda v: torch.as_tensor(np.asarray(v, float), dtype=F64, device=self.device)  # noqa: E731
-        self.goal[i], self.target_centre[i] = t(ctx.goal), t(ctx.target.center_xy)
+        self.goal[i], self.target_centre[i] = ctx.goal, ctx.target.center_xy
         self.radius[i], self.start_geodesic[i], self.hfov[i] = (
             ctx.success_radius,
             ctx.start_geodesic,
@@ -79,7 +83,7 @@ class BatchContext:
             corners = ctx.target.zone3_corners()
             u, v = corners[1] - corners[0], corners[3] - corners[0]
             lu, lv = np.linalg.norm(u), np.linalg.norm(v)
-            self.zone3[i] = t(np.concatenate([corners.mean(axis=0), u / lu, v / lv, [lu / 2, lv / 2]]))
+            self.zone3[i] = np.concatenate([corners.mean(axis=0), u / lu, v / lv, [lu / 2, lv / 2]])
 
     def episode(self, i: int) -> EpisodeContext:
         ctx = self.episodes[i]
@@ -92,48 +96,43 @@ class BatchContext:
 class StepState:
     """The robots after an action (or at reset), each field with a leading ``num_envs`` dimension."""
 
-    position: torch.Tensor  # (N, 2) float64
-    yaw: torch.Tensor  # (N,) float64
-    stopped: torch.Tensor  # (N,) bool
-    commanded_forward: torch.Tensor  # (N,) float64
-    moved_forward: torch.Tensor  # (N,) float64
+    position: np.ndarray  # (N, 2) float64
+    yaw: np.ndarray  # (N,) float64
+    stopped: np.ndarray  # (N,) bool
+    commanded_forward: np.ndarray  # (N,) float64
+    moved_forward: np.ndarray  # (N,) float64
 
     @classmethod
-    def at_rest(cls, pose: torch.Tensor) -> "StepState":
+    def at_rest(cls, pose: np.ndarray) -> "StepState":
         """The state at reset: pose (N, 3), no command."""
-        pose = pose.to(F64)
-        zeros = torch.zeros(len(pose), dtype=F64, device=pose.device)
-        return cls(
-            pose[:, :2],
-            pose[:, 2],
-            torch.zeros(len(pose), dtype=torch.bool, device=pose.device),
-            zeros,
-            zeros,
-        )
+        pose = np.asarray(pose, F64)
+        zeros = np.zeros(len(pose))
+        return cls(pose[:, :2], pose[:, 2], np.zeros(len(pose), dtype=bool), zeros, zeros)
 
 
 class Measure:
-    """One named value per sub-env. ``compute`` gives rows ``idx``; accumulating measures override
-    ``reset``/``update``. ``state_names`` are the tensors a state dict saves and restores."""
+    """One named value per sub-env (a NumPy array with a leading ``num_envs`` dimension). ``compute`` gives
+    rows ``idx``; accumulating measures override ``reset``/``update``. ``state_names`` are the arrays a
+    state dict saves and restores."""
 
     uuid: ClassVar[str]
     dependencies: ClassVar[tuple[str, ...]] = ()
-    dtype: ClassVar[torch.dtype] = F64
+    dtype: ClassVar[type] = F64
     shape: ClassVar[tuple[int, ...]] = ()
     state_names: ClassVar[tuple[str, ...]] = ("value",)
     exact_info: ClassVar[bool] = False  # True: info keeps float64 (poses); else floats as float32
 
-    def __init__(self, n: int, device: torch.device, cfg: NavTaskConfig) -> None:
+    def __init__(self, n: int, cfg: NavTaskConfig) -> None:
         self.cfg = cfg
-        self.value = torch.zeros(n, *self.shape, dtype=self.dtype, device=device)
+        self.value = np.zeros((n, *self.shape), dtype=self.dtype)
 
-    def compute(self, ctx: BatchContext, s: StepState, m: "MeasureSet", idx: torch.Tensor) -> torch.Tensor:
+    def compute(self, ctx: BatchContext, s: StepState, m: "MeasureSet", idx: "Rows") -> np.ndarray:
         raise NotImplementedError
 
-    def reset(self, ctx: BatchContext, s: StepState, m: "MeasureSet", idx: torch.Tensor) -> None:
+    def reset(self, ctx: BatchContext, s: StepState, m: "MeasureSet", idx: "Rows") -> None:
         self.value[idx] = self.compute(ctx, s, m, idx)
 
-    def update(self, ctx: BatchContext, s: StepState, m: "MeasureSet", idx: torch.Tensor) -> None:
+    def update(self, ctx: BatchContext, s: StepState, m: "MeasureSet", idx: "Rows") -> None:
         self.value[idx] = self.compute(ctx, s, m, idx)
 
 
@@ -154,12 +153,7 @@ def measure_names() -> list[str]:
     return list(_REGISTRY)
 
 
-Rows = torch.Tensor | slice  # the sub-envs a measure call touches: an index tensor, or all of them
-
-
-def rows(idx: Rows, n: int) -> list[int]:
-    """The sub-env indices of ``idx``."""
-    return list(range(n))[idx] if isinstance(idx, slice) else idx.tolist()
+Rows = np.ndarray | slice  # the sub-envs a measure call touches: an index array, or all of them
 
 
 class SceneQueryMeasure(Measure):
@@ -168,9 +162,9 @@ class SceneQueryMeasure(Measure):
 
     state_names = ("value", "at")
 
-    def __init__(self, n: int, device: torch.device, cfg: NavTaskConfig) -> None:
-        super().__init__(n, device, cfg)
-        self.at = torch.full((n, 2), math.nan, dtype=F64, device=device)  # where each value was queried
+    def __init__(self, n: int, cfg: NavTaskConfig) -> None:
+        super().__init__(n, cfg)
+        self.at = np.full((n, 2), math.nan)  # where each value was queried
 
     def query(self, ctx: EpisodeContext, p: np.ndarray):
         raise NotImplementedError
@@ -180,12 +174,14 @@ class SceneQueryMeasure(Measure):
         self.update(ctx, s, m, idx)
 
     def update(self, ctx, s, m, idx):
-        pos, at = s.position.cpu().numpy(), self.at.cpu().numpy()
-        todo = [i for i in rows(idx, ctx.n) if not np.array_equal(pos[i], at[i])]
-        if todo:
-            values = [self.query(ctx.episode(i), pos[i]) for i in todo]
-            self.value[todo] = torch.tensor(values, dtype=self.dtype, device=self.value.device)
-            self.at[todo] = s.position[todo]
+        pos, at = s.position[idx], self.at[idx]
+        changed = (pos[:, 0] != at[:, 0]) | (pos[:, 1] != at[:, 1])  # NaN (never queried) differs
+        if not changed.any():
+            return
+        todo = np.arange(ctx.n)[idx][changed]
+        for i in todo.tolist():
+            self.value[i] = self.query(ctx.episode(i), s.position[i])
+        self.at[todo] = s.position[todo]
 
 
 @register_measure
@@ -193,7 +189,8 @@ class DistanceToGoal(Measure):
     uuid = "distance_to_goal"
 
     def compute(self, ctx, s, m, idx):
-        return torch.linalg.norm(s.position[idx] - ctx.goal[idx], dim=1)
+        d = s.position[idx] - ctx.goal[idx]
+        return np.hypot(d[:, 0], d[:, 1])
 
 
 @register_measure
@@ -215,7 +212,7 @@ class Clearance(SceneQueryMeasure):
 @register_measure
 class Zone2Violation(SceneQueryMeasure):
     uuid = "zone2_violation"
-    dtype = torch.bool
+    dtype = bool
 
     def query(self, c, p):
         return c.array.in_zone2(p)
@@ -224,48 +221,48 @@ class Zone2Violation(SceneQueryMeasure):
 @register_measure
 class InZone3(Measure):
     uuid = "in_zone3"
-    dtype = torch.bool
+    dtype = bool
 
     def compute(self, ctx, s, m, idx):
         z = ctx.zone3[idx]
         d = s.position[idx] - z[:, 0:2]
-        du, dv = (d * z[:, 2:4]).sum(1), (d * z[:, 4:6]).sum(1)
-        return ctx.has_zone3[idx] & (du.abs() <= z[:, 6] + 1e-9) & (dv.abs() <= z[:, 7] + 1e-9)
+        du, dv = d[:, 0] * z[:, 2] + d[:, 1] * z[:, 3], d[:, 0] * z[:, 4] + d[:, 1] * z[:, 5]
+        return ctx.has_zone3[idx] & (np.abs(du) <= z[:, 6] + 1e-9) & (np.abs(dv) <= z[:, 7] + 1e-9)
 
 
-def wrap_angle(a: torch.Tensor) -> torch.Tensor:
+def wrap_angle(a: np.ndarray) -> np.ndarray:
     """Angles wrapped to [-pi, pi)."""
-    return torch.remainder(a + math.pi, 2 * math.pi) - math.pi
+    return np.remainder(a + math.pi, 2 * math.pi) - math.pi
 
 
 @register_measure
 class FacingInstrument(Measure):
     uuid = "facing_instrument"
-    dtype = torch.bool
+    dtype = bool
 
     def compute(self, ctx, s, m, idx):
         d = ctx.target_centre[idx] - s.position[idx]
-        bearing = wrap_angle(torch.atan2(d[:, 1], d[:, 0]) - s.yaw[idx])
-        return bearing.abs() <= ctx.hfov[idx] / 2
+        bearing = wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - s.yaw[idx])
+        return np.abs(bearing) <= ctx.hfov[idx] / 2
 
 
 @register_measure
 class Collisions(Measure):
     uuid = "collisions"
-    dtype = torch.int64
+    dtype = np.int64
 
     def reset(self, ctx, s, m, idx):
         self.value[idx] = 0
 
     def update(self, ctx, s, m, idx):
         cmd, moved = s.commanded_forward[idx], s.moved_forward[idx]
-        self.value[idx] += ((cmd > 0) & (moved < 0.9 * cmd)).to(self.dtype)
+        self.value[idx] += (cmd > 0) & (moved < 0.9 * cmd)
 
 
 @register_measure
 class Stopped(Measure):
     uuid = "stopped"
-    dtype = torch.bool
+    dtype = bool
 
     def compute(self, ctx, s, m, idx):
         return s.stopped[idx]
@@ -274,7 +271,7 @@ class Stopped(Measure):
 @register_measure
 class Success(Measure):
     uuid = "success"
-    dtype = torch.bool
+    dtype = bool
     dependencies = ("distance_to_goal", "stopped")
 
     def compute(self, ctx, s, m, idx):
@@ -286,7 +283,7 @@ class FailedStop(Measure):
     """STOP outside the success radius: the episode ends as a failure."""
 
     uuid = "failed_stop"
-    dtype = torch.bool
+    dtype = bool
     dependencies = ("stopped", "success")
 
     def compute(self, ctx, s, m, idx):
@@ -296,7 +293,7 @@ class FailedStop(Measure):
 @register_measure
 class Steps(Measure):
     uuid = "steps"
-    dtype = torch.int64
+    dtype = np.int64
 
     def reset(self, ctx, s, m, idx):
         self.value[idx] = 0
@@ -310,16 +307,17 @@ class PathLength(Measure):
     uuid = "path_length"
     state_names = ("value", "last")
 
-    def __init__(self, n, device, cfg):
-        super().__init__(n, device, cfg)
-        self.last = torch.zeros(n, 2, dtype=F64, device=device)
+    def __init__(self, n, cfg):
+        super().__init__(n, cfg)
+        self.last = np.zeros((n, 2))
 
     def reset(self, ctx, s, m, idx):
         self.last[idx] = s.position[idx]
         self.value[idx] = 0.0
 
     def update(self, ctx, s, m, idx):
-        self.value[idx] += torch.linalg.norm(s.position[idx] - self.last[idx], dim=1)
+        d = s.position[idx] - self.last[idx]
+        self.value[idx] += np.hypot(d[:, 0], d[:, 1])
         self.last[idx] = s.position[idx]
 
 
@@ -334,7 +332,7 @@ class MinClearance(Measure):
         self.value[idx] = m["clearance"][idx]
 
     def update(self, ctx, s, m, idx):
-        self.value[idx] = torch.minimum(self.value[idx], m["clearance"][idx])
+        self.value[idx] = np.minimum(self.value[idx], m["clearance"][idx])
 
 
 @register_measure
@@ -345,10 +343,10 @@ class ViolationRate(Measure):
     dependencies = ("clearance",)
     state_names = ("value", "poses", "violations")
 
-    def __init__(self, n, device, cfg):
-        super().__init__(n, device, cfg)
-        self.poses = torch.zeros(n, dtype=torch.int64, device=device)
-        self.violations = torch.zeros(n, dtype=torch.int64, device=device)
+    def __init__(self, n, cfg):
+        super().__init__(n, cfg)
+        self.poses = np.zeros(n, dtype=np.int64)
+        self.violations = np.zeros(n, dtype=np.int64)
 
     def reset(self, ctx, s, m, idx):
         self.poses[idx] = 0
@@ -357,14 +355,14 @@ class ViolationRate(Measure):
 
     def update(self, ctx, s, m, idx):
         self.poses[idx] += 1
-        self.violations[idx] += (m["clearance"][idx] < SAFETY_THRESHOLD).to(torch.int64)
-        self.value[idx] = self.violations[idx].to(F64) / self.poses[idx].to(F64)
+        self.violations[idx] += m["clearance"][idx] < SAFETY_THRESHOLD
+        self.value[idx] = self.violations[idx] / self.poses[idx]
 
 
-def _efficiency(ctx: BatchContext, m: "MeasureSet", idx: torch.Tensor) -> torch.Tensor:
+def _efficiency(ctx: BatchContext, m: "MeasureSet", idx: Rows) -> np.ndarray:
     """l_opt / max(l, l_opt) (the path-length factor of SPL and soft SPL)."""
     l_opt = ctx.start_geodesic[idx]
-    return l_opt / torch.clamp(torch.maximum(m["path_length"][idx], l_opt), min=1e-9)
+    return l_opt / np.maximum(np.maximum(m["path_length"][idx], l_opt), 1e-9)
 
 
 @register_measure
@@ -376,7 +374,7 @@ class SPL(Measure):
         self.value[idx] = 0.0
 
     def compute(self, ctx, s, m, idx):
-        return m["success"][idx].to(F64) * _efficiency(ctx, m, idx)
+        return m["success"][idx] * _efficiency(ctx, m, idx)
 
 
 @register_measure
@@ -389,8 +387,8 @@ class SoftSPL(Measure):
 
     def compute(self, ctx, s, m, idx):
         d = m["geodesic_distance_to_goal"][idx]
-        d0 = torch.clamp(ctx.start_geodesic[idx], min=1e-9)
-        progress = torch.where(torch.isfinite(d), torch.clamp(1.0 - d / d0, min=0.0), torch.zeros_like(d))
+        d0 = np.maximum(ctx.start_geodesic[idx], 1e-9)
+        progress = np.maximum(1.0 - d / d0, 0.0)  # an unreachable goal (d = inf) makes no progress
         return progress * _efficiency(ctx, m, idx)
 
 
@@ -404,9 +402,9 @@ class NavReward(Measure):
     dependencies = ("distance_to_goal", "success", "clearance")
     state_names = ("value", "previous_distance")
 
-    def __init__(self, n, device, cfg):
-        super().__init__(n, device, cfg)
-        self.previous_distance = torch.zeros(n, dtype=F64, device=device)
+    def __init__(self, n, cfg):
+        super().__init__(n, cfg)
+        self.previous_distance = np.zeros(n)
 
     def reset(self, ctx, s, m, idx):
         self.value[idx] = 0.0
@@ -416,13 +414,10 @@ class NavReward(Measure):
         c = self.cfg
         d, clearance = m["distance_to_goal"][idx], m["clearance"][idx]
         unsafe = clearance < SAFETY_THRESHOLD
-        scale = (1.0 - clearance / SAFETY_THRESHOLD) if c.proportional_safety else torch.ones_like(clearance)
-        safety = torch.where(unsafe, c.safety_penalty * scale, torch.zeros_like(clearance))
+        scale = (1.0 - clearance / SAFETY_THRESHOLD) if c.proportional_safety else 1.0
+        safety = np.where(unsafe, c.safety_penalty * scale, 0.0)
         self.value[idx] = (
-            (self.previous_distance[idx] - d)
-            - c.step_penalty
-            + c.success_bonus * m["success"][idx].to(F64)
-            - safety
+            (self.previous_distance[idx] - d) - c.step_penalty + c.success_bonus * m["success"][idx] - safety
         )
         self.previous_distance[idx] = d
 
@@ -436,7 +431,7 @@ class AgentPose(Measure):
     exact_info = True
 
     def compute(self, ctx, s, m, idx):
-        return torch.cat([s.position[idx], s.yaw[idx, None]], dim=1)
+        return np.concatenate([s.position[idx], s.yaw[idx, None]], axis=1)
 
 
 @register_measure
@@ -452,7 +447,8 @@ class GoalPosition(Measure):
 
 
 class MeasureSet:
-    """Registered measures for ``n`` sub-envs, updated in dependency order."""
+    """Registered measures for ``n`` sub-envs, updated in dependency order; ``device`` is where the torch
+    views (:meth:`info`, :meth:`tensor`, :meth:`state_dict`) go."""
 
     def __init__(
         self,
@@ -478,14 +474,23 @@ class MeasureSet:
             visit(name)
         self.names, self.n, self.device = tuple(names), n, torch.device(device)
         cfg = cfg or NavTaskConfig()
-        self.measures = {name: _REGISTRY[name](n, self.device, cfg) for name in order}
+        self.measures = {name: _REGISTRY[name](n, cfg) for name in order}
+        self._info_dtype = {name: self._info_type(meas) for name, meas in self.measures.items()}
 
-    def __getitem__(self, name: str) -> torch.Tensor:
+    def __getitem__(self, name: str) -> np.ndarray:
+        """The live values of measure ``name`` (host array; do not modify)."""
         return self.measures[name].value
 
-    def _idx(self, env_idx: torch.Tensor | None) -> torch.Tensor | slice:
-        """Rows to touch: a slice for all of them (basic indexing is several times cheaper than a tensor)."""
-        return slice(None) if env_idx is None else env_idx.to(self.device)
+    def tensor(self, name: str, dtype: torch.dtype | None = None) -> torch.Tensor:
+        """A copy of measure ``name``'s values as a tensor on the device."""
+        return torch.tensor(self.measures[name].value, dtype=dtype, device=self.device)
+
+    @staticmethod
+    def _idx(env_idx: torch.Tensor | np.ndarray | None) -> Rows:
+        """Rows to touch: a slice for all of them (basic indexing is cheaper than an index array)."""
+        if env_idx is None:
+            return slice(None)
+        return env_idx.cpu().numpy() if isinstance(env_idx, torch.Tensor) else np.asarray(env_idx)
 
     def reset(self, ctx: BatchContext, state: StepState, env_idx: torch.Tensor | None = None) -> None:
         """Start the episodes of sub-envs ``env_idx`` (all by default)."""
@@ -499,21 +504,26 @@ class MeasureSet:
         for meas in self.measures.values():
             meas.update(ctx, state, self, idx)
 
+    @staticmethod
+    def _info_type(meas: Measure) -> np.dtype:
+        """What ``info`` reports a measure as: floats as float32 unless ``exact_info``, counts as int32."""
+        dtype = meas.value.dtype
+        if dtype.kind in "iu":
+            return np.dtype(np.int32)
+        return np.dtype(np.float32) if dtype.kind == "f" and not meas.exact_info else dtype
+
     def info(self, names: tuple[str, ...] | None = None) -> dict[str, torch.Tensor]:
-        """Copies of the values (floats as float32 unless ``exact_info``, counts as int32)."""
-        out = {}
-        for name in names or self.names:
-            meas = self.measures[name]
-            v = meas.value
-            if v.is_floating_point() and not meas.exact_info:
-                v = v.to(torch.float32)
-            out[name] = v.to(torch.int32) if v.dtype == torch.int64 else v.clone()
+        """Copies of the values as tensors on the device (see :meth:`_info_type`)."""
+        types = self._info_dtype
+        out = {name: torch.from_numpy(self[name].astype(types[name])) for name in names or self.names}
+        if self.device.type != "cpu":
+            out = {name: v.to(self.device) for name, v in out.items()}
         return out
 
     def state_dict(self) -> dict[str, dict[str, torch.Tensor]]:
-        """Every measure's state tensors (cloned): what a replay needs to continue the episode."""
+        """Every measure's state as tensors (copies): what a replay needs to continue the episode."""
         return {
-            name: {k: getattr(meas, k).clone() for k in meas.state_names}
+            name: {k: torch.tensor(getattr(meas, k), device=self.device) for k in meas.state_names}
             for name, meas in self.measures.items()
         }
 
@@ -525,5 +535,6 @@ class MeasureSet:
             raise KeyError(f"the task state has no measure {', '.join(missing)}")
         for name, meas in self.measures.items():
             for k in meas.state_names:
-                t = getattr(meas, k)
-                t[idx] = torch.as_tensor(state[name][k], device=t.device).to(t.dtype)[idx]
+                saved = state[name][k]
+                saved = saved.cpu().numpy() if isinstance(saved, torch.Tensor) else np.asarray(saved)
+                getattr(meas, k)[idx] = saved[idx]
