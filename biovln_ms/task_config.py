@@ -7,8 +7,10 @@ one :class:`NavTaskConfig` in :data:`biovln_ms.variants.VARIANTS`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from typing import Any
+
+from biovln_ms.noise import NoiseConfig
 
 #: Per-step info of every variant (paper §4.2) and the episode-end metrics.
 STEP_MEASURES = (
@@ -24,6 +26,8 @@ STEP_MEASURES = (
 END_MEASURES = ("spl", "soft_spl", "mcr", "vrt", "steps", "path_length")
 #: The sensors of the benchmark env (Habitat's PointNav/ObjectNav sensors; see ``biovln_ms.agents.policy``).
 NAV_SENSORS = ("gps", "compass", "pointgoal_with_gps_compass", "objectgoal")
+#: What GPS+compass gives, and what replaces each without it (None: nothing)
+GPS_COMPASS_SENSORS = {"gps": None, "compass": None, "pointgoal_with_gps_compass": "pointgoal"}
 
 
 @dataclass(frozen=True)
@@ -54,6 +58,19 @@ class NavTaskConfig:
     agent_obs: bool = True  # ManiSkill's proprioception (base joint qpos/qvel) in state observations
     default_split: str | None = None  # the split used when none is given (None: a generated scene)
     default_obs_mode: str = "state"
+    noise: NoiseConfig = field(default_factory=NoiseConfig)  # biovln_ms.noise: the paper's is ideal
+
+    def with_noise(self, noise: NoiseConfig) -> "NavTaskConfig":
+        """This config under ``noise``: without GPS+compass, its sensors lose them (the goal comes once, as
+        ``pointgoal`` in the start frame) and the observation loses the base odometry."""
+        if noise.gps_compass:
+            return replace(self, noise=noise)
+        sensors = tuple(
+            dict.fromkeys(
+                GPS_COMPASS_SENSORS.get(s, s) for s in self.sensors if GPS_COMPASS_SENSORS.get(s, s)
+            )
+        )
+        return replace(self, noise=noise, sensors=sensors, agent_obs=False)
 
     @property
     def camera_vfov(self) -> float:
@@ -78,6 +95,7 @@ class TaskSpec:
     goal_categories: tuple[str, ...]  # the order of the ``objectgoal`` one-hot
     control_mode: str  # "discrete" or "continuous"
     robot_radius: float  # m, the robot's body
+    noise: NoiseConfig = field(default_factory=NoiseConfig)  # what is noisy and what the robot senses
 
 
 @dataclass(frozen=True)

@@ -34,6 +34,7 @@ from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.motion import SweptMotion
 from biovln_ms.scene.rules import floor_polygon, scene_navigation
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, MeasureSet, StepState
+from biovln_ms.noise import actuation_errors, resolve_noise
 from biovln_ms.sim.footprints import collision_footprints
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
@@ -44,6 +45,11 @@ from biovln_ms.variants import VARIANTS
 GOAL_MODES = ("opface", "centroid")
 SIM_BACKENDS = ("auto", "cpu", "physx_cpu", "gpu", "cuda", "physx_cuda")  # ManiSkill's names
 RENDER_BACKENDS = ("auto", "cpu", "sapien_cpu", "gpu", "cuda", "sapien_cuda", "none")
+#: a move that ends farther than this (m) from its target was blocked (``noise.sliding=False``)
+SLIDE_TOLERANCE = 0.01
+#: the noise stream of a sub-env at a step is seeded by (episode seed, NOISE_STREAM, step): stateless, so a
+#: replay from any saved state draws the same noise
+NOISE_STREAM = 0x6E6F6973
 #: the follow camera of ``render()``: behind and above the robot, looking at a point ahead of it
 FOLLOW_CAMERA_EYE = (-2.2, 0.0, 2.3)
 FOLLOW_CAMERA_TARGET = (1.0, 0.0, 0.3)
@@ -75,6 +81,7 @@ class BioVLNNavEnv(BaseEnv):
     ) -> None:
         overrides = {f.name: kwargs.pop(f.name) for f in fields(NavTaskConfig) if f.name in kwargs}
         self.cfg = replace(self.config, **overrides)
+        self.cfg = self.cfg.with_noise(resolve_noise(self.cfg.noise))
         kwargs.setdefault("obs_mode", self.cfg.default_obs_mode)
         if not torch.cuda.is_available():  # ManiSkill's default asks for "sapien_cuda" and warns each make
             kwargs.setdefault("render_backend", "cpu")
@@ -153,6 +160,7 @@ class BioVLNNavEnv(BaseEnv):
         for controller in self.agent.controllers.values():
             controller.set_motion(self.cfg.forward_step, self.cfg.turn_deg)
             controller.limit = self._limit_targets
+            controller.perturb = self._perturb if self.cfg.noise.actuation > 0 else None
 
     def _load_scene(self, options: dict):
         scene_ids = list(dict.fromkeys(self._scene_ids))  # one build config per distinct scene
@@ -178,6 +186,7 @@ class BioVLNNavEnv(BaseEnv):
         self._start = np.zeros((self.num_envs, 3))
         self._objectgoal = np.zeros((self.num_envs, len(self.category_names)), np.float32)
         self._done = np.zeros(self.num_envs, dtype=bool)  # the episode has ended
+        self._actuation_error = np.zeros((self.num_envs, 3))  # the last step's (along, across, heading)
         self._frozen = self._done.copy()  # ... already before the current step
 
     def close(self):
@@ -231,6 +240,7 @@ class BioVLNNavEnv(BaseEnv):
         self._start[idx] = pose[idx]
         self._done[idx] = False
         self._frozen[idx] = False
+        self._actuation_error[idx] = 0.0
         self._measures.reset(self._ctx, StepState.at_rest(pose), idx)
 
     def _episode_context(self, i: int) -> EpisodeContext:
@@ -277,6 +287,25 @@ class BioVLNNavEnv(BaseEnv):
             out[i, 0], out[i, 1] = self._motions[i].target(x, y, *target[i, :2].tolist())
         return out
 
+    def _perturb(self, forward: np.ndarray, turn: np.ndarray, acting: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Actuation noise (``biovln_ms.noise``): the executed (along, across, turn) of each sub-env's move,
+        drawn from its episode seed and step (STOP and ended episodes move exactly: not at all)."""
+        err = np.zeros((len(forward), 3))
+        steps = self._elapsed_steps.cpu().numpy()
+        for i in np.flatnonzero(acting & ((forward > 0) | (turn != 0))).tolist():
+            rng = np.random.default_rng([int(self._episode_seed[i]), NOISE_STREAM, int(steps[i])])
+            err[i] = actuation_errors(rng, forward[i], turn[i], self.cfg.noise.actuation)
+        self._actuation_error = err
+        return forward + err[:, 0], err[:, 1], turn + err[:, 2]
+
+    def _put_back(self, rows: list[int], poses: np.ndarray) -> None:
+        """Sub-envs ``rows`` stand at ``poses`` (their rows), at rest."""
+        qpos = self.agent.robot.get_qpos().clone()
+        qpos[rows] = torch.from_numpy(poses[rows]).to(qpos.device, qpos.dtype)
+        self.agent.robot.set_qpos(qpos)
+        self.agent.robot.set_qvel(torch.zeros_like(qpos))
+        self.agent.controller.set_drive_targets(qpos)
+
     def _undo_crossings(self, start: np.ndarray, pose: np.ndarray) -> np.ndarray:
         """Sub-envs whose body went through or deep into an obstacle this step go back to where the move
         started (a blocked move); returns the poses after that."""
@@ -284,17 +313,29 @@ class BioVLNNavEnv(BaseEnv):
         back = [i for i in moved if self._motions[i].crossed(*start[i, :2].tolist(), *pose[i, :2].tolist())]
         if not back:
             return pose
-        qpos = self.agent.robot.get_qpos().clone()
-        qpos[back] = torch.from_numpy(start[back]).to(qpos.device, qpos.dtype)
-        self.agent.robot.set_qpos(qpos)
-        self.agent.robot.set_qvel(torch.zeros_like(qpos))
-        self.agent.controller.set_drive_targets(qpos)
+        self._put_back(back, start)
+        return self._pose()
+
+    def _no_sliding(self, cmd, pose: np.ndarray) -> np.ndarray:
+        """Without sliding, a move that did not reach its target (an obstacle stopped or deflected it) leaves
+        the robot where it started, turned as the move turned it (Habitat's ``allow_sliding=False``)."""
+        start, target = cmd.start_pose, cmd.target
+        moved = (target[:, 0] != start[:, 0]) | (target[:, 1] != start[:, 1])
+        off = np.hypot(pose[:, 0] - target[:, 0], pose[:, 1] - target[:, 1]) > SLIDE_TOLERANCE
+        back = np.flatnonzero(moved & off).tolist()
+        if not back:
+            return pose
+        stay = pose.copy()
+        stay[back, :2] = start[back, :2]
+        self._put_back(back, stay)
         return self._pose()
 
     def _after_control_step(self):
         cmd = self.agent.controller.command
         start = cmd.start_pose
         pose = self._undo_crossings(start, self._pose())
+        if not self.cfg.noise.sliding:
+            pose = self._no_sliding(cmd, pose)
         d = pose[:, :2] - start[:, :2]
         moved = d[:, 0] * np.cos(start[:, 2]) + d[:, 1] * np.sin(start[:, 2])
         state = StepState(pose[:, :2], pose[:, 2], cmd.stop, cmd.forward, moved)
@@ -310,6 +351,10 @@ class BioVLNNavEnv(BaseEnv):
         info = self._measures.info(self._info_names)
         info["success"] = self._measures.tensor(c.success_measure)
         info["fail"] = self._measures.tensor(c.fail_measure)
+        if c.noise.actuation > 0:  # what the noise did this step: a replay checks it
+            info["actuation_error"] = torch.tensor(
+                self._actuation_error, dtype=torch.float32, device=self.device
+            )
         return info
 
     def _get_obs_agent(self):
@@ -368,6 +413,8 @@ class BioVLNNavEnv(BaseEnv):
             start=torch.tensor(self._start, device=self.device),
             elapsed_steps=torch.as_tensor(self._elapsed_steps).clone(),
             done=torch.tensor(self._done, device=self.device),
+            episode_seed=torch.tensor(self._episode_seed, device=self.device),  # seeds the actuation noise
+            actuation_error=torch.tensor(self._actuation_error, device=self.device),
             measures=self._measures.state_dict(),
         )
         return state
@@ -391,6 +438,8 @@ class BioVLNNavEnv(BaseEnv):
             self._elapsed_steps.dtype
         )
         self._done[rows] = torch.as_tensor(task["done"]).cpu().numpy()[rows]
+        self._episode_seed[rows] = torch.as_tensor(task["episode_seed"]).cpu().numpy()[rows]
+        self._actuation_error[rows] = torch.as_tensor(task["actuation_error"]).cpu().numpy()[rows]
         self._measures.load_state_dict(task["measures"], idx)
 
     def _episode_indices(self) -> torch.Tensor:
@@ -430,6 +479,7 @@ class BioVLNNavEnv(BaseEnv):
             tuple(self.category_names),
             self.control_mode,
             self.agent.radius,
+            c.noise,
         )
 
     def episode_info(self, i: int = 0, privileged: bool = False) -> EpisodeInfo:

@@ -70,6 +70,17 @@ def pointgoal_with_gps_compass(x: SensorInputs) -> np.ndarray:
     return out
 
 
+@register_sensor("pointgoal")
+def pointgoal(x: SensorInputs) -> np.ndarray:
+    """(rho, phi) of the goal in the episode's start frame: what the robot is told once, without GPS+compass
+    (Habitat's PointGoal sensor); it does not change as the robot moves."""
+    d = x.goal - x.start[:, :2]
+    out = np.empty((len(d), 2), np.float32)
+    out[:, 0] = np.hypot(d[:, 0], d[:, 1])
+    out[:, 1] = wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - x.start[:, 2])
+    return out
+
+
 @register_sensor("objectgoal")
 def objectgoal(x: SensorInputs) -> np.ndarray:
     """One-hot target category (the catalog's goal categories, in order)."""

@@ -58,8 +58,9 @@ class NavCommand:
 
     start_pose: np.ndarray  # (N, 3) float64
     stop: np.ndarray  # (N,) bool
-    forward: np.ndarray  # (N,) m, float64
-    turn: np.ndarray  # (N,) rad, float64
+    forward: np.ndarray  # (N,) m along the heading, float64 (with actuation noise, the noisy one)
+    turn: np.ndarray  # (N,) rad, float64 (idem)
+    target: np.ndarray  # (N, 3) the pose the move aims at, before ``limit``
 
 
 class NavBaseController(PDJointPosController):
@@ -79,6 +80,9 @@ class NavBaseController(PDJointPosController):
     limit: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
     #: (N,) sub-envs whose episode has ended: their actions are ignored until reset (set by the task)
     frozen: np.ndarray | None = None
+    #: (forward (N,), turn (N,), acting (N,) bool) -> the executed (along, across, turn): actuation noise
+    #: (set by the task)
+    perturb: Callable[[np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, ...]] | None = None
 
     def set_motion(self, forward_step: float, turn_deg: float) -> None:
         """The distance of one FORWARD and the angle of one turn (the task's configuration)."""
@@ -94,7 +98,7 @@ class NavBaseController(PDJointPosController):
             self.set_motion(self.config.forward_step, self.config.turn_deg)
         n = self.scene.num_envs
         pose = self.qpos.cpu().numpy().astype(np.float64)
-        self.command = NavCommand(pose, np.zeros(n, dtype=bool), np.zeros(n), np.zeros(n))
+        self.command = NavCommand(pose, np.zeros(n, dtype=bool), np.zeros(n), np.zeros(n), pose)
 
     def _decode(self, action) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(stop, forward metres, turn radians) per sub-env, or an ActionError naming the action."""
@@ -132,12 +136,20 @@ class NavBaseController(PDJointPosController):
         held = stop if self.frozen is None else stop | self.frozen  # STOP, or an ended episode: stay put
         forward, turn = np.where(held, 0.0, forward), np.where(held, 0.0, turn)
         target = p.copy()
-        target[:, 0] += forward * np.cos(p[:, 2])
-        target[:, 1] += forward * np.sin(p[:, 2])
+        c, s = np.cos(p[:, 2]), np.sin(p[:, 2])
+        if self.perturb is None:
+            target[:, 0] += forward * c
+            target[:, 1] += forward * s
+            moving = forward > 0
+        else:
+            forward, across, turn = self.perturb(forward, turn, ~held)
+            target[:, 0] += forward * c - across * s
+            target[:, 1] += forward * s + across * c
+            moving = (forward != 0) | (across != 0)
         target[:, 2] += turn
+        self.command = NavCommand(p, stop, forward, turn, target)  # limit returns a new array
         if self.limit is not None:
-            target = self.limit(p, target, forward > 0)
-        self.command = NavCommand(p, stop, forward, turn)
+            target = self.limit(p, target, moving)
         target = torch.from_numpy(target).to(device=pose.device, dtype=pose.dtype)
         self._start_qpos, self._target_qpos = pose, target
         self.set_drive_targets(target)

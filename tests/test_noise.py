@@ -1,0 +1,178 @@
+"""Noise presets (biovln_ms.noise): configuration errors, the LoCoBot actuation model's statistics, and the
+env under noise: sensors without GPS+compass, deterministic noise that replays from a saved state, and
+moves that do not slide along walls."""
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import shapely
+import torch
+
+import biovln_ms  # noqa: F401
+from biovln_ms.noise import (
+    LOCOBOT_FORWARD,
+    LOCOBOT_TURN,
+    PRESETS,
+    NoiseConfig,
+    NoiseConfigError,
+    TruncatedGaussian,
+    actuation_errors,
+    resolve_noise,
+)
+
+CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
+
+
+def test_presets_and_overrides():
+    assert resolve_noise(None) == resolve_noise("ideal") == NoiseConfig()
+    real = resolve_noise("realistic")
+    assert (real.actuation, real.rgb, real.depth, real.gps_compass, real.sliding) == (
+        0.5,
+        0.1,
+        True,
+        False,
+        False,
+    )
+    assert real.name == "realistic" and NoiseConfig(actuation=2.0).name == "custom"
+    mixed = resolve_noise({"preset": "realistic", "actuation": 1, "gps_compass": True})
+    assert mixed.actuation == 1 and mixed.gps_compass and not mixed.sliding
+    assert resolve_noise(PRESETS["ideal"]) == PRESETS["ideal"]
+
+
+@pytest.mark.parametrize(
+    "bad, field",
+    [
+        ("noisy", "noise"),
+        ({"preset": "loud"}, "noise"),
+        ({"actuaton": 0.5}, "noise.actuaton"),
+        ({"sliding": "no"}, "noise.sliding"),
+        ({"rgb": -0.1}, "noise.rgb"),
+        ({"actuation": float("nan")}, "noise.actuation"),
+        ({"actuation": True}, "noise.actuation"),
+        (3, "noise"),
+    ],
+)
+def test_bad_noise_config_is_one_line(bad, field):
+    with pytest.raises(NoiseConfigError) as e:
+        resolve_noise(bad)
+    msg = str(e.value)
+    assert "\n" not in msg and f"field '{field}'" in msg and "fix:" in msg
+
+
+def test_truncated_gaussian_statistics():
+    g = TruncatedGaussian((0.5, -1.0), (0.04, 0.25))
+    x = g.sample(np.random.default_rng(0), 200_000)
+    sigma = np.sqrt(g.variance)
+    assert np.all(np.abs(x - g.mean) <= 3 * sigma + 1e-12)
+    np.testing.assert_allclose(x.mean(0), g.mean, atol=0.01)
+    # truncation at 3 sigma keeps 97.3 % of the variance
+    np.testing.assert_allclose(x.var(0), np.asarray(g.variance) * 0.9733, rtol=0.02)
+
+
+def test_actuation_errors_follow_the_commanded_move():
+    rng = np.random.default_rng(1)
+    fwd = np.array([actuation_errors(rng, 0.25, 0.0, 1.0) for _ in range(20_000)])
+    np.testing.assert_allclose(fwd.mean(0), [0.017, 0.042, 0.031], atol=0.004)
+    right = np.array([actuation_errors(rng, 0.0, -0.5, 1.0) for _ in range(20_000)])
+    np.testing.assert_allclose(right.mean(0), [0.001, 0.005, -0.043], atol=0.004)
+    half = np.array([actuation_errors(rng, 0.0, 0.5, 0.5) for _ in range(20_000)])
+    np.testing.assert_allclose(half.std(0), 0.5 * right.std(0), rtol=0.05)
+    assert LOCOBOT_FORWARD.heading.variance == (0.026,) and LOCOBOT_TURN.position.mean == (0.001, 0.005)
+
+
+def _run(env, actions, seed=7, episode=0):
+    env.reset(seed=seed, options={"episode_index": episode})
+    poses, obs_all, infos = [], [], []
+    for a in actions:
+        obs, _, term, trunc, info = env.step(a)
+        poses.append(info["agent_pose"][0].numpy().copy())
+        obs_all.append(obs)
+        infos.append(info)
+        if bool(term) or bool(trunc):
+            break
+    return np.array(poses), obs_all, infos
+
+
+@pytest.fixture(scope="module")
+def realistic_env():
+    env = gym.make("BioVLN-OpFace-v0", split="ms_val", obs_mode="state_dict", noise="realistic", **CPU)
+    yield env
+    env.close()
+
+
+def test_realistic_sensors_have_no_gps_compass(realistic_env):
+    obs, _ = realistic_env.reset(seed=0, options={"episode_index": 1})
+    extra = obs["extra"]
+    assert set(extra) == {"pointgoal", "objectgoal"} and not obs.get("agent")
+    first = extra["pointgoal"].clone()
+    for a in (1, 2, 1):
+        obs, *_ = realistic_env.step(a)
+    assert torch.equal(obs["extra"]["pointgoal"], first)  # told once, in the start frame
+    spec = realistic_env.unwrapped.task_spec()
+    assert spec.noise == PRESETS["realistic"]
+
+
+def test_actuation_noise_is_deterministic_and_recorded(realistic_env):
+    actions = [1, 1, 2, 1, 3, 1, 1]
+    a, _, infos = _run(realistic_env, actions)
+    b, _, _ = _run(realistic_env, actions)
+    c, _, _ = _run(realistic_env, actions, seed=8)
+    np.testing.assert_array_equal(a, b)
+    assert np.abs(a - c).max() > 1e-3
+    err = np.array([i["actuation_error"][0].numpy() for i in infos])
+    assert err.shape == (len(actions), 3) and np.all(err != 0)
+    ideal = gym.make("BioVLN-OpFace-v0", split="ms_val", obs_mode="state_dict", **CPU)
+    exact, _, ideal_infos = _run(ideal, actions)
+    ideal.close()
+    assert "actuation_error" not in ideal_infos[0]
+    assert np.abs(a - exact).max() > 0.01  # the noise moved the robot
+
+
+def test_noisy_episode_replays_from_a_saved_state(realistic_env):
+    env = realistic_env
+    env.reset(seed=3, options={"episode_index": 2})
+    for a in (1, 2, 1):
+        env.step(a)
+    state = env.unwrapped.get_state_dict()
+    later = [1, 1, 3, 1, 2, 1]
+    first = [env.step(a)[4] for a in later]
+    env.unwrapped.set_state_dict(state)
+    second = [env.step(a)[4] for a in later]
+    for x, y in zip(first, second):
+        for k in ("agent_pose", "actuation_error", "path_length", "collisions"):
+            assert torch.equal(x[k], y[k]), k
+
+
+def _near_wall_pose(env) -> tuple[float, float, float]:
+    """A free pose 0.3 m from the left wall of the episode's floor, facing it at 40 degrees."""
+    u = env.unwrapped
+    free = u.navs[0].free
+    minx, miny, maxx, maxy = free.bounds
+    for y in np.linspace(miny + 0.5, maxy - 0.5, 60):
+        x = minx + 0.05
+        if shapely.contains_xy(free, x, y) and shapely.contains_xy(free, x + 0.6, y):
+            return x, float(y), math.pi - math.radians(40)
+    raise AssertionError("no free pose by the wall")
+
+
+@pytest.mark.parametrize("sliding", [True, False])
+def test_sliding_along_walls_on_and_off(sliding):
+    env = gym.make(
+        "BioVLN-OpFace-v0", split="ms_val", obs_mode="state_dict", noise={"sliding": sliding}, **CPU
+    )
+    env.reset(seed=0, options={"episode_index": 0})
+    u = env.unwrapped
+    x, y, yaw = _near_wall_pose(env)
+    u._put_back([0], np.array([[x, y, yaw]]))
+    before = u._pose()[0]
+    for _ in range(3):
+        info = env.step(1)[4]
+    after = info["agent_pose"][0].numpy()
+    env.close()
+    if sliding:
+        assert abs(after[1] - before[1]) > 0.2  # slid along the wall
+    else:
+        np.testing.assert_allclose(after[:2], before[:2], atol=1e-4)  # blocked moves leave it in place
+    assert int(info["collisions"][0]) >= 1
