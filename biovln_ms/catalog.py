@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from functools import lru_cache
 from pathlib import Path
 from typing import Literal
@@ -39,6 +40,15 @@ FACE_VECTORS: dict[str, tuple[float, float]] = {
 #: Tolerance between a printed d_half and half the printed dimension along the face axis
 #: (the paper's d_half values come from Blender vertex analysis and differ by up to 7 mm).
 D_HALF_TOLERANCE = 0.01
+_WORD_BREAKS = re.compile(r"(?<=[a-z])(?=[A-Z])|(?<=[A-Z])(?=[A-Z][a-z])|(?<=\D)(?=\d)|(?<=\d)(?=\D)")
+
+
+def name_tokens(text: str) -> tuple[str, ...]:
+    """The lower-cased words of a name: split at separators, camel case and digits, numbers dropped
+    (``WasteBin.003`` -> waste, bin; ``Centrifuge 5424R`` -> centrifuge, r; ``CO2 Incubator`` -> co,
+    incubator)."""
+    words = (w for chunk in re.findall(r"[^\W_]+", text) for w in _WORD_BREAKS.split(chunk))
+    return tuple(w.lower() for w in words if w and not w.isdigit())
 
 
 class _Strict(BaseModel):
@@ -59,6 +69,7 @@ class AssetSpec(_Strict):
     goal_category: bool = False
     collision: Literal["box", "coacd"] = "box"
     support_height: float | None = Field(default=None, gt=0)
+    synonyms: tuple[str, ...] = ()  # other names designers give it: lower-case words, no digits
     rationale: str = ""
     _zone2_clearance: float | None = PrivateAttr(default=None)  # set by the CatalogFile holding the asset
 
@@ -68,6 +79,19 @@ class AssetSpec(_Strict):
         if not all(np.isfinite(x) and x > 0 for x in v):
             raise ValueError("every dimension must be a positive finite number of metres")
         return v
+
+    @field_validator("synonyms")
+    @classmethod
+    def _words(cls, v: tuple[str, ...]) -> tuple[str, ...]:
+        for syn in v:
+            if not re.fullmatch(r"[a-z]+( [a-z]+)*", syn):
+                raise ValueError(f"'{syn}' must be lower-case words separated by single spaces, no digits")
+        return v
+
+    @property
+    def phrases(self) -> set[tuple[str, ...]]:
+        """The word sequences that name this asset: its name, display name and synonyms."""
+        return {p for p in map(name_tokens, (self.name, self.display_name, *self.synonyms)) if p}
 
     @model_validator(mode="after")
     def _consistent(self) -> AssetSpec:
@@ -140,6 +164,14 @@ class CatalogFile(_Strict):
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValueError(f"assets: duplicate names {dup}")
+        owner: dict[tuple[str, ...], str] = {}
+        for i, a in enumerate(self.assets):
+            for p in sorted(a.phrases):
+                if owner.setdefault(p, a.name) != a.name:
+                    raise ValueError(
+                        f"assets[{i}].synonyms: '{' '.join(p)}' already names '{owner[p]}' (a name must say "
+                        "one category)"
+                    )
         for furn, h in self.support_heights.items():
             if furn not in {a.name for a in self.assets}:
                 raise ValueError(f"support_heights: '{furn}' is not an asset")
@@ -163,6 +195,7 @@ class Catalog:
         self.source = source
         self.sha256 = hashlib.sha256(raw_bytes).hexdigest()
         self._assets = {a.name: a for a in data.assets}
+        self._phrases = {p: a.name for a in data.assets for p in a.phrases}
 
     @property
     def zone2_clearance(self) -> float:
@@ -182,6 +215,10 @@ class Catalog:
 
     def assets(self) -> list[AssetSpec]:
         return list(self._assets.values())
+
+    def phrases(self) -> dict[tuple[str, ...], str]:
+        """Word sequence (``name_tokens``) -> the asset it names: names, display names and synonyms."""
+        return dict(self._phrases)
 
     def goal_categories(self) -> list[str]:
         return [a.name for a in self._assets.values() if a.goal_category]

@@ -21,32 +21,44 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 assets_app = typer.Typer(
-    help="Generate, verify and preview the procedural instrument assets.", no_args_is_help=True
+    help="Generate, verify and preview the assets.\n\nThe procedural instrument GLBs and their coacd "
+    "collision caches.",
+    no_args_is_help=True,
 )
 app.add_typer(assets_app, name="assets")
-scene_app = typer.Typer(help="Generate, validate, map, render and export lab scenes.", no_args_is_help=True)
+scene_app = typer.Typer(
+    help="Generate, validate, map and export scenes.\n\nLab scene specs: generate, validate, map, render "
+    "and export them.",
+    no_args_is_help=True,
+)
 app.add_typer(scene_app, name="scene")
 dataset_app = typer.Typer(
-    help="Build and inspect the episode datasets (paper Tables 3, 4, 12, 13).", no_args_is_help=True
+    help="Build and inspect the episode datasets.\n\nThe paper's Tables 3, 4, 12 and 13.",
+    no_args_is_help=True,
 )
 app.add_typer(dataset_app, name="dataset")
 lsat_app = typer.Typer(
-    help="Designer-authored scenes (LSAT): import a GLB with target_* markers, export goals / "
-    "LSAT format / USD.",
+    help="Designer-authored scenes (LSAT).\n\nImport a GLB with target_* markers; export goals, the LSAT "
+    "format or USD.",
     no_args_is_help=True,
 )
 app.add_typer(lsat_app, name="lsat")
 layout_app = typer.Typer(
-    help="LLM-assisted layout design: a description (or a structured request) -> a valid scene spec.",
+    help="LLM-assisted layout design.\n\nA description (or a structured request) -> a valid scene spec.",
     no_args_is_help=True,
 )
 app.add_typer(layout_app, name="layout")
 train_app = typer.Typer(
-    help="Train learned policies: behavioural cloning (bc) and RL with Stable-Baselines3 "
+    help="Train learned policies (BC and RL).\n\nBehavioural cloning (bc) and RL with Stable-Baselines3 "
     f"({', '.join(SB3_CONTROL_MODES)}).",
     no_args_is_help=True,
 )
 app.add_typer(train_app, name="train")
+export_app = typer.Typer(
+    help="Export scenes to robot tools.\n\nThe tools robots already run: Nav2 maps, keep-out masks, goals.",
+    no_args_is_help=True,
+)
+app.add_typer(export_app, name="export")
 console = Console(stderr=True)
 
 
@@ -70,7 +82,9 @@ _LEARNED = ", ".join(m for m in report_methods() if "checkpoint" in METHODS[m].o
 
 @app.command()
 def doctor() -> None:
-    """Check versions, the Vulkan device SAPIEN renders with (one frame) and the shipped assets."""
+    """Check the install: versions, Vulkan, assets.
+
+    Versions, the Vulkan device SAPIEN renders with (one frame) and the shipped assets."""
     from biovln_ms.doctor import run_doctor
 
     raise typer.Exit(run_doctor(typer.echo))
@@ -81,7 +95,9 @@ def catalog(
     as_json: bool = typer.Option(False, "--json", help="Print the catalog as a JSON list."),
     path: Optional[Path] = typer.Option(None, help="Another catalog file to validate and print."),
 ) -> None:
-    """Print the instrument catalog (paper Table 2 plus the goal categories of Tables 6 and 8)."""
+    """Print the instrument catalog.
+
+    The paper's Table 2 plus the goal categories of Tables 6 and 8."""
     from rich.table import Table
 
     from biovln_ms.catalog import load_catalog
@@ -114,7 +130,9 @@ def assets_generate(
     ),
     only: Optional[list[str]] = typer.Option(None, "--only", help="Regenerate just these assets."),
 ) -> None:
-    """Regenerate the GLB assets and coacd collision caches (bit-identical for the same catalog)."""
+    """Regenerate the GLB assets and coacd caches.
+
+    Bit-identical for the same catalog."""
     from biovln_ms.assetgen.generate import generate_assets
     from biovln_ms.catalog import load_catalog
     from biovln_ms.paths import ASSET_DIR
@@ -134,7 +152,9 @@ def assets_generate(
 def assets_verify(
     path: Optional[Path] = typer.Option(None, help="Asset folder (default: the package's)."),
 ) -> None:
-    """Check every shipped asset against the manifest (missing, corrupt or stale files)."""
+    """Check shipped assets against the manifest.
+
+    Missing, corrupt or stale files (generated from another catalog)."""
     from biovln_ms.assetgen.generate import verify_assets
     from biovln_ms.paths import ASSET_DIR
 
@@ -151,7 +171,9 @@ def assets_preview(
     out: Path = typer.Option(Path("asset_sheet.png"), "-o", "--out", help="PNG to write."),
     tile: int = typer.Option(320, help="Tile size in pixels."),
 ) -> None:
-    """Render every asset with SAPIEN (front and back, operational face marked) into one contact sheet."""
+    """Render every asset into one contact sheet.
+
+    SAPIEN views, front and back, operational face marked."""
     from biovln_ms.render.asset_preview import contact_sheet
 
     renders = contact_sheet(out, tile=tile)
@@ -166,7 +188,9 @@ def assets_preview(
 def demo(
     out: Path = typer.Option(Path("outputs/demo"), "-o", "--out", help="Folder for the demo's files."),
 ) -> None:
-    """Run the demo: asset sheet, catalog, scene lab_s150_v0 (spec, view, episode map), an oracle episode MP4 and metrics."""  # noqa: E501
+    """Run the end-to-end demo.
+
+    Asset sheet, catalog, scene lab_s150_v0 (spec, view, episode map), an oracle episode MP4 and metrics."""
     from biovln_ms.demo import run_demo
 
     run_demo(out, typer.echo)
@@ -214,7 +238,7 @@ def scene_generate(
     template: str = typer.Option(
         "single_room", "--template", "-t", help="Template name (see `scene templates`)."
     ),
-    seed: int = typer.Option(..., "--seed", "-s", help="Scene seed."),
+    seed: int = typer.Option(..., "--seed", help="Scene seed."),
     out: Optional[Path] = typer.Option(None, "-o", "--out", help="Spec JSON to write (default: NAME.json)."),
     require: list[str] | None = typer.Option(
         None,
@@ -228,7 +252,9 @@ def scene_generate(
     ),
     map_png: Optional[Path] = typer.Option(None, "--map", help="Also write the top-down map."),
 ) -> None:
-    """Generate the scene of a seed deterministically and write its spec JSON."""
+    """Generate a scene spec from a seed.
+
+    Deterministic: the same template and seed give the same spec JSON."""
     from biovln_ms.scene.generator import generate_scene
     from biovln_ms.scene.spec import save_spec
 
@@ -249,7 +275,7 @@ def scene_generate(
 
 @scene_app.command("validate")
 def scene_validate(spec_path: Path = typer.Argument(..., help="Scene spec JSON.")) -> None:
-    """Check a spec against the schema, the catalog and every layout rule."""
+    """Check a spec: schema, catalog, layout rules."""
     from biovln_ms.scene.spec import load_spec
 
     spec = load_spec(spec_path)
@@ -268,8 +294,10 @@ def scene_map(
     episode: Optional[str] = typer.Option(None, help="episode_id to overlay (with --dataset)."),
     islands: bool = typer.Option(False, help="Colour the navigable islands."),
 ) -> None:
-    """Draw the top-down map: walls, furniture, Zones 1/2/3, faces, goals, success radii, navigable area;
-    optionally islands and one episode's start, goal, view points and shortest path."""
+    """Draw a scene's top-down map.
+
+    Walls, furniture, Zones 1/2/3, faces, goals, success radii, navigable area; optionally islands and one
+    episode's start, goal, view points and shortest path."""
     from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.spec import load_spec
     from biovln_ms.scene.topdown import save_map
@@ -282,25 +310,34 @@ def scene_map(
     typer.echo(f"wrote {save_map(spec, out, episode=ep, nav=nav)}")
 
 
-def _find_episode(root: Path, split: str, episode: str, scene: Optional[str]) -> tuple[dict, float]:
-    from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+def _episode_index(
+    episodes: list[dict], split: str, episode: Optional[str], scene: Optional[str], alternative: str = ""
+) -> int:
+    """Position of ``--episode`` (an episode_id; None: the first) of ``--scene`` (None: the first scene
+    holding it) among a split's episodes; a miss names the ids there are (and ``alternative``)."""
+    from biovln_ms.episodes.dataset import DatasetError
+
+    here = [i for i, e in enumerate(episodes) if scene in (None, e["scene_id"])]
+    k = next((i for i in here if episode in (None, episodes[i]["episode_id"])), None)
+    if k is None:
+        ids = sorted({episodes[i]["episode_id"] for i in here}, key=lambda x: (len(x), x))
+        there = f"ids there run '{ids[0]}'..'{ids[-1]}'" if ids else "no episode there"
+        raise DatasetError(
+            ("no episode" if episode is None else f"no episode '{episode}'")
+            + f" in split '{split}'"
+            + (f" for scene '{scene}'" if scene else ""),
+            field="--episode",
+            fix=f"--episode takes an episode_id: {there}{alternative}",
+        )
+    return k
+
+
+def _find_episode(root: Path, split: str, episode: Optional[str], scene: Optional[str]) -> tuple[dict, float]:
+    from biovln_ms.episodes.dataset import EpisodeDataset
 
     ds = EpisodeDataset(root)
-    ep = next(
-        (
-            e
-            for e in ds.episodes(split)
-            if e["episode_id"] == episode and (scene is None or e["scene_id"] == scene)
-        ),
-        None,
-    )
-    if ep is None:
-        raise DatasetError(
-            f"no episode '{episode}' in split '{split}'" + (f" for scene '{scene}'" if scene else ""),
-            field="episode",
-            fix="list them with `biovln-ms dataset stats`",
-        )
-    return ep, ds.agent_radius
+    episodes = list(ds.episodes(split))
+    return episodes[_episode_index(episodes, split, episode, scene)], ds.agent_radius
 
 
 @scene_app.command("export")
@@ -308,7 +345,9 @@ def scene_export(
     spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
     out: Path = typer.Option(Path("lab.glb"), "-o", "--out", help="GLB to write."),
 ) -> None:
-    """Write the assembled scene as one GLB: a node per object named by id, category in extras and COLOR_0."""
+    """Write the assembled scene as one GLB.
+
+    A node per object named by id, category in extras and COLOR_0."""
     from biovln_ms.scene.export_glb import export_scene_glb
     from biovln_ms.scene.spec import load_spec
 
@@ -320,7 +359,9 @@ def scene_export(
 def dataset_build(
     out: Path = typer.Option(Path("data/biovln"), "-o", "--out", help="Dataset folder to (re)write."),
 ) -> None:
-    """Build every scene and episode of the paper's datasets, deterministically and atomically."""
+    """Build the paper's datasets.
+
+    Every scene and episode, deterministically and atomically."""
     from biovln_ms.benchmark import paper_splits
     from biovln_ms.episodes.dataset import write_dataset
 
@@ -332,13 +373,18 @@ def dataset_build(
 
 
 @dataset_app.command("stats")
-def dataset_stats(root: Path = typer.Argument(..., help="Dataset folder.")) -> None:
-    """Scenes, episodes, categories and difficulty mix per split (paper's MS DEV mix beside ours)."""
+def dataset_stats(
+    root: Optional[Path] = typer.Argument(None, help="Dataset folder (default: built on first use)."),
+) -> None:
+    """Summarise a dataset per split.
+
+    Scenes, episodes, categories and difficulty mix per split (the paper's MS DEV mix beside ours)."""
     from rich.table import Table
 
-    from biovln_ms.benchmark import PAPER_MS_DEV_DIFFICULTY
+    from biovln_ms.benchmark import PAPER_MS_DEV_DIFFICULTY, dataset_root
     from biovln_ms.episodes.dataset import EpisodeDataset
 
+    root = dataset_root(root)
     ds = EpisodeDataset(root)
     table = Table(title=f"{root} (agent radius {ds.agent_radius} m)")
     for col in (
@@ -381,45 +427,109 @@ def dataset_stats(root: Path = typer.Argument(..., help="Dataset folder.")) -> N
 
 @dataset_app.command("show")
 def dataset_show(
-    root: Path = typer.Argument(..., help="Dataset folder."),
+    root: Optional[Path] = typer.Argument(None, help="Dataset folder (default: built on first use)."),
     split: str = typer.Option("ms_dev", help="Split name."),
-    episode: str = typer.Option("0", help="episode_id (the first scene holding it)."),
+    episode: Optional[str] = typer.Option(None, help="episode_id (default: the first episode)."),
     scene: Optional[str] = typer.Option(None, help="scene_id, when ids repeat across scenes."),
     out: Path = typer.Option(Path("episode.png"), "-o", "--out", help="PNG to write."),
 ) -> None:
-    """Map of one episode: navigable islands, start and heading, goal, view points, shortest path."""
+    """Draw the map of one episode.
+
+    Navigable islands, start and heading, goal, view points, shortest path."""
+    from biovln_ms.benchmark import dataset_root
     from biovln_ms.episodes.dataset import EpisodeDataset
     from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.topdown import save_map
 
+    root = dataset_root(root)
     ep, radius = _find_episode(root, split, episode, scene)
     spec = EpisodeDataset(root, verify=False).spec(ep["scene_id"])
     typer.echo(f"wrote {save_map(spec, out, episode=ep, nav=scene_navigation(spec, radius))}")
+
+
+DATASET_EXPORT_FORMATS = ("habitat",)
+
+
+@dataset_app.command("export")
+def dataset_export(
+    fmt: str = typer.Argument(..., metavar="FORMAT", help=f"One of: {', '.join(DATASET_EXPORT_FORMATS)}."),
+    split: str = typer.Option(..., "--split", "-s", help="Split to export."),
+    out: Path = typer.Option(..., "-o", "--out", help="Folder to write into."),
+    dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
+) -> None:
+    """Export a split as another tool's dataset.
+
+    habitat: habitat-lab ObjectNav-v1 episodes (Y-up), the scenes as GLB and a habitat-sim scene dataset
+    config."""
+    from biovln_ms.benchmark import dataset_root
+    from biovln_ms.bridges.habitat import export_habitat
+    from biovln_ms.episodes.dataset import EpisodeDataset
+
+    if fmt not in DATASET_EXPORT_FORMATS:
+        raise BioVLNError(
+            f"unknown export format '{fmt}'",
+            field="FORMAT",
+            fix=f"use one of: {', '.join(DATASET_EXPORT_FORMATS)}",
+        )
+    files = export_habitat(EpisodeDataset(dataset_root(dataset)), split, out)
+    typer.echo(f"wrote {files[-1]}, {files[-2]} and {len(files) - 2} scene GLBs")
 
 
 @app.command()
 def record(
     out: Path = typer.Option(Path("episode.mp4"), "-o", "--out", help="MP4 to write."),
     split: str = typer.Option("ms_val", help="Split of the default (or --dataset) dataset."),
-    episode: int = typer.Option(0, help="Episode index within the split."),
+    episode: Optional[str] = typer.Option(None, help="episode_id (default: the first episode)."),
+    scene: Optional[str] = typer.Option(None, help="scene_id, when ids repeat across scenes."),
+    index: Optional[int] = typer.Option(
+        None, help="Position in the split (0: the first), instead of --episode/--scene."
+    ),
     policy: str = typer.Option("oracle", help=f"Policy to run: {_RECORDABLE}."),
     dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
     env_id: str = typer.Option("BioVLN-OpFace-v0", "--env", help="Env id (a registered variant)."),
     fps: int = typer.Option(5, help="Frames per second."),
 ) -> None:
-    """Record one episode: the egocentric view beside a top-down map with trajectory, zones and goal."""
+    """Record one episode as an MP4.
+
+    The egocentric view beside a top-down map with trajectory, zones and goal."""
+    from biovln_ms.benchmark import dataset_root
     from biovln_ms.record import record_episode
 
-    m = record_episode(out, split, episode, policy, str(dataset) if dataset else None, env_id, fps=fps)
+    root = dataset_root(dataset)
+    k = _record_index(root, split, episode, scene, index)
+    m = record_episode(out, split, k, policy, str(root), env_id, fps=fps)
     typer.echo(
         f"wrote {out}: success={m['success']} steps={m['steps']} spl={m['spl']:.3f} "
         f"mcr={m['mcr']:.3f} vrt={m['vrt']:.3f}"
     )
 
 
+def _record_index(
+    root: Path, split: str, episode: Optional[str], scene: Optional[str], index: Optional[int]
+) -> int:
+    """The position in the split ``record`` runs: ``--index``, else that of ``--episode``/``--scene``."""
+    from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+
+    episodes = list(EpisodeDataset(root, verify=False).episodes(split))
+    if index is None:
+        alternative = "; --index K picks the split's K-th episode" if episode and episode.isdigit() else ""
+        return _episode_index(episodes, split, episode, scene, alternative)
+    if episode is not None or scene is not None:
+        raise BioVLNError(
+            "--index and --episode/--scene both given", field="--index", fix="choose the episode one way"
+        )
+    if not 0 <= index < len(episodes):
+        raise DatasetError(
+            f"--index {index} is out of range for split '{split}'",
+            field="--index",
+            fix=f"use 0 <= K < {len(episodes)}",
+        )
+    return index
+
+
 @app.command(
     "eval",
-    help="Evaluate a method on a split: per-episode JSONL (resumable) and summary.json.\n\n"
+    help="Evaluate a method on a split.\n\nPer-episode JSONL (resumable) and summary.json.\n\n"
     "Exit status 1 when an episode failed to run (it counts as a failure; running again retries it), "
     "2 on a usage error or when another eval is writing the same results folder (eval.lock).\n\n"
     "Methods (--method):\n\n" + _methods_help(),
@@ -505,7 +615,9 @@ def report(
     videos: int = typer.Option(1, help="How many episode MP4s to record."),
     hard: int = typer.Option(2, help="How many hard-episode figures (re-runs frontier)."),
 ) -> None:
-    """Write the report: the paper's tables with its numbers beside ours, McNemar tests, plots, renders, MP4s."""  # noqa: E501
+    """Write the report of eval results.
+
+    The paper's tables with its numbers beside ours, McNemar tests, plots, renders, MP4s."""
     from biovln_ms.eval.report import write_report
 
     write_report(results, out, str(dataset) if dataset else None, videos, hard, typer.echo)
@@ -520,20 +632,31 @@ def lsat_import(
     allow_external: bool = typer.Option(
         False, help="Read buffers/images referenced beside the GLB (never outside its folder)."
     ),
+    names: Optional[Path] = typer.Option(
+        None,
+        "--names",
+        help="Name map (YAML/JSON): node name or glob -> category, or null; wins over the catalog's names.",
+    ),
 ) -> None:
-    """Import a designer-authored GLB (paper P1): markers (strategy 1), geometry + Eq. 1 (strategy 2)."""
+    """Import a designer-authored GLB (paper P1).
+
+    Goals from target_* markers (strategy 1) or from geometry + Eq. 1 (strategy 2)."""
     from biovln_ms.io_utils import atomic_write_text
     from biovln_ms.lsat.importer import import_glb
+    from biovln_ms.lsat.name_map import load_name_map
 
-    spec, rep = import_glb(glb, name=name, allow_external=allow_external)
+    name_map = load_name_map(names) if names else None
+    spec, rep = import_glb(glb, name=name, allow_external=allow_external, names=name_map)
     atomic_write_text(out, spec.to_json())
     rpath = report or out.with_suffix(".report.md")
     atomic_write_text(rpath, rep.to_markdown())
     c = rep.coverage()
+    adopted = len(c["instruments_from_markers"])
     typer.echo(
         f"wrote {out}: {c['instruments_found']} instruments, goals from markers {c['goals_strategy1']}, "
         f"from Eq. 1 {c['goals_strategy2']}, missing {len(c['missing'])}, "
-        f"{len(rep.warnings)} warning(s) -> {rpath}"
+        + (f"{adopted} recognised only by their marker (check them), " if adopted else "")
+        + f"{len(rep.warnings)} warning(s) -> {rpath}"
     )
 
 
@@ -544,7 +667,9 @@ def lsat_export(
     lsat: Optional[Path] = typer.Option(None, help="LSAT intermediate-format JSON to write."),
     usd: Optional[Path] = typer.Option(None, help="USD stage to write (.usda text, .usd/.usdc binary)."),
 ) -> None:
-    """Export a scene's goals (BioVLN JSON), the LSAT intermediate format and/or a USD stage for Isaac Sim."""
+    """Export goals, LSAT format and/or USD.
+
+    A scene's goals (BioVLN JSON), the LSAT intermediate format and/or a USD stage for Isaac Sim."""
     from biovln_ms.lsat.exporters import goal_json, lsat_json, write_json, write_usd
     from biovln_ms.scene.spec import load_spec
 
@@ -566,7 +691,9 @@ def lsat_export(
 def lsat_blender_addon(
     out: Path = typer.Option(Path("biovln_lsat.zip"), "-o", "--out", help="Zip to write."),
 ) -> None:
-    """Package the Blender add-on (Edit > Preferences > Add-ons > Install from Disk)."""
+    """Package the Blender add-on as a zip.
+
+    Install it with Edit > Preferences > Add-ons > Install from Disk."""
     import io
     import zipfile
 
@@ -586,7 +713,9 @@ def lsat_blender_addon(
 def lsat_build_target(
     out: Path = typer.Option(None, "-o", "--out", help="GLB to write (default: the shipped one)."),
 ) -> None:
-    """Regenerate the LSAT Target scene GLB (the designer's layout; deterministic bytes)."""
+    """Regenerate the LSAT Target scene GLB.
+
+    The designer's layout; deterministic bytes."""
     from biovln_ms.lsat.designer_scene import target_glb_path, write_target_glb
 
     typer.echo(f"wrote {write_target_glb(out or target_glb_path())}")
@@ -616,7 +745,9 @@ def layout_solve(
     out: Path = typer.Option(..., "-o", "--out", help="Scene spec JSON to write."),
     map_png: Optional[Path] = typer.Option(None, "--map", help="Also write its top-down map."),
 ) -> None:
-    """Offline: lay out a structured request with our placement solver."""
+    """Solve a structured layout request offline.
+
+    Our placement solver; no LLM."""
     from biovln_ms.lsat.layout import load_request, solve_layout
 
     spec, notes = solve_layout(load_request(request))
@@ -632,7 +763,9 @@ def layout_suggest(
     ),
     map_png: Optional[Path] = typer.Option(None, "--map", help="Also write its top-down map."),
 ) -> None:
-    """Ask the LLM (BIOVLN_LLM_* endpoint) for a layout request, validate it, and solve it."""
+    """Lay out a description with the LLM.
+
+    Ask the LLM (BIOVLN_LLM_* endpoint) for a layout request, validate it, and solve it."""
     from biovln_ms.io_utils import atomic_write_text
     from biovln_ms.lsat.layout import request_json, solve_layout, suggest_request
 
@@ -664,7 +797,9 @@ def train_bc_cmd(
     ),
     seed: int = typer.Option(0, help="Seed of the split, the shuffling and the initial weights."),
 ) -> None:
-    """Behavioural cloning on recorded trajectories (appendix, Table 17)."""
+    """Behavioural cloning on recorded trajectories.
+
+    The paper's appendix, Table 17."""
     from biovln_ms.learning.bc import BCConfig, train_bc
 
     cfg = BCConfig(
@@ -721,7 +856,7 @@ def _train_rl(
 
 def _rl_command(algo: str):
     def command(
-        timesteps: int = typer.Option(200_000, "--timesteps", "-t", help="Environment steps to train for."),
+        timesteps: int = typer.Option(200_000, "--timesteps", help="Environment steps to train for."),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help=f"Run folder (default runs/{algo})."),
         n_envs: int = typer.Option(2, help="Parallel envs (one process or Ray actor each)."),
         split: str = typer.Option("train", help="Training split."),
@@ -738,7 +873,7 @@ def _rl_command(algo: str):
         _train_rl(algo, timesteps, out, n_envs, split, eval_split, eval_episodes, seed, ray_address, dataset)
 
     command.__doc__ = (
-        f"{algo.upper()} (Stable-Baselines3) on {RL_ENV}: TensorBoard logs, checkpoints, "
+        f"{algo.upper()} with Stable-Baselines3 on the RL env.\n\n{RL_ENV}: TensorBoard logs, checkpoints, "
         "learning curve, then evaluation through the harness."
     )
     return command
@@ -750,6 +885,24 @@ def _register_rl_commands() -> None:
 
 
 _register_rl_commands()
+
+
+@export_app.command("nav2")
+def export_nav2_cmd(
+    spec_path: Path = typer.Argument(..., help="Scene spec JSON."),
+    out: Path = typer.Option(..., "-o", "--out", help="Folder to write the Nav2 files into."),
+    resolution: float = typer.Option(0.05, help="Map resolution in metres per pixel."),
+) -> None:
+    """Write a scene's Nav2 files.
+
+    map_server map (raw occupancy), keep-out filter mask (Zones 1-2), goal poses (PoseStamped, frame
+    map), costmap parameters and a preview PNG."""
+    from biovln_ms.bridges.nav2 import export_nav2
+    from biovln_ms.scene.spec import load_spec
+
+    spec = load_spec(spec_path)
+    files = export_nav2(spec, out, resolution)
+    typer.echo(f"wrote {len(files)} files to {out}: {', '.join(f.name for f in files)}")
 
 
 #: what a user can cause and fix: printed as one line, exit status 2

@@ -18,6 +18,7 @@ from biovln_ms.lsat.importer import (
     _assemble,
     _assign_markers,
     _classify,
+    _adopt,
     _Marker,
     _place,
     _Placed,
@@ -115,10 +116,11 @@ def _marker(name: str, category: str, xy: tuple[float, float]) -> _Marker:
 
 
 def test_classify_sorts_nodes_into_objects_markers_and_reported_names(tmp_path, monkeypatch):
-    def match(name: str, strip_prefix: str | None = None) -> Match:  # no two catalog names are 2 edits apart
+    # no two catalog names are 2 edits apart
+    def match(name: str, strip_prefix: str | None = None, names=None) -> Match:
         if "mystery" in name.lower():
             return Match(name, "mystery", None, 1, ("cabinet", "incubator"))
-        return match_category(name, strip_prefix)
+        return match_category(name, strip_prefix, names)
 
     monkeypatch.setattr(importer, "match_category", match)
     scene = _scene(
@@ -140,7 +142,7 @@ def test_classify_sorts_nodes_into_objects_markers_and_reported_names(tmp_path, 
         {"name": "target_mystery", "at": (1, 0.5)},
     )
     report = ImportReport("hand")
-    found, markers = _classify(scene, report)
+    found, markers, loose = _classify(scene, report)
     assert [(f.node.name, f.category, len(f.points)) for f in found] == [
         ("Refrigerator", "refrigerator", 16),
         ("centrifuge.001", "centrifuge", 8),
@@ -148,8 +150,37 @@ def test_classify_sorts_nodes_into_objects_markers_and_reported_names(tmp_path, 
     ]
     assert [(m.node.name, m.category) for m in markers] == [("target_refrigerator", "refrigerator")]
     assert report.unmatched == ["target_lamp", "Sofa"]  # "mystery lid" is claimed by its ambiguous parent
+    assert [n.name for n in loose] == ["Sofa"]  # a node, not a marker, an instrument could be made of
     assert [a["node"] for a in report.ambiguous] == ["Mystery Box", "target_mystery"]
     assert report.warnings == ["'cabinet' (cabinet) has no mesh: skipped"]
+
+
+def test_adopt_gives_an_orphan_marker_the_nearest_loose_mesh_never_a_group_holding_an_instrument(tmp_path):
+    scene = _scene(
+        tmp_path,
+        FLOOR,
+        {"name": "Equipment"},  # a loose group: it holds a recognised fridge, so it is no candidate
+        {"name": "Refrigerator", "box": (0.1, 3.0, 0, 0.99, 3.91, 1.78), "parent": 1},
+        {"name": "Heracell", "box": (4, 3, 0, 5.35, 3.85, 1.9), "parent": 1},
+        {"name": "Heracell door", "box": (3.98, 3.05, 0.1, 4.0, 3.8, 1.8), "parent": 3},
+        {"name": "Sofa", "box": (0.2, 0.2, 0, 1.0, 0.6, 0.5)},
+        {"name": "target_incubator", "at": (3.5, 3.4)},
+        {"name": "target_refrigerator", "at": (0.5, 2.4)},
+    )
+    report = ImportReport("hand")
+    found, markers = _adopt(scene, _classify(scene, report), report)
+    assert [(f.node.name, f.category, len(f.points)) for f in found] == [
+        ("Refrigerator", "refrigerator", 8),
+        ("Heracell", "incubator", 16),  # with its part
+    ]
+    assert [(m.node.name, m.instrument) for m in markers] == [
+        ("target_incubator", "Heracell"),
+        ("target_refrigerator", None),  # its instrument is recognised: an ordinary marker
+    ]
+    assert report.unmatched == ["Equipment", "Sofa"]
+    assert report.adopted == [
+        {"marker": "target_incubator", "node": "Heracell", "category": "incubator", "distance": 0.48}
+    ]  # to its door
 
 
 def test_place_snaps_a_table_top_instrument_onto_its_support(tmp_path):

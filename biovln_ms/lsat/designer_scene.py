@@ -30,7 +30,8 @@ ROOM = (8.0, 6.0, 3.0)  # x, y, wall height (m)
 
 # (node name, category, centre x, centre y, yaw in degrees, marker name or None,
 # marker offset (along face, lateral) m)
-LAYOUT = [
+LayoutRow = tuple[str, str, float, float, float, str | None, tuple[float, float] | None]
+LAYOUT: list[LayoutRow] = [
     ("Lab Bench", "lab_bench", 4.0, 2.2, 90, None, None),
     ("Lab Table", "lab_table", 2.0, 5.55, 0, "target_lab_table", (0.55, 0.10)),
     ("Refrigerator", "refrigerator", 4.2, 5.545, 0, "target_refrigerator", (0.50, -0.04)),
@@ -58,6 +59,13 @@ def _box(name: str, scene: trimesh.Scene, size, centre) -> None:
 
 def build_target_scene() -> trimesh.Scene:
     """The scene as a trimesh Scene in glTF's Y-up frame."""
+    return build_designer_scene(LAYOUT)
+
+
+def build_designer_scene(layout: list[LayoutRow]) -> trimesh.Scene:
+    """A designer's ROOM (floor and four walls) holding ``layout``'s rows, as a trimesh Scene in glTF's
+    Y-up frame: each row a node named as given, its category's asset parts as children, and its marker
+    empty; a table-top row stands on the bench or table row under it."""
     cat = load_catalog()
     scene = trimesh.Scene()
     w, d, h = ROOM
@@ -68,13 +76,13 @@ def build_target_scene() -> trimesh.Scene:
     _box("Wall_East", scene, (t, d, h), (w + t / 2, d / 2, h / 2))
     _box("Wall_West", scene, (t, d, h), (-t / 2, d / 2, h / 2))
     base = scene.graph.base_frame
-    for name, category, x, y, yaw_deg, marker, offset in LAYOUT:
+    for name, category, x, y, yaw_deg, marker, offset in layout:
         a = cat.get(category)
         yaw = math.radians(yaw_deg)
         if a.placement == "table_top":
             support = next(
                 s
-                for s in LAYOUT
+                for s in layout
                 if s[1] in cat.support_heights and abs(x - s[2]) < 3.0 and abs(y - s[3]) < 1.0
             )
             z = cat.support_heights[support[1]] + a.dimensions[2] / 2

@@ -4,11 +4,12 @@ What a designer's GLB needs (node names; Blender duplicates such as ``.001`` are
 
 - ``floor*`` meshes: each is a room; its axis-aligned footprint becomes the room rectangle, and walls
   are derived along the union of the floors (as for procedural scenes);
-- instruments and goal furniture named by category (``Refrigerator``, ``centrifuge.001``, ``Lab Bench``;
-  fuzzy, ``biovln_ms.lsat.names``), or carrying ``extras.category`` (our ``scene export`` writes it);
-  their parts may be children;
+- instruments and goal furniture named by category as designers name them (``Refrigerator``,
+  ``Fridge_02``, ``BSC-2``, ``centrifuge.001``; ``biovln_ms.lsat.names``, an optional name map first),
+  or carrying ``extras.category`` (our ``scene export`` writes it); their parts may be children;
 - optionally ``target_<category>`` empties: world-space goals (**strategy 1**), each given to the
-  nearest instrument of its category.
+  nearest instrument of its category. A marker with no recognised instrument of its category within
+  MARKER_REACH takes the nearest unrecognised mesh there as that instrument, flagged in the report.
 
 **Strategy 2** (an instrument without a marker): the footprint's minimum-area rectangle gives the centre
 and the orientation; which of the four sides is the operational face is told from geometry when the
@@ -40,7 +41,15 @@ from biovln_ms.constants import ROBOT_RADIUS
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import placement_z, rot2, wrap_angle
 from biovln_ms.lsat.gltf import GLTFScene, Node, read_gltf
-from biovln_ms.lsat.names import TARGET_PREFIX, Match, is_target_marker, match_category, normalise
+from biovln_ms.lsat.name_map import NameMap
+from biovln_ms.lsat.names import (
+    FACE_PART_WORDS,
+    TARGET_PREFIX,
+    Match,
+    is_target_marker,
+    match_category,
+    normalise,
+)
 from biovln_ms.scene.spec import (
     DESIGNER_TEMPLATE,
     SCHEMA_VERSION,
@@ -54,7 +63,6 @@ from biovln_ms.scene.spec import (
 )
 
 SHELL_PREFIXES = ("floor", "wall", "ceiling", "room", "light", "camera")  # normalised names of no object
-FACE_PART_WORDS = ("door", "handle", "display", "keypad", "panel", "sash", "screen", "control")
 OBJECT_ID_PATTERN = r"[A-Za-z0-9_\-]{1,64}"  # an ``extras.object_id`` (our exporter's) kept as the id
 MIN_FLOOR_SIDE = 1.0  # m: smaller floor meshes are ignored
 FLOOR_LEVEL_TOLERANCE = 0.05  # m: floor tops further than this from z = 0 or from each other are reported
@@ -65,6 +73,7 @@ SIZE_TOLERANCE = 0.05  # m: a measured footprint side further than this from the
 NEAR_SQUARE = 0.1  # m: footprints closer to square than this take their axes from the node's rotation
 FACE_PART_MIN_OFFSET = 0.02  # m: face parts centred closer than this to the footprint centre tell no side
 SUPPORT_TOLERANCE = 0.03  # m between a table-top instrument's bottom and its support's top (or the floor)
+MARKER_REACH = 1.5  # m from a marker to the footprint of the instrument it may belong to
 
 RoomRect = tuple[str, str, tuple[float, float, float, float]]  # (room id, kind, (x0, y0, x1, y1))
 
@@ -81,6 +90,8 @@ class ImportReport:
     markers: list[dict] = field(default_factory=list)  # node, category, assigned_to
     unmatched: list[str] = field(default_factory=list)  # node names that matched no category
     ambiguous: list[dict] = field(default_factory=list)
+    # markers whose instrument was recognised only by them: marker, node, category, distance (m)
+    adopted: list[dict] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
 
     def coverage(self) -> dict:
@@ -94,6 +105,7 @@ class ImportReport:
             "markers_unassigned": [m["node"] for m in self.markers if m.get("assigned_to") is None],
             "unmatched_names": len(self.unmatched),
             "ambiguous_names": len(self.ambiguous),
+            "instruments_from_markers": [a["node"] for a in self.adopted],
         }
 
     def to_markdown(self) -> str:
@@ -115,6 +127,14 @@ class ImportReport:
             strat = {1: "marker (strategy 1)", 2: "Eq. 1 (strategy 2)", None: "–"}[i["goal_strategy"]]
             lines.append(f"| {i['id']} | `{i['node']}` | {i['category']} | {strat} | {i['face_from']} |")
         for title, items in (
+            (
+                "Instruments recognised only by their marker (check them)",
+                [
+                    f"`{a['marker']}`: the nearest unrecognised mesh, `{a['node']}` ({a['distance']:.2f} m "
+                    f"away), taken as {a['category']}; rename it or add it to the --names map to confirm"
+                    for a in self.adopted
+                ],
+            ),
             ("Markers without an instrument", c["markers_unassigned"]),
             ("Names matching no category", self.unmatched),
             (
@@ -138,17 +158,21 @@ class _Found:
 
 
 class _Marker(NamedTuple):
-    """A ``target_<category>`` node: a designer's world-space goal (strategy 1)."""
+    """A ``target_<category>`` node: a designer's world-space goal (strategy 1); ``instrument``, the node
+    name of the instrument it was given when only it told that instrument's category."""
 
     node: Node
     category: str
+    instrument: str | None = None
 
 
 class _Classified(NamedTuple):
-    """What the non-shell nodes are: objects to place and markers to assign."""
+    """What the non-shell nodes are: objects to place, markers to assign, and the nodes that are neither
+    (reported as unmatched)."""
 
     found: list[_Found]
     markers: list[_Marker]
+    loose: list[Node]
 
 
 class _Footprint(NamedTuple):
@@ -249,13 +273,13 @@ def _is_floor(name: str) -> bool:
     return re.search(r"(^|_)floor", normalise(re.split(r"[/|]", name)[-1])) is not None
 
 
-def _category(node: Node) -> Match:
+def _category(node: Node, names: NameMap | None) -> Match:
     """The node's catalog category: its ``extras.category`` when that names one (our exporter writes it),
-    else its name, fuzzily."""
+    else what its name says (``biovln_ms.lsat.names``)."""
     cat = node.extras.get("category")
     if isinstance(cat, str) and cat in load_catalog():
         return Match(node.name, cat, cat, 0)
-    return match_category(node.name)
+    return match_category(node.name, names=names)
 
 
 def _rooms(scene: GLTFScene, report: ImportReport) -> tuple[list[RoomRect], float]:
@@ -294,9 +318,9 @@ def _rooms(scene: GLTFScene, report: ImportReport) -> tuple[list[RoomRect], floa
     return rects, float(max(heights)) if heights else DEFAULT_WALL_HEIGHT
 
 
-def _marker(node: Node, report: ImportReport) -> _Marker | None:
+def _marker(node: Node, report: ImportReport, names: NameMap | None) -> _Marker | None:
     """A ``target_*`` node's marker; a category name matching none or several is reported instead."""
-    m = match_category(node.name, TARGET_PREFIX)
+    m = match_category(node.name, TARGET_PREFIX, names)
     if m.ambiguous:
         report.ambiguous.append({"node": node.name, "candidates": list(m.candidates)})
     elif m.category is None:
@@ -306,12 +330,14 @@ def _marker(node: Node, report: ImportReport) -> _Marker | None:
     return None
 
 
-def _classify(scene: GLTFScene, report: ImportReport) -> _Classified:
+def _classify(scene: GLTFScene, report: ImportReport, names: NameMap | None = None) -> _Classified:
     """Sort the nodes (the room shell, lights and cameras aside) into markers and objects of a catalog
-    category; an object (matched or ambiguous) claims its subtree as its parts. Names matching no category,
-    or several (never guessed), and objects without a mesh are reported."""
+    category; an object (matched or ambiguous) claims its subtree as its parts, and so does a node the name
+    map calls no instrument. Names matching no category (the loose nodes), or several (never guessed), and
+    objects without a mesh are reported."""
     found: list[_Found] = []
     markers: list[_Marker] = []
+    loose: list[Node] = []
     claimed: set[int] = set()
     for n in scene.nodes:  # parents come before children (tree order)
         if n.parent in claimed:
@@ -320,17 +346,19 @@ def _classify(scene: GLTFScene, report: ImportReport) -> _Classified:
         if normalise(n.name).startswith(SHELL_PREFIXES) or _is_floor(n.name):
             continue
         if is_target_marker(n.name):
-            if (marker := _marker(n, report)) is not None:
+            if (marker := _marker(n, report, names)) is not None:
                 markers.append(marker)
             continue
-        m = _category(n)
-        if m.ambiguous:
-            report.ambiguous.append({"node": n.name, "candidates": list(m.candidates)})
+        m = _category(n, names)
+        if m.ambiguous or (m.category is None and m.how == "name map"):
+            if m.ambiguous:
+                report.ambiguous.append({"node": n.name, "candidates": list(m.candidates)})
             claimed.add(n.index)
             continue
         if m.category is None:
             if n.mesh is not None or n.children:
                 report.unmatched.append(n.name)
+                loose.append(n)
             continue
         pts = scene.subtree_points(n)
         claimed.add(n.index)
@@ -338,7 +366,49 @@ def _classify(scene: GLTFScene, report: ImportReport) -> _Classified:
             report.warnings.append(f"'{n.name}' ({m.category}) has no mesh: skipped")
             continue
         found.append(_Found(n, m.category, pts))
-    return _Classified(found, markers)
+    return _Classified(found, markers, loose)
+
+
+def _hull_distance(points: np.ndarray, xy: np.ndarray) -> float:
+    """Distance in the floor plane from ``xy`` to the footprint (convex hull) of ``points``."""
+    return MultiPoint([tuple(p) for p in points[:, :2]]).convex_hull.distance(Point(xy))
+
+
+def _adopt(scene: GLTFScene, c: _Classified, report: ImportReport) -> tuple[list[_Found], list[_Marker]]:
+    """A marker with no recognised instrument of its category within MARKER_REACH takes the nearest loose
+    node there (the topmost one holding neither a recognised object nor a marker) as that instrument; the
+    report flags it, and the node and its parts leave ``report.unmatched``."""
+    found, markers = list(c.found), []
+    taken = {m.index for f in found for m in scene.subtree(f.node)}
+    taken |= {m.node.index for m in c.markers}
+    groups: list[tuple[Node, np.ndarray]] = []
+    inside: set[int] = set()
+    for n in c.loose:
+        sub = {m.index for m in scene.subtree(n)}
+        if n.index in inside or sub & taken:
+            continue
+        inside |= sub
+        if len(pts := scene.subtree_points(n)) >= 3:
+            groups.append((n, pts))
+    for mk in c.markers:
+        xy = mk.node.origin[:2]
+        near = [
+            f for f in found if f.category == mk.category and _hull_distance(f.points, xy) <= MARKER_REACH
+        ]
+        dist = [(_hull_distance(pts, xy), k) for k, (_, pts) in enumerate(groups)]
+        if near or not dist or min(dist)[0] > MARKER_REACH:
+            markers.append(mk)
+            continue
+        d, k = min(dist)
+        node, pts = groups.pop(k)
+        found.append(_Found(node, mk.category, pts))
+        markers.append(mk._replace(instrument=node.name))
+        parts = {m.name for m in scene.subtree(node)}
+        report.unmatched[:] = [u for u in report.unmatched if u not in parts]
+        report.adopted.append(
+            {"marker": mk.node.name, "node": node.name, "category": mk.category, "distance": round(d, 3)}
+        )
+    return found, markers
 
 
 def _pose(scene: GLTFScene, f: _Found, report: ImportReport) -> _Pose | None:
@@ -451,9 +521,13 @@ def _assign_markers(placed: _Placed, markers: list[_Marker], report: ImportRepor
     ``report.markers`` and ``report.instruments``."""
     by_id = {o.id: o for o in placed.objects()}
     rows = {k: dict(v) for k, v in placed.rows.items()}
-    for node, category in markers:
+    for node, category, instrument in markers:
         xy = node.origin[:2]
-        cands = [o for o in by_id.values() if o.category == category and o.is_goal]
+        cands = [
+            o
+            for o in by_id.values()
+            if o.category == category and o.is_goal and instrument in (None, rows[o.id]["node"])
+        ]
         rec = {"node": node.name, "category": category, "assigned_to": None}
         if cands:
             o = min(cands, key=lambda o: math.dist(o.position[:2], xy))
@@ -517,9 +591,11 @@ def import_glb(
     name: str | None = None,
     allow_external: bool = False,
     robot_radius: float = ROBOT_RADIUS,
+    names: NameMap | None = None,
 ) -> tuple[SceneSpec, ImportReport]:
-    """Read, interpret and validate a designer GLB: rooms, classify, place, assign markers, assemble. The
-    spec passes ``parse_spec`` (designer rules); the report says where each goal came from."""
+    """Read, interpret and validate a designer GLB: rooms, classify (``names``: the user's name map, which
+    wins), adopt instruments for orphan markers, place, assign markers, assemble. The spec passes
+    ``parse_spec`` (designer rules); the report says where each goal came from."""
     from biovln_ms.scene.generator import rooms_from_rects
 
     path = Path(path)
@@ -527,6 +603,6 @@ def import_glb(
     report = ImportReport(str(path))
     rects, wall_height = _rooms(scene, report)
     shell = _Shell(*rooms_from_rects(rects, wall_height))
-    found, markers = _classify(scene, report)
+    found, markers = _adopt(scene, _classify(scene, report, names), report)
     placed = _assign_markers(_place(scene, found, rects, report), markers, report)
     return _assemble(name or path.stem, shell, placed, robot_radius, report), report

@@ -1,23 +1,42 @@
-"""Node names -> catalog categories (paper §3.4): normalisation and fuzzy matching.
+"""Node names -> catalog categories (paper §3.4), as designers really name them.
 
-A name is normalised by lower-casing, turning separators (space, '-', '.') into '_', and dropping
-Blender's duplicate suffix (``.001``) and trailing indices (``_2``). It then matches a category when
-the Levenshtein distance (rapidfuzz) to the category name, or to its display name normalised the same
-way, is at most 2. Several categories within the distance with no single closest one is ambiguous:
-reported, never guessed.
+The first rule that decides wins:
+
+1. the user's name map (``lsat import --names``, ``biovln_ms.lsat.name_map``);
+2. words: the name's words (``catalog.name_tokens``: separators, camel case and digits split, numbers
+   dropped) hold a category's name, display name or catalog synonym as consecutive words
+   (``Refrigerator_large``, ``Fridge_02``, ``BSC-2``, ``Centrifuge 5424R``). A phrase inside a longer
+   matching one does not count (``Biosafety Cabinet`` is no storage ``cabinet``); phrases of several
+   categories are ambiguous; a part word after the phrase names a part, not an instrument
+   (``cabinet_door``, ``Bin_Shelf``);
+3. fuzzy: the normalised name (lower case, separators -> ``_``, Blender's ``.001`` and trailing ``_2``
+   dropped) within Levenshtein distance 2 of a category's name or display name, for typos
+   (``target_refrigerater``). Several categories at the same smallest distance are ambiguous.
+
+Ambiguous names are reported, never guessed.
 """
 
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from rapidfuzz.distance import Levenshtein
 
-from biovln_ms.catalog import load_catalog
+from biovln_ms.catalog import load_catalog, name_tokens
+
+if TYPE_CHECKING:
+    from biovln_ms.lsat.name_map import NameMap
 
 MAX_DISTANCE = 2
 TARGET_PREFIX = "target_"
+#: parts on an operational face: a child so named tells the importer which side the face is on
+FACE_PART_WORDS = ("door", "handle", "display", "keypad", "panel", "sash", "screen", "control")
+#: words that, after a category phrase, make a name a part's (``fridge door``), not an instrument's
+PART_WORDS = frozenset(
+    {*FACE_PART_WORDS, "controls", "lid", "drawer", "shelf", "hinge", "knob", "pedal", "leg"}
+)
 
 
 def normalise(name: str) -> str:
@@ -35,13 +54,14 @@ class Match:
     category: str | None
     distance: int | None
     candidates: tuple[str, ...] = ()  # for ambiguous names: the tied categories
+    how: str = ""  # "name map", "words", "fuzzy", "part" (a part's name: no category), "" (no match)
 
     @property
     def ambiguous(self) -> bool:
         return self.category is None and len(self.candidates) > 1
 
 
-def _aliases() -> dict[str, str]:
+def _fuzzy_aliases() -> dict[str, str]:
     cat = load_catalog()
     out = {}
     for name in cat.names():
@@ -50,13 +70,34 @@ def _aliases() -> dict[str, str]:
     return out
 
 
-def match_category(name: str, strip_prefix: str | None = None) -> Match:
-    """The catalog category a node name denotes (fuzzy, distance <= 2), or why none."""
-    key = normalise(name)
-    if strip_prefix and key.startswith(strip_prefix):
-        key = key[len(strip_prefix) :]
+def _by_words(name: str, key: str) -> Match | None:
+    """The category whose phrase the name's words hold (rule 2), or None when no phrase matches."""
+    words = name_tokens(name)
+    spans = [
+        (i, i + len(p), category)
+        for p, category in load_catalog().phrases().items()
+        for i in range(len(words) - len(p) + 1)
+        if words[i : i + len(p)] == p
+    ]
+    kept = [
+        s
+        for s in spans
+        if not any(o[0] <= s[0] and s[1] <= o[1] and o[1] - o[0] > s[1] - s[0] for o in spans)
+    ]
+    if not kept:
+        return None
+    categories = tuple(sorted({c for _, _, c in kept}))
+    if len(categories) > 1:
+        return Match(name, key, None, 0, categories, "words")
+    if PART_WORDS.intersection(words[max(e for _, e, _ in kept) :]):
+        return Match(name, key, None, None, (), "part")
+    return Match(name, key, categories[0], 0, (), "words")
+
+
+def _by_distance(name: str, key: str) -> Match:
+    """The category within Levenshtein distance 2 of the normalised name (rule 3)."""
     best: dict[str, int] = {}
-    for alias, category in _aliases().items():
+    for alias, category in _fuzzy_aliases().items():
         d = Levenshtein.distance(key, alias, score_cutoff=MAX_DISTANCE)
         if d <= MAX_DISTANCE:
             best[category] = min(d, best.get(category, d))
@@ -65,8 +106,25 @@ def match_category(name: str, strip_prefix: str | None = None) -> Match:
     top = min(best.values())
     tied = tuple(sorted(c for c, d in best.items() if d == top))
     if len(tied) > 1:
-        return Match(name, key, None, top, tied)
-    return Match(name, key, tied[0], top)
+        return Match(name, key, None, top, tied, "fuzzy")
+    return Match(name, key, tied[0], top, (), "fuzzy")
+
+
+def _strip_prefix(name: str, prefix: str) -> str:
+    """``name`` without ``prefix`` (case and separator insensitive: ``Target Fridge`` -> ``Fridge``), as
+    written otherwise."""
+    return re.sub(rf"(?i)^\s*{re.escape(prefix.rstrip('_'))}[\s_\-.]*", "", name)
+
+
+def match_category(name: str, strip_prefix: str | None = None, names: NameMap | None = None) -> Match:
+    """The catalog category a node name denotes, or why none (see the module docstring);
+    ``strip_prefix`` (a marker's ``target_``) is dropped first. A name the map sends to null comes back
+    with no category and ``how == "name map"``."""
+    raw = _strip_prefix(name, strip_prefix) if strip_prefix else name
+    key = normalise(raw)
+    if names is not None and (hit := names.lookup(raw)) is not None:
+        return Match(name, key, hit.category, 0, (), "name map")
+    return _by_words(raw, key) or _by_distance(name, key)
 
 
 def is_target_marker(name: str) -> bool:

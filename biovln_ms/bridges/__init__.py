@@ -1,0 +1,1 @@
+"""Bridges to the tools users already run: Nav2 maps and goals, habitat-lab ObjectNav datasets."""
