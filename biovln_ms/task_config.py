@@ -22,6 +22,7 @@ STEP_MEASURES = (
     "in_zone3",
     "facing_instrument",
     "collisions",
+    "strict_success",
 )
 END_MEASURES = ("spl", "soft_spl", "mcr", "vrt", "steps", "path_length")
 #: The sensors of the benchmark env (Habitat's PointNav/ObjectNav sensors; see ``biovln_ms.agents.policy``).

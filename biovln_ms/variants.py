@@ -13,6 +13,10 @@ VARIANTS: dict[str, NavTaskConfig] = {
     "BioVLN-OpFace-v0": NavTaskConfig(),
     # the paper's ablation (Table 9): the goal is the floor projection of the bounding-box centre
     "BioVLN-Centroid-v0": NavTaskConfig(goal_mode="centroid"),
+    # operational success: STOP within r in Zone 3, facing the face within 30 deg (strict_success)
+    "BioVLN-OpFace-Strict-v0": NavTaskConfig(
+        success_measure="strict_success", fail_measure="strict_failed_stop"
+    ),
     # the paper's Gym variant for RL: 10 deg turns, positions / 4.0 m, heading as a unit vector,
     # Eq. 5 with the proportional safety penalty, episodes shuffled once and cycled
     "BioVLN-OpFace-RL-v0": NavTaskConfig(

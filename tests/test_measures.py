@@ -23,7 +23,7 @@ from biovln_ms.variants import VARIANTS
 # A 1 x 1 m instrument at the origin facing -Y; its Zone 3 (delta 0.6) is y in [-1.1, -0.5].
 BOX = PlacedInstrument((0.0, 0.0, 0.5), 0.0, (1.0, 1.0, 1.0), (0.0, -1.0), 0.5, 0.6, "box_0", "cabinet")
 GOAL = (0.0, -1.1)
-NAMES = NavTaskConfig().measures + ("nav_reward", "failed_stop")
+NAMES = NavTaskConfig().measures + ("nav_reward", "failed_stop", "strict_failed_stop")
 
 
 def ctx(goal=GOAL, radius=0.8, start_geodesic=4.0):
@@ -127,6 +127,22 @@ def test_facing_uses_half_the_horizontal_fov():
         [(0.0, -3.0), (0.0, -3.0)], yaws=[math.pi / 2, math.pi / 2 + math.radians(41)], stop_last=False
     )
     assert not v(m, "facing_instrument")
+
+
+@pytest.mark.parametrize(
+    "end, yaw, radius_ok, strict_ok",
+    [
+        ((0.0, -1.1), 90, True, True),  # at the goal, looking straight at the face (-f = +y)
+        ((0.0, -1.1), 90 + 29, True, True),
+        ((0.0, -1.1), 90 + 31, True, False),  # within r and Zone 3, but turned away from the face
+        ((0.6, -1.0), 90, True, False),  # within r, but beside Zone 3 (x > 0.5)
+        ((0.0, -2.0), 90, False, False),
+    ],
+)
+def test_strict_success_needs_zone3_and_the_face(end, yaw, radius_ok, strict_ok):
+    m, _ = run([(0.0, -3.0), end], yaws=[math.pi / 2, math.radians(yaw)])
+    assert v(m, "success") == radius_ok and v(m, "strict_success") == strict_ok
+    assert v(m, "strict_failed_stop") == (not strict_ok)
 
 
 def test_unknown_measure_and_cycles_are_refused():

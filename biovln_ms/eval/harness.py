@@ -211,6 +211,7 @@ def _run(index: int) -> dict:
             info, trunc = st.info, st.truncated
         rec = {
             "success": bool(info["success"]),
+            "strict_success": bool(info["strict_success"]),
             "spl": float(info["spl"]),
             "soft_spl": float(info["soft_spl"]),
             "dtg": float(info["distance_to_goal"]),

@@ -16,6 +16,9 @@ a measure update is a handful of them. Torch appears only at the boundary (:meth
   subtracted, so a robot touching a body reads ``clearance == radius``. MCR and VRT use the same value.
 * ``zone2_violation``: the robot's centre is inside some instrument's Zone 2.
 * ``facing_instrument``: the target's centre lies within half the camera's horizontal field of view.
+* ``strict_success`` (operational success, this platform's rule beside the paper's radius rule): a
+  successful STOP (within r) that also stands in Zone 3 and faces the operational face, the heading within
+  30 degrees of the face's inward normal ``-f`` (``facing_face``).
 * ``collisions``: steps whose commanded forward motion was cut short by contact (moved < 90 %).
 * SPL = success * l_opt / max(l, l_opt); soft SPL = (1 - d_T / d_0) * l_opt / max(l, l_opt) with geodesic
   d_T at the end and d_0 at the start; DTG = final Euclidean distance; VRT = fraction of steps
@@ -67,6 +70,7 @@ class BatchContext:
         self.goal, self.target_centre = np.zeros((n, 2)), np.zeros((n, 2))
         self.radius, self.start_geodesic, self.hfov = np.zeros(n), np.zeros(n), np.zeros(n)
         self.zone3 = np.zeros((n, 8))  # centre (2), unit axes u, v (2 + 2), half extents (2)
+        self.face = np.zeros((n, 2))  # the target's operational face normal f (zero: none)
         self.has_zone3 = np.zeros(n, dtype=bool)
 
     def set(self, i: int, ctx: EpisodeContext) -> None:
@@ -79,6 +83,7 @@ class BatchContext:
             ctx.hfov,
         )
         self.has_zone3[i] = ctx.target.model_face is not None
+        self.face[i] = 0.0 if ctx.target.face is None else ctx.target.face
         if ctx.target.model_face is not None:
             corners = ctx.target.zone3_corners()
             u, v = corners[1] - corners[0], corners[3] - corners[0]
@@ -244,6 +249,47 @@ class FacingInstrument(Measure):
         d = ctx.target_centre[idx] - s.position[idx]
         bearing = wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - s.yaw[idx])
         return np.abs(bearing) <= ctx.hfov[idx] / 2
+
+
+#: strict operational success: the heading within this angle of the face's inward normal
+STRICT_FACING_DEG = 30.0
+
+
+@register_measure
+class FacingFace(Measure):
+    """The robot looks at the operational face: its heading within 30 degrees of ``-f``."""
+
+    uuid = "facing_face"
+    dtype = bool
+
+    def compute(self, ctx, s, m, idx):
+        f, yaw = ctx.face[idx], s.yaw[idx]
+        cos = -(np.cos(yaw) * f[:, 0] + np.sin(yaw) * f[:, 1])
+        return ctx.has_zone3[idx] & (cos >= math.cos(math.radians(STRICT_FACING_DEG)) - 1e-12)
+
+
+@register_measure
+class StrictSuccess(Measure):
+    """Operational success: a successful STOP (radius rule) in Zone 3, facing the face."""
+
+    uuid = "strict_success"
+    dtype = bool
+    dependencies = ("success", "in_zone3", "facing_face")
+
+    def compute(self, ctx, s, m, idx):
+        return m["success"][idx] & m["in_zone3"][idx] & m["facing_face"][idx]
+
+
+@register_measure
+class StrictFailedStop(Measure):
+    """STOP that is not an operational success (the strict variant's fail measure)."""
+
+    uuid = "strict_failed_stop"
+    dtype = bool
+    dependencies = ("stopped", "strict_success")
+
+    def compute(self, ctx, s, m, idx):
+        return m["stopped"][idx] & ~m["strict_success"][idx]
 
 
 @register_measure
