@@ -108,7 +108,7 @@ def default_dataset_dir() -> Path:
 
 
 def ensure_default_dataset(echo=print) -> Path:
-    """The default dataset, built on first use and rebuilt when stale (deterministic, ~2 s; nothing
+    """The default dataset, built on first use and rebuilt when stale (deterministic, ~4 s; nothing
     is downloaded)."""
     root = default_dataset_dir()
     stale = False

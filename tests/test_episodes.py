@@ -7,6 +7,7 @@ import shapely
 
 from biovln_ms.benchmark import FOUR_CATEGORIES
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset, SplitPlan, write_dataset
+from biovln_ms.episodes.dataset import EPISODE_GENERATOR_VERSION as VERSION
 from biovln_ms.episodes.generator import EpisodeError, EpisodeSampler, difficulty
 from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.scene.generator import generate_scene
@@ -225,3 +226,60 @@ def test_cli_dataset_build_stats_show_and_map_overlay(tmp_path):
         text=True,
     )
     assert r.returncode == 2 and "no episode '999'" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_no_trivial_episodes_in_any_split_of_the_default_dataset():
+    """Issue 15: every start is outside its goal's success radius r and >= r + 1.0 m from it along the
+    floor, by the stored geodesic and by one recomputed on the scene's navigation geometry."""
+    from biovln_ms.benchmark import ensure_default_dataset
+    from biovln_ms.episodes.generator import MIN_START_GEODESIC_MARGIN
+
+    ds = EpisodeDataset(ensure_default_dataset(echo=lambda *_: None))
+    navs: dict = {}
+    assert {"ms_dev", "ms_val", "ms_test", "two_room", "lsat_target", "train", "full"} <= set(
+        ds.split_names()
+    )
+    for split in ds.split_names():
+        for e in ds.episodes(split):
+            (goal,) = e["goals"]
+            s, g, r = np.asarray(e["start_position"][:2]), np.asarray(goal["position"][:2]), goal["radius"]
+            if e["scene_id"] not in navs:
+                navs[e["scene_id"]] = scene_navigation(ds.spec(e["scene_id"]))
+            where = (split, e["scene_id"], e["episode_id"])
+            assert np.linalg.norm(g - s) > r, where
+            assert e["info"]["geodesic_distance"] >= r + MIN_START_GEODESIC_MARGIN, where
+            assert navs[e["scene_id"]].geodesic_distance(s, g) >= r + MIN_START_GEODESIC_MARGIN, where
+
+
+def test_episodes_of_an_older_generator_are_refused_with_the_rebuild_command(tmp_path):
+    root = tmp_path / "ds"
+    write_dataset(root, _small_splits(), progress=False)
+    m = json.loads((root / "manifest.json").read_text())
+    m["episode_generator_version"] = 1
+    (root / "manifest.json").write_text(json.dumps(m))
+    with pytest.raises(DatasetError, match="made by episode generator version 1") as e:
+        EpisodeDataset(root)
+    assert "\n" not in str(e.value) and "biovln-ms dataset build --out" in str(e.value)
+
+
+def test_a_stale_default_dataset_is_rebuilt(tmp_path, monkeypatch):
+    from biovln_ms import benchmark
+
+    root = tmp_path / "default"
+    write_dataset(root, _small_splits(), progress=False)
+    m = json.loads((root / "manifest.json").read_text())
+    m["episode_generator_version"] = 1
+    (root / "manifest.json").write_text(json.dumps(m))
+    monkeypatch.setenv("BIOVLN_DATA_DIR", str(root))
+    monkeypatch.setattr(benchmark, "paper_splits", _small_splits)
+    said: list[str] = []
+    assert benchmark.ensure_default_dataset(echo=said.append) == root
+    assert "stale" in said[0] and EpisodeDataset(root).manifest["episode_generator_version"] == VERSION
+
+
+def test_a_goal_no_start_can_keep_the_rule_for_fails_in_one_line(spec150):
+    goal = EpisodeSampler(spec150).episodes(1, seed=0)[0]["goals"][0]
+    far = dict(goal, radius=30.0)  # no floor is 31 m from it
+    with pytest.raises(EpisodeError, match=f"31.00 m .* from the goal of '{goal['object_id']}'") as e:
+        EpisodeSampler(spec150).start_region(far)
+    assert "\n" not in str(e.value)

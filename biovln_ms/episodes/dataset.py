@@ -49,9 +49,9 @@ from biovln_ms.scene.spec import (
 from biovln_ms.scene.spec import MAX_FILE_BYTES as MAX_SCENE_FILE_BYTES
 
 DATASET_FORMAT_VERSION = 2  # 2: the lsat_target split and marker goals (goal_source)
-EPISODE_GENERATOR_VERSION = 1
+EPISODE_GENERATOR_VERSION = 2  # 2: no trivial episodes (generator.MIN_START_GEODESIC_MARGIN)
 
-# Limits (README "Episodes and datasets"), checked before parsing. The paper's datasets: a 29 kB
+# Limits (docs/guides/datasets.md), checked before parsing. The paper's datasets: a 29 kB
 # manifest, episode files of at most 86 kB decompressed (~1.7 kB an episode), 1,669 episodes in a split.
 MAX_MANIFEST_BYTES = 16 * 2**20
 MAX_EPISODE_FILE_BYTES = 256 * 2**20  # decompressed (read in bounded chunks), and on disk

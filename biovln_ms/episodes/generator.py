@@ -1,8 +1,12 @@
 """Episode construction (paper §3.3 "Episode Construction").
 
-Starts are sampled uniformly over the navigable area at least ``min_start_clearance`` (1.0 m) from
-every obstacle (instrument and furniture bodies, walls). When a scene has no such area the documented
-fallback takes the band of largest clearance available and records that clearance on the episode.
+No episode is trivial (our rule; the paper is silent): a start lies outside its goal's success radius r
+(Euclidean distance > r) and at least r + ``MIN_START_GEODESIC_MARGIN`` (1.0 m) from the goal along the
+floor (``keeps_start_rule``). Starts are sampled uniformly over the navigable area at least
+``min_start_clearance`` (1.0 m) from every obstacle (instrument and furniture bodies, walls) where the
+rule holds; draws that break it are rejected and redrawn from the same generator. When a scene has no
+such area for a goal, the documented fallback takes the band of largest clearance where the rule holds
+and records that clearance on the episode.
 Goals are the Eq. 1 operational-face goals snapped to navigable floor, with view points (navigable
 poses inside Zone 3 and the success radius, turned toward the instrument). Difficulty tiers follow
 the geodesic distance: easy < 3.0 m, medium 3.0-6.0 m, hard > 6.0 m.
@@ -12,11 +16,11 @@ from __future__ import annotations
 
 import math
 import zlib
-from typing import Sequence
 
 import numpy as np
 import shapely
 from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
 from biovln_ms.errors import BioVLNError
@@ -27,6 +31,10 @@ from biovln_ms.scene.rules import floor_polygon
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 
 MIN_START_CLEARANCE = 1.0
+MIN_START_GEODESIC_MARGIN = 1.0  # a start's geodesic distance to its goal is >= success radius + this
+MIN_KEEP_SHARE = 0.1  # share of a start region that must keep the rule for plain rejection sampling
+MAX_START_ATTEMPTS = 1000  # starts drawn per episode before a scene is declared unable to satisfy it
+RASTER = 0.05  # m, cell of the clearance raster of start regions
 VIEW_POINT_SPACING = 0.15
 MAX_VIEW_POINTS = 12
 
@@ -38,6 +46,12 @@ class EpisodeError(BioVLNError):
 def difficulty(geodesic: float) -> str:
     """Tier of the paper's appendix: easy < 3.0 m <= medium <= 6.0 m < hard."""
     return "easy" if geodesic < 3.0 else ("medium" if geodesic <= 6.0 else "hard")
+
+
+def keeps_start_rule(geodesic: float, euclidean: float, radius: float) -> bool:
+    """No trivial episode: the start lies outside the success radius ``radius`` of its goal and at least
+    ``radius + MIN_START_GEODESIC_MARGIN`` from it along the floor (and can reach it)."""
+    return euclidean > radius and radius + MIN_START_GEODESIC_MARGIN <= geodesic < math.inf
 
 
 def yaw_to_quat(yaw: float) -> list[float]:
@@ -71,6 +85,9 @@ class EpisodeSampler:
         self._floor = floor_polygon(spec)
         self._obstacles = unary_union(obstacles)
         self._targets = {o.id: self._target(o) for o in spec.goal_objects()}
+        self._start_floors: dict[tuple[str, ...] | None, tuple[Polygon, BaseGeometry]] = {}
+        self._rasters: dict[tuple[str, ...] | None, np.ndarray] = {}
+        self._start_regions: dict[tuple[tuple[str, ...] | None, str], tuple[Polygon, float]] = {}
         bad = [k for k, v in goals.items() if v != self.island]
         if bad:
             raise EpisodeError(
@@ -128,31 +145,78 @@ class EpisodeSampler:
         }
 
     # --- starts ---------------------------------------------------------------------------------
-    def start_region(self, rooms: Sequence[str] | None = None) -> tuple[Polygon, float]:
-        """Region for starts and the clearance it guarantees (fallback: the best available)."""
-        isl = self.nav.islands[self.island]
-        allowed = (
-            isl
-            if rooms is None
-            else isl.intersection(unary_union([Polygon(r.polygon) for r in self.spec.rooms if r.id in rooms]))
-        )
-        outside = self._floor.envelope.buffer(2.0).difference(self._floor)
-        blocked = unary_union([outside, self._obstacles])
+    def _floor_for_starts(self, rooms: tuple[str, ...] | None) -> tuple[Polygon, BaseGeometry]:
+        """Navigable floor of ``rooms`` (all: None) and what blocks it (cached)."""
+        if rooms not in self._start_floors:
+            isl = self.nav.islands[self.island]
+            allowed = (
+                isl
+                if rooms is None
+                else isl.intersection(
+                    unary_union([Polygon(r.polygon) for r in self.spec.rooms if r.id in rooms])
+                )
+            )
+            outside = self._floor.envelope.buffer(2.0).difference(self._floor)
+            self._start_floors[rooms] = allowed, unary_union([outside, self._obstacles])
+        return self._start_floors[rooms]
+
+    def _raster(self, rooms: tuple[str, ...] | None) -> np.ndarray:
+        """Centres of the ``RASTER`` cells of the floor of ``rooms`` and their clearance (x, y, clearance),
+        cached."""
+        if rooms not in self._rasters:
+            allowed, blocked = self._floor_for_starts(rooms)
+            minx, miny, maxx, maxy = allowed.bounds
+            xs = np.arange(minx, maxx, RASTER) + RASTER / 2
+            ys = np.arange(miny, maxy, RASTER) + RASTER / 2
+            gx, gy = (a.ravel() for a in np.meshgrid(xs, ys))
+            ok = shapely.contains_xy(allowed, gx, gy)
+            d = shapely.distance(blocked, shapely.points(gx[ok], gy[ok]))
+            self._rasters[rooms] = np.stack([gx[ok], gy[ok], d], axis=1)
+        return self._rasters[rooms]
+
+    def start_region(self, target: dict, rooms: tuple[str, ...] | None = None) -> tuple[Polygon, float]:
+        """Where starts to ``target`` are drawn, and the clearance from obstacles they keep (cached).
+
+        The floor at least ``min_start_clearance`` from obstacles, outside the success radius; when less
+        than ``MIN_KEEP_SHARE`` of it is r + margin away in a straight line (where the rule surely holds),
+        only its ``RASTER`` cells whose centre keeps the rule, or, if none does (fallback), those of the
+        band of largest clearance where one does. ``_start`` still checks every draw."""
+        key = (rooms, target["object_id"])
+        if key in self._start_regions:
+            return self._start_regions[key]
+        allowed, blocked = self._floor_for_starts(rooms)
+        goal, r = np.asarray(target["position"][:2]), target["radius"]
+        far_r = r + MIN_START_GEODESIC_MARGIN
         region = allowed.difference(grow(blocked, self.min_start_clearance))
-        if region.area > 1e-4:
-            return region, self.min_start_clearance
-        # Fallback: the clearance field on a 5 cm raster, keep the top band.
-        minx, miny, maxx, maxy = allowed.bounds
-        xs = np.arange(minx, maxx, 0.05) + 0.025
-        ys = np.arange(miny, maxy, 0.05) + 0.025
-        gx, gy = (a.ravel() for a in np.meshgrid(xs, ys))
-        ok = shapely.contains_xy(allowed, gx, gy)
-        if not ok.any():
-            raise EpisodeError(f"scene '{self.spec.name}': no navigable floor for starts in rooms {rooms}")
-        d = shapely.distance(blocked, shapely.points(gx[ok], gy[ok]))
-        best = float(d.max()) - 0.05
-        region = allowed.difference(grow(blocked, best))
-        return region, best
+        region = region.difference(shapely.Point(goal).buffer(r))
+        far = region.difference(shapely.Point(goal).buffer(far_r)).area  # geodesic >= Euclidean
+        clearance: float | None = self.min_start_clearance
+        if far <= 1e-4 or far < MIN_KEEP_SHARE * region.area:
+            cells = self._raster(rooms)
+            geodesic = self.nav.distance_to(goal)
+            euclidean = np.linalg.norm(cells[:, :2] - goal, axis=1)
+            keep = np.zeros(len(cells), bool)
+            top, clearance = self.min_start_clearance + RASTER, None
+            for i in np.argsort(-cells[:, 2], kind="stable"):  # down to the band of the first keeper
+                if clearance is not None and cells[i, 2] < clearance:
+                    break
+                keep[i] = euclidean[i] >= far_r or keeps_start_rule(geodesic(cells[i, :2]), euclidean[i], r)
+                if keep[i] and clearance is None:
+                    clearance = self.min_start_clearance if cells[i, 2] >= top else cells[i, 2] - RASTER
+            if clearance is None:
+                where = "" if rooms is None else f" in rooms {list(rooms)}"
+                raise EpisodeError(
+                    f"scene '{self.spec.name}': no navigable floor{where} is at least {far_r:.2f} m "
+                    f"(success radius + {MIN_START_GEODESIC_MARGIN} m) along the floor from the goal of "
+                    f"'{target['object_id']}' ({target['object_category']})",
+                    field=target["object_id"],
+                    fix="give the scene more free floor away from this instrument, or move the instrument",
+                )
+            low, high = (cells[keep, :2] - RASTER / 2).T, (cells[keep, :2] + RASTER / 2).T
+            region = allowed.difference(grow(blocked, clearance))
+            region = region.intersection(unary_union(shapely.box(*low, *high)))
+        self._start_regions[key] = region, float(clearance)
+        return self._start_regions[key]
 
     @staticmethod
     def sample_in(region, rng: np.random.Generator) -> np.ndarray:
@@ -166,6 +230,25 @@ class EpisodeSampler:
                 return np.array([x[inside[0]], y[inside[0]]])
         raise EpisodeError("could not sample a start in a non-empty region (degenerate geometry)")
 
+    def _start(self, region: Polygon, target: dict, rng: np.random.Generator) -> tuple[np.ndarray, float]:
+        """A start in ``region`` that keeps the rule for ``target`` (rejection sampling), and its geodesic
+        distance to the goal."""
+        goal, r, oid = np.asarray(target["position"][:2]), target["radius"], target["object_id"]
+        for _ in range(MAX_START_ATTEMPTS):
+            start = np.round(self.sample_in(region, rng), 6)  # as stored, so the stored start keeps the rule
+            geo = self.nav.geodesic_distance(start, goal)
+            if not np.isfinite(geo):
+                raise EpisodeError(f"scene '{self.spec.name}': start {start.tolist()} cannot reach '{oid}'")
+            if keeps_start_rule(geo, float(np.linalg.norm(goal - start)), r):
+                return start, geo
+        raise EpisodeError(
+            f"scene '{self.spec.name}': none of {MAX_START_ATTEMPTS} starts drawn is at least "
+            f"{r + MIN_START_GEODESIC_MARGIN:.2f} m along the floor from the goal of '{oid}' "
+            f"({target['object_category']}) and outside its success radius",
+            field=oid,
+            fix="give the scene more free floor away from this instrument, or move the instrument",
+        )
+
     # --- episodes -------------------------------------------------------------------------------
     def episodes(self, n: int, seed: int, cross_room: bool = False, id_offset: int = 0) -> list[dict]:
         """``n`` episodes cycling over the goal objects (shuffled); ``cross_room`` starts them in another
@@ -173,7 +256,6 @@ class EpisodeSampler:
         rng = np.random.default_rng([stable_seed(self.spec.name), seed])
         objs = self.spec.goal_objects()
         order = [objs[i] for i in rng.permutation(len(objs))]
-        regions: dict = {}
         out = []
         for k in range(n):
             o = order[k % len(order)]
@@ -182,18 +264,11 @@ class EpisodeSampler:
                 rooms = tuple(r.id for r in self.spec.rooms if r.kind == "room" and r.id != o.room)
                 if not rooms:
                     raise EpisodeError(f"scene '{self.spec.name}' has one room: no cross-room episodes")
-            if rooms not in regions:
-                regions[rooms] = self.start_region(rooms)
-            region, clearance = regions[rooms]
-            start = self.sample_in(region, rng)
-            yaw = float(rng.uniform(-math.pi, math.pi))
             target = self._targets[o.id]
+            region, clearance = self.start_region(target, rooms)
             goal = np.asarray(target["position"][:2])
-            geo = self.nav.geodesic_distance(start, goal)
-            if not np.isfinite(geo):
-                raise EpisodeError(
-                    f"scene '{self.spec.name}': start {start.round(3).tolist()} cannot reach '{o.id}'"
-                )
+            start, geo = self._start(region, target, rng)
+            yaw = float(rng.uniform(-math.pi, math.pi))
             euc = float(np.linalg.norm(goal - start))
             out.append(
                 {
