@@ -4,18 +4,23 @@ The reference is one grey box seen by the same camera at the same resolution: th
 much the assets' detail (parts, textures) costs over SAPIEN's floor cost for a frame.
 
     python benchmarks/asset_render.py [--size 640x480] [--frames 30]
+
+The table goes to ``docs/data/benchmarks/asset_render.json`` (``--data-out``), which the docs' benchmarks
+page renders.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 import sapien
 
 from biovln_ms.assetgen.generate import plans
 from biovln_ms.catalog import load_catalog
+from biovln_ms.measured import docs_data_dir, write_table
 from biovln_ms.paths import asset_glb
 from biovln_ms.render.sapien_utils import device_kind, look_at_pose, new_scene, take_rgb
 
@@ -32,6 +37,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--size", default="640x480")
     ap.add_argument("--frames", type=int, default=30)
+    ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "asset_render.json")
     args = ap.parse_args()
     w, h = (int(v) for v in args.size.split("x"))
     scene = new_scene()
@@ -49,6 +55,7 @@ def main() -> None:
         f"{w}x{h}, {args.frames} frames"
     )
     print(f"{'reference (one box)':<22} {base:8.2f} ms/frame   1.00x")
+    rows = [["reference (one grey box)", f"{base:.1f}", "1.00×"]]
     for plan in plans(load_catalog()):
         b = scene.create_actor_builder()
         b.add_visual_from_file(str(asset_glb(plan.name)))
@@ -56,7 +63,16 @@ def main() -> None:
         actor.set_pose(sapien.Pose([0, 0, plan.dimensions[2] / 2]))
         ms = frame_ms(scene, cam, args.frames)
         print(f"{plan.name:<22} {ms:8.2f} ms/frame {ms / base:6.2f}x")
+        rows.append([plan.name, f"{ms:.1f}", f"{ms / base:.2f}×"])
         scene.remove_entity(actor)
+    dev = scene.render_system.device
+    write_table(
+        args.data_out,
+        f"Render cost of each asset, {w}×{h}, {args.frames} frames",
+        ["asset", "ms / frame", "× reference frame"],
+        rows,
+        render_device=f"{dev.name} ({device_kind(dev)})",
+    )
 
 
 if __name__ == "__main__":

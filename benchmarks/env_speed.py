@@ -7,6 +7,9 @@ Reports (budgets from the issue in brackets):
 * state-only steps/s (>= 1,500); 128x128 RGB-D steps/s (>= 300);
 * reset to a new episode in the same scene (<= 20 ms) and to a new scene (<= 0.5 s);
 * resident memory over ``--resets`` resets alternating scenes (flat).
+
+The table goes to ``docs/data/benchmarks/env_speed.json`` (``--data-out``), which the docs' benchmarks
+page renders.
 """
 
 from __future__ import annotations
@@ -15,13 +18,15 @@ import argparse
 import gc
 import resource
 import time
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import torch
 
 import biovln_ms  # noqa: F401
-from biovln_ms.render.sapien_utils import raw_camera_rate
+from biovln_ms.measured import docs_data_dir, write_table
+from biovln_ms.render.sapien_utils import raw_camera_rate, vulkan_device_label
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
 
@@ -53,6 +58,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("--resets", type=int, default=1000)
+    ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "env_speed.json")
     args = ap.parse_args()
     torch.set_num_threads(1)
     rows = []
@@ -112,6 +118,42 @@ def main() -> None:
         + ", ".join(f"{k}: {v:.0f} MB" for k, v in marks.items())
     )
     env.close()
+    budgets = {
+        "640x480 RGB-D": "≥ 0.8× raw",
+        "128x128 RGB-D": "≥ 300 steps/s",
+        "state only": "≥ 1,500 steps/s",
+    }
+    table = [
+        [
+            label,
+            f"{rate:.0f} steps/s",
+            f"raw SAPIEN {raw:.0f} frames/s ({rate / raw:.2f}×)" if raw else "",
+            budgets[label],
+        ]
+        for label, rate, raw in rows
+    ]
+    table += [
+        ["reset, same scene (median)", f"{np.median(same) * 1e3:.1f} ms", "", "≤ 20 ms"],
+        [
+            "reset, new scene (median / max)",
+            f"{np.median(new) * 1e3:.0f} / {max(new) * 1e3:.0f} ms",
+            "",
+            "≤ 500 ms",
+        ],
+        [
+            f"resident memory over {args.resets} resets (a new scene every 10)",
+            ", ".join(f"{k}: {v:.0f} MB" for k, v in marks.items()),
+            "",
+            "flat",
+        ],
+    ]
+    write_table(
+        args.data_out,
+        "BioVLN-OpFace-v0 speed, one env process",
+        ["measure", "this version", "reference in the same run", "budget"],
+        table,
+        render_device=vulkan_device_label(),
+    )
 
 
 if __name__ == "__main__":

@@ -4,16 +4,21 @@
 
 Budgets: build <= 100 ms per scene, <= 1 ms per query. Reference in the same run: the shapely
 free-space construction alone (part of the build) and one straight-line visibility test.
+
+The table goes to ``docs/data/benchmarks/navigation.json`` (``--data-out``), which the docs' benchmarks
+page renders.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
 from biovln_ms.geometry.navigation import NavGeometry
+from biovln_ms.measured import docs_data_dir, write_table
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.rules import scene_free_space
 
@@ -22,7 +27,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scenes", type=int, default=10)
     ap.add_argument("--queries", type=int, default=200)
+    ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "navigation.json")
     args = ap.parse_args()
+    rows = []
     print(
         f"{'template':<12} {'build ms':>9} {'x free-space':>12} "
         f"{'query ms':>9} {'x visibility':>12} {'reflex verts':>12}"
@@ -53,6 +60,22 @@ def main() -> None:
             vis.append((time.perf_counter() - t) / len(pts))
         b, f, q, v = (np.mean(x) * 1e3 for x in (builds, frees, queries, vis))
         print(f"{template:<12} {b:9.1f} {b / f:12.1f} {q:9.3f} {q / v:12.1f} {np.mean(nverts):12.0f}")
+        rows.append(
+            [template, f"{b:.1f}", f"{b / f:.1f}×", f"{q:.3f}", f"{q / v:.1f}×", f"{np.mean(nverts):.0f}"]
+        )
+    write_table(
+        args.data_out,
+        f"Navigation geometry, mean over {args.scenes} scenes and {args.queries} queries per scene",
+        [
+            "template",
+            "build ms (budget 100)",
+            "× free-space alone",
+            "query ms (budget 1)",
+            "× one visibility test",
+            "reflex vertices",
+        ],
+        rows,
+    )
 
 
 if __name__ == "__main__":

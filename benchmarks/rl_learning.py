@@ -4,6 +4,9 @@ variant, 10-degree turns), and prints the table with the training throughput aga
 state-only step rate measured in the same run.
 
     python benchmarks/rl_learning.py --timesteps 300000 --n-envs 2 --out runs/ppo_bench
+
+The table goes to ``docs/data/benchmarks/rl_learning.json`` (``--data-out``), which the docs' benchmarks
+page renders.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from biovln_ms.eval.harness import EvalConfig, evaluate
 from biovln_ms.eval.learned import train_and_evaluate
 from biovln_ms.learning.algorithms import RL_ENV
 from biovln_ms.learning.rl import RLConfig
+from biovln_ms.measured import docs_data_dir, write_table
 
 
 def raw_state_rate(steps: int = 2000) -> float:
@@ -41,6 +45,7 @@ def main() -> None:
     ap.add_argument("--n-envs", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("runs/ppo_bench"))
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "rl_learning.json")
     args = ap.parse_args()
     raw = raw_state_rate()
     r = train_and_evaluate(
@@ -81,6 +86,20 @@ def main() -> None:
             },
             indent=1,
         )
+    )
+    write_table(
+        args.data_out,
+        f"PPO on {RL_ENV}, evaluated on MS VAL (the RL variant)",
+        ["method", "episodes", "SR %", "SPL", "MCR m", "VRT %"],
+        [
+            [n, o["episodes"], f"{o['sr']:.1f}", f"{o['spl']:.3f}", f"{o['mcr']:.2f}", f"{o['vrt']:.1f}"]
+            for n, o in rows
+        ],
+        notes=[
+            f"{r.timesteps:,} timesteps in {r.minutes:.1f} min with {args.n_envs} envs: "
+            f"{r.steps_per_second:.0f} steps/s, {r.steps_per_second / raw:.2f}× one env process alone "
+            f"({raw:.0f} steps/s)."
+        ],
     )
 
 

@@ -5,6 +5,9 @@
 The first build in a process pays for shader compilation and asset loading; the budget (<= 2 s)
 is for later builds. Reference in the same run: the raw SAPIEN cost of rendering one 640x480 frame
 of the built scene, printed as a ratio.
+
+The table goes to ``docs/data/benchmarks/scene_build.json`` (``--data-out``), which the docs' benchmarks
+page renders.
 """
 
 from __future__ import annotations
@@ -12,10 +15,13 @@ from __future__ import annotations
 import argparse
 import gc
 import time
+from pathlib import Path
 
 import gymnasium as gym
 
 import biovln_ms.tasks.lab_scene_env  # noqa: F401
+from biovln_ms.measured import docs_data_dir, write_table
+from biovln_ms.render.sapien_utils import vulkan_device_label
 from biovln_ms.scene.generator import generate_scene
 
 
@@ -23,6 +29,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--n", type=int, default=10)
     ap.add_argument("--template", default="single_room")
+    ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "scene_build.json")
     args = ap.parse_args()
     specs = [generate_scene(args.template, seed) for seed in range(args.n)]
     t0 = time.perf_counter()
@@ -63,6 +70,14 @@ def main() -> None:
     print(
         f"one 640x480 frame of the built scene: {frame * 1e3:.1f} ms -> "
         f"a build = {later[len(later) // 2] / frame:.1f} frames"
+    )
+    med = later[len(later) // 2]
+    write_table(
+        args.data_out,
+        f"Building {args.template} specs into ManiSkill, including the first frame",
+        ["first build (env creation, shader JIT)", "later builds: median / max", "× one frame", "budget"],
+        [[f"{first:.1f} s", f"{med * 1e3:.0f} / {later[-1] * 1e3:.0f} ms", f"{med / frame:.1f}×", "2 s"]],
+        render_device=vulkan_device_label(),
     )
 
 

@@ -4,15 +4,20 @@
 
 Reference in the same run: the cost of only validating an already-generated spec (the layout
 rules are most of the work), printed as a ratio.
+
+The table goes to ``docs/data/benchmarks/scene_generation.json`` (``--data-out``), which the docs' benchmarks
+page renders.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 from tqdm import tqdm
 
+from biovln_ms.measured import docs_data_dir, write_table
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.rules import check_layout
 
@@ -21,6 +26,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--template", default="single_room")
     ap.add_argument("--n", type=int, default=1000)
+    ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "scene_generation.json")
     args = ap.parse_args()
     t0 = time.perf_counter()
     specs = [
@@ -36,6 +42,30 @@ def main() -> None:
     print(
         f"rule check of one finished spec: {check * 1e3:.2f} ms -> "
         f"generation = {per / check:.2f}x one rule check"
+    )
+    write_table(
+        args.data_out,
+        "Procedural scene generation",
+        [
+            "template",
+            "specs",
+            "time",
+            "per spec",
+            "rule check of one spec",
+            "generation / rule check",
+            "budget",
+        ],
+        [
+            [
+                args.template,
+                args.n,
+                f"{gen:.1f} s",
+                f"{per * 1e3:.2f} ms",
+                f"{check * 1e3:.2f} ms",
+                f"{per / check:.1f}×",
+                "20 s per 1,000",
+            ]
+        ],
     )
 
 

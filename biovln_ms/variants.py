@@ -1,7 +1,7 @@
 """Every navigation env this package registers, declared once: id -> task configuration.
 
 ``biovln_ms.registration`` registers them lazily with gymnasium and ``biovln_ms.tasks.variants`` with
-ManiSkill, both from this table. A new variant is one entry (or a new measure, see README).
+ManiSkill, both from this table. A new variant is one entry (or a new measure, see the envs guide).
 """
 
 from __future__ import annotations

@@ -545,6 +545,6 @@ def _check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> Non
     if n > 1 and not (gpu_backend and torch.cuda.is_available()):
         raise EnvConfigError(
             "num_envs > 1 needs sim_backend='physx_cuda' and a CUDA GPU; on the CPU run one env per "
-            "process (gymnasium AsyncVectorEnv or SB3 SubprocVecEnv, see README)",
+            "process (gymnasium AsyncVectorEnv or SB3 SubprocVecEnv, see the envs guide)",
             field="num_envs",
         )

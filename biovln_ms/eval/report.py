@@ -1,12 +1,16 @@
 """`biovln-ms report`: Markdown tables in the paper's layouts with its numbers beside ours, PNG plots,
-top-down trajectory renders, episode MP4s and hard-episode figures.
+top-down trajectory renders, episode MP4s and hard-episode figures, and ``measured.json``: the data the
+tables are made from (``summarize``), which the documentation's reproduction page renders with the same
+table functions (copied to ``docs/data/reproduction.json``).
 
 Which methods appear, in what order, under which label and beside which of the paper's rows comes from the
 method registry (``biovln_ms.eval.methods.METHODS``)."""
 
 from __future__ import annotations
 
+import json
 import math
+from datetime import date
 from itertools import combinations
 from pathlib import Path
 from typing import Callable
@@ -23,6 +27,8 @@ from biovln_ms.eval.methods import METHODS, method_of_paper_key, report_methods
 from biovln_ms.eval.metrics import aggregate, aggregate_all, record_error, succeeded
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.eval.stats import mcnemar
+from biovln_ms.io_utils import atomic_write_text
+from biovln_ms.measured import machine
 
 SPLITS = ["ms_dev", "ms_val", "ms_test", "two_room", "lsat_target"]
 CENTROID_ENV = "BioVLN-Centroid-v0"  # the Table 9 ablation's env
@@ -78,7 +84,80 @@ def _cell(ours, theirs, nd):
     return f"{_fmt(ours, nd)} ({_fmt(theirs, nd)})" if theirs is not None else _fmt(ours, nd)
 
 
-def table5(runs) -> list[str]:
+# What ``summarize`` keeps of each aggregate (biovln_ms.eval.metrics): overall, and per category / tier.
+OVERALL_KEYS = (
+    "episodes",
+    "errors",
+    "sr",
+    "spl",
+    "soft_spl",
+    "dtg",
+    "steps_success",
+    "mcr",
+    "vrt",
+    "collisions",
+)
+BREAKDOWN_KEYS = ("episodes", "errors", "sr", "spl")
+
+
+def _plain(agg: dict, keys: tuple[str, ...]) -> dict:
+    """The ``keys`` of an aggregate, a non-finite mean (no episode to average) as None (valid JSON)."""
+    return {k: (None if isinstance(agg[k], float) and not math.isfinite(agg[k]) else agg[k]) for k in keys}
+
+
+def summarize(runs) -> dict:
+    """What the report's tables show, as plain data: per run and split the overall metrics, by category
+    and by difficulty tier, and the pairwise McNemar tests (every pair of methods on a split, and each
+    ``method@centroid`` run against its method). ``write_report`` saves it as ``measured.json``; the
+    tables below are made from it alone, so the documentation renders the same tables from a copy
+    (``docs/data/reproduction.json``)."""
+    out: dict = {"runs": {}, "mcnemar": []}
+    for (run, split), recs in sorted(runs.items()):
+        a = aggregate_all(recs)
+        out["runs"].setdefault(run, {})[split] = {
+            "overall": _plain(a["overall"], OVERALL_KEYS),
+            "per_category": {c: _plain(v, BREAKDOWN_KEYS) for c, v in a["per_category"].items()},
+            "per_difficulty": {d: _plain(v, BREAKDOWN_KEYS) for d, v in a["per_difficulty"].items()},
+        }
+    methods = [m for m in report_methods() if any((m, s) in runs for s in SPLITS)]
+    pairs = [(a, b) for a, b in combinations(methods, 2)]
+    pairs += [(_run_name(m, CENTROID_ENV), m) for m in methods]
+    for s in SPLITS:
+        for a, b in pairs:
+            if (a, s) in runs and (b, s) in runs:
+                x, y = _paired(runs[(a, s)], runs[(b, s)])
+                r = mcnemar(x, y)
+                out["mcnemar"].append(
+                    {
+                        "a": a,
+                        "b": b,
+                        "split": s,
+                        "n": len(x),
+                        "sr_a": 100 * float(np.mean(x)) if x else None,
+                        "sr_b": 100 * float(np.mean(y)) if y else None,
+                        "n01": r.n01,
+                        "n10": r.n10,
+                        "p": r.p_value,
+                        "exact": r.exact,
+                    }
+                )
+    return out
+
+
+def _get(summ: dict, run: str, split: str, part: str = "overall") -> dict:
+    """One run's ``part`` (overall, per_category, per_difficulty) on a split; {} when it did not run."""
+    return summ["runs"].get(run, {}).get(split, {}).get(part, {})
+
+
+def _ran(summ: dict, run: str, split: str) -> bool:
+    return split in summ["runs"].get(run, {})
+
+
+def _test(summ: dict, a: str, b: str, split: str) -> dict | None:
+    return next((t for t in summ["mcnemar"] if (t["a"], t["b"], t["split"]) == (a, b, split)), None)
+
+
+def table5(summ) -> list[str]:
     metrics = {
         "ms_dev": ("sr", "spl", "mcr", "vrt"),
         "ms_val": ("sr", "spl"),
@@ -91,11 +170,11 @@ def table5(runs) -> list[str]:
     rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for m in report_methods():
         ref = _paper_row(paper.TABLE5, m)
-        if not any((m, s) in runs for s in SPLITS) and not ref:
+        if not any(_ran(summ, m, s) for s in SPLITS) and not ref:
             continue
         cells = [_label(m)]
         for s in SPLITS:
-            agg = aggregate(runs[(m, s)]) if (m, s) in runs else {}
+            agg = _get(summ, m, s)
             for k in metrics[s]:
                 cells.append(_cell(agg.get(k), ref.get(s, {}).get(k), nd[k]))
         rows.append("| " + " | ".join(cells) + " |")
@@ -108,18 +187,18 @@ def table5(runs) -> list[str]:
     ]
 
 
-def table10(runs) -> list[str]:
+def table10(summ) -> list[str]:
     rows = [
         "| Method | DEV SR | DEV DTG | DEV Steps | VAL SR | VAL DTG | VAL Steps | "
         "TEST SR | TEST DTG | TEST Steps |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for m in report_methods():
-        if not any((m, s) in runs for s in ("ms_dev", "ms_val", "ms_test")):
+        if not any(_ran(summ, m, s) for s in ("ms_dev", "ms_val", "ms_test")):
             continue
         cells = [_label(m)]
         for s in ("ms_dev", "ms_val", "ms_test"):
-            a = aggregate(runs[(m, s)]) if (m, s) in runs else {}
+            a = _get(summ, m, s)
             p = _paper_row(paper.TABLE10, m).get(s, (None, None, None))
             cells += [
                 _cell(a.get("sr"), p[0], 1),
@@ -130,13 +209,13 @@ def table10(runs) -> list[str]:
     return ["## Detailed metrics (Table 10 layout): ours (paper)", "", *rows]
 
 
-def table6(runs) -> list[str]:
+def table6(summ) -> list[str]:
     """SR by category of each method the paper's Table 6 reports (Frontier)."""
     cols = ["ms_dev", "lsat_target", "two_room"]
     out: list[str] = []
     for m in _with_paper_rows(paper.TABLE6):
         ref = _paper_row(paper.TABLE6, m)
-        per = {s: aggregate_all(runs[(m, s)])["per_category"] for s in cols if (m, s) in runs}
+        per = {s: _get(summ, m, s, "per_category") for s in cols if _ran(summ, m, s)}
         cats = sorted(set(ref) | {c for v in per.values() for c in v})
         rows = ["| Category | " + " | ".join(paper.SPLIT_LABELS[s] for s in cols) + " |", "|---|---|---|---|"]
         for c in cats:
@@ -154,16 +233,16 @@ def table6(runs) -> list[str]:
     return out
 
 
-def table17(runs) -> list[str]:
+def table17(summ) -> list[str]:
     """Appendix Table 17: its first method vs its second (BC vs Frontier) on MS VAL by category."""
     pair = [method_of_paper_key(k) for k in paper.TABLE17]
-    if not all((m, "ms_val") in runs for m in pair):
+    if not all(_ran(summ, m, "ms_val") for m in pair):
         return []
     a, b = pair
-    agg = {m: aggregate_all(runs[(m, "ms_val")]) for m in pair}
     rows = [f"| Category | Eps. | {_label(a)} | {_label(b)} | Δ |", "|---|---|---|---|---|"]
-    for c in sorted(agg[b]["per_category"]) + ["overall"]:
-        got = {m: (agg[m]["overall"] if c == "overall" else agg[m]["per_category"].get(c, {})) for m in pair}
+    for c in sorted(_get(summ, b, "ms_val", "per_category")) + ["overall"]:
+        per = {m: _get(summ, m, "ms_val", "per_category") for m in pair}
+        got = {m: _get(summ, m, "ms_val") if c == "overall" else per[m].get(c, {}) for m in pair}
         pa, pb = (_paper_row(paper.TABLE17, m).get(c) for m in pair)
         sa, sb = got[a].get("sr"), got[b].get("sr")
         delta = None if sa is None or sb is None else sa - sb
@@ -183,7 +262,7 @@ def _paired(a: list[dict], b: list[dict]):
     return [ka[k] for k in keys], [kb[k] for k in keys]
 
 
-def table9(runs) -> list[str]:
+def table9(summ) -> list[str]:
     """Centroid vs operational-face goals of each method the paper's Table 9 reports (Frontier)."""
     out: list[str] = []
     for m in _with_paper_rows(paper.TABLE9):
@@ -196,15 +275,15 @@ def table9(runs) -> list[str]:
             "|---|---|---|---|---|---|---|---|",
         ]
         for s in ("ms_dev", "ms_val", "ms_test"):
-            if (centroid, s) not in runs or (m, s) not in runs:
+            t = _test(summ, centroid, m, s)
+            if t is None:
                 continue
-            c, o = _paired(runs[(centroid, s)], runs[(m, s)])
-            r = mcnemar(c, o)
-            sc, so = 100 * np.mean(c), 100 * np.mean(o)
-            p = ref[s]
+            sc, so, p = t["sr_a"], t["sr_b"], ref[s]
+            delta = None if sc is None or so is None else sc - so
             rows.append(
-                f"| {paper.SPLIT_LABELS[s]} ({len(c)}) | {sc:.1f} | {so:.1f} | {sc - so:+.1f} | "
-                f"{r.p_value:.3f} | {r.n10} | {r.n01} | {p[0]} / {p[1]} / {p[2]:+} / {p[3]} |"
+                f"| {paper.SPLIT_LABELS[s]} ({_fmt(t['n'], 0)}) | {_fmt(sc)} | {_fmt(so)} | "
+                f"{'–' if delta is None else f'{delta:+.1f}'} | {_fmt(t['p'], 3)} | {_fmt(t['n10'], 0)} | "
+                f"{_fmt(t['n01'], 0)} | {p[0]} / {p[1]} / {p[2]:+} / {p[3]} |"
             )
         if len(rows) == 2:
             rows.append(
@@ -216,7 +295,7 @@ def table9(runs) -> list[str]:
     return out
 
 
-def table11(runs) -> list[str]:
+def table11(summ) -> list[str]:
     methods = _with_paper_rows(paper.TABLE11)
     splits = ("ms_dev", "ms_val", "ms_test")
     head = [f"{_label(m)} {paper.SPLIT_LABELS[s]}" for m in methods for s in splits]
@@ -225,30 +304,27 @@ def table11(runs) -> list[str]:
         cells = [tier]
         for m in methods:
             for s in splits:
-                d = aggregate_all(runs[(m, s)])["per_difficulty"].get(tier, {}) if (m, s) in runs else {}
+                d = _get(summ, m, s, "per_difficulty").get(tier, {})
                 label = f"{_fmt(d.get('sr'))} [n={d.get('episodes', 0)}]" if d else "–"
                 cells.append(f"{label} ({_paper_row(paper.TABLE11, m)[s][tier]})")
         rows.append("| " + " | ".join(cells) + " |")
     return ["## SR by difficulty tier (Table 11 layout): ours [episodes] (paper)", "", *rows]
 
 
-def mcnemar_table(runs) -> list[str]:
+def mcnemar_table(summ) -> list[str]:
     rows = [
         "| Method A | Method B | Split | n | n01 | n10 | test | p | paper (n01, n10, p) |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
-    methods = [m for m in report_methods() if any((m, s) in runs for s in SPLITS)]
-    for s in SPLITS:
-        for a, b in combinations(methods, 2):
-            if (a, s) not in runs or (b, s) not in runs:
-                continue
-            x, y = _paired(runs[(a, s)], runs[(b, s)])
-            r = mcnemar(x, y)
-            p = paper.TABLE16.get((METHODS[a].paper_key, METHODS[b].paper_key, s))
-            rows.append(
-                f"| {_label(a)} | {_label(b)} | {paper.SPLIT_LABELS[s]} | {len(x)} | {r.n01} | "
-                f"{r.n10} | {'exact' if r.exact else 'χ² (cc)'} | {r.p_value:.3f} | {p if p else '–'} |"
-            )
+    for t in summ["mcnemar"]:
+        a, b, s = t["a"], t["b"], t["split"]
+        if a not in METHODS or b not in METHODS:  # the centroid runs are Table 9's
+            continue
+        p = paper.TABLE16.get((METHODS[a].paper_key, METHODS[b].paper_key, s))
+        rows.append(
+            f"| {_label(a)} | {_label(b)} | {paper.SPLIT_LABELS[s]} | {t['n']} | {t['n01']} | "
+            f"{t['n10']} | {'exact' if t['exact'] else 'χ² (cc)'} | {t['p']:.3f} | {p if p else '–'} |"
+        )
     return [
         "## Pairwise McNemar tests (two-sided; exact binomial when n01 + n10 < 10)",
         "",
@@ -258,14 +334,24 @@ def mcnemar_table(runs) -> list[str]:
     ]
 
 
-def differences(runs) -> list[str]:
+def _easy_share(summ, split: str) -> str:
+    """The share of easy episodes in ``split``, from the first method evaluated on all of it."""
+    for splits in summ["runs"].values():
+        tiers = splits.get(split, {}).get("per_difficulty", {})
+        total = sum(t.get("episodes", 0) for t in tiers.values())
+        if total:
+            return f"{100 * tiers.get('easy', {}).get('episodes', 0) / total:.0f} %"
+    return "(no run)"
+
+
+def differences(summ) -> list[str]:
     out = ["## Where ours differ from the paper, and why", ""]
     flagged = []
-    for (m, s), recs in sorted(runs.items()):
-        ref = _paper_row(paper.TABLE5, m).get(s, {}).get("sr")
-        if ref is not None:
-            ours = aggregate(recs)["sr"]
-            if abs(ours - ref) >= 10:
+    for m, splits in sorted(summ["runs"].items()):
+        for s, parts in sorted(splits.items()):
+            ref = _paper_row(paper.TABLE5, m).get(s, {}).get("sr")
+            ours = parts["overall"].get("sr")
+            if ref is not None and ours is not None and abs(ours - ref) >= 10:
                 flagged.append(
                     f"- {_label(m)} on {paper.SPLIT_LABELS[s]}: SR {ours:.1f} % vs {ref} % in the paper."
                 )
@@ -279,8 +365,9 @@ def differences(runs) -> list[str]:
             "paper's Habitat oracle lost 20-30 % to it."
         ),
         (
-            "- Our episodes are shorter (MS DEV 75 % easy vs 11.9 %): the start rule (>= 1.0 m from every "
-            "body and wall) leaves only the middle of an 8 x 6 m room, close to every goal; see README."
+            f"- Our episodes are shorter (MS DEV {_easy_share(summ, 'ms_dev')} easy vs 11.9 %): the start "
+            "rule (>= 1.0 m from every body and wall, >= r + 1.0 m from the goal along the floor) leaves "
+            "only the middle of an 8 x 6 m room, close to every goal; see the datasets guide."
         ),
         (
             "- Success radii and approach distances are our documented choices within the paper's ranges "
@@ -302,11 +389,11 @@ def differences(runs) -> list[str]:
             "does not say whether its MCR subtracts the agent radius."
         ),
     ]
-    methods = {m for m, _ in runs}
+    methods = set(summ["runs"])
     out += [
         f"- {METHODS[m].report_note}" for m in report_methods() if m in methods and METHODS[m].report_note
     ]
-    if any(s == "lsat_target" for _, s in runs):
+    if any("lsat_target" in splits for splits in summ["runs"].values()):
         out.append(
             "- LSAT: our designer scene is an 8 x 6 m room with a bench island and 1 m aisles; the "
             "paper's LSAT layout was denser (VRT 55-70 %), so our VRT there is far lower."
@@ -474,16 +561,24 @@ def runs_header(runs, results) -> list[str]:
 
 def tables(runs) -> list[list[str]]:
     """The report's Markdown sections, in order (one list of lines each)."""
-    return [
-        table5(runs),
-        table10(runs),
-        table6(runs),
-        table9(runs),
-        table11(runs),
-        table17(runs),
-        mcnemar_table(runs),
-        differences(runs),
-    ]
+    return tables_of(summarize(runs))
+
+
+TABLES = {
+    "table5": table5,
+    "table10": table10,
+    "table6": table6,
+    "table9": table9,
+    "table11": table11,
+    "table17": table17,
+    "mcnemar": mcnemar_table,
+    "differences": differences,
+}
+
+
+def tables_of(summ: dict) -> list[list[str]]:
+    """The report's Markdown sections made from ``summarize``'s data, in order."""
+    return [make(summ) for make in TABLES.values()]
 
 
 def write_report(
@@ -508,7 +603,16 @@ def write_report(
             "errored episodes (counted as failures): "
             + ", ".join(f"{m} on {s}: {n}" for (m, s), n in errored.items() if n)
         )
-    for block in tables(runs):
+    summ = summarize(runs)
+    meta = {
+        "command": f"biovln-ms report {results}",
+        "machine": machine(),
+        "written": date.today().isoformat(),
+    }
+    atomic_write_text(
+        out / "measured.json", json.dumps({**meta, **summ}, indent=1, ensure_ascii=False) + "\n"
+    )
+    for block in tables_of(summ):
         lines += block + [""]
     figs = [
         plot_sr(runs, out / "figures" / "sr_by_method.png"),

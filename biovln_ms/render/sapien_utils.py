@@ -72,6 +72,18 @@ def device_kind(device) -> str:
     return "CPU" if device.is_cpu() or any(s in name for s in SOFTWARE_RENDERERS) else "GPU"
 
 
+def vulkan_device_label() -> str:
+    """The first Vulkan device SAPIEN lists, with its kind, e.g. 'llvmpipe (LLVM 15.0.6, 256 bits) (CPU)'
+    (for benchmark tables; unlike ``new_scene`` it leaves SAPIEN's global render settings alone)."""
+    import sapien
+
+    for line in sapien.render.get_device_summary().splitlines():
+        if ":" in line and not line.startswith(" "):
+            name = line.split(":", 1)[1].strip()
+            return f"{name} ({'CPU' if any(s in name.lower() for s in SOFTWARE_RENDERERS) else 'GPU'})"
+    return "none"
+
+
 def raw_camera_rate(env, frames: int) -> float:
     """Frames/s of the env's head camera rendered by SAPIEN alone (update_render + take_picture + colour
     and position/segmentation read-back): the reference the benchmarks divide by."""

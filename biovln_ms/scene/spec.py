@@ -22,8 +22,8 @@ from biovln_ms.io_utils import atomic_write_text
 
 SCHEMA_VERSION = 1
 
-# Limits (README "Lab scenes"), checked before any geometry work. The templates use at most 7 rooms,
-# 28 walls, 6 openings and 13 objects; a spec file is ~15 kB.
+# Limits (docs/guides/scenes-and-templates.md), checked before any geometry work. The templates use at
+# most 7 rooms, 28 walls, 6 openings and 13 objects; a spec file is ~15 kB.
 MAX_FILE_BYTES = 16 * 2**20
 MAX_JSON_DEPTH = 64
 MAX_ROOMS = 64
@@ -227,13 +227,13 @@ def _round(obj, nd: int = 6):
 
 
 _COUNT_LIMITS = {"rooms": MAX_ROOMS, "walls": MAX_WALLS, "openings": MAX_OPENINGS}
-_BOUNDS_FIX = "lengths are positive and coordinates within 10 km (README: Lab scenes, Limits)"
+_BOUNDS_FIX = "lengths are positive and coordinates within 10 km (docs: scenes and templates, The spec)"
 _LIMIT_FIXES = {  # pydantic error type -> fix, for the errors the limits raise
     "finite_number": "use a finite number (NaN and Infinity are refused)",
     "greater_than": _BOUNDS_FIX,
     "greater_than_equal": _BOUNDS_FIX,
     "less_than_equal": _BOUNDS_FIX,
-    "too_long": "see the limits in README (Lab scenes, Limits)",
+    "too_long": "see the limits in the docs (scenes and templates, The spec)",
 }
 
 

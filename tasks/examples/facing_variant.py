@@ -1,4 +1,4 @@
-"""Example of a user task variant (README, "Adding a task variant"): success also needs the robot to
+"""Example of a user task variant (the envs guide, "Adding a variant"): success also needs the robot to
 face the instrument when it calls STOP. One measure plus a configuration; import this module, then
 ``gym.make("MyLab-OpFaceFacing-v0")``."""
 

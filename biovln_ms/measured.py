@@ -1,0 +1,128 @@
+"""Measured tables: the JSON files that the benchmark scripts (``benchmarks/*.py``) and the fuzz campaign
+write into ``docs/data/``, and that the documentation renders when it is built (``docs/hooks.py``), so
+no measured figure in the docs is typed by hand. ``biovln-ms report`` writes the evaluation's data
+(``measured.json``, see ``biovln_ms.eval.report.summarize``) in its own schema.
+
+A table file::
+
+    {
+      "title": "Env speed",
+      "command": "python benchmarks/env_speed.py --steps 300 --resets 1000",   # what wrote it
+      "machine": "2 CPU cores (x86_64); Vulkan: llvmpipe (cpu)",
+      "written": "2026-11-23",
+      "provenance": "...",          # optional: where the numbers come from when no script wrote them
+      "columns": ["mode", "env steps/s", ...],
+      "rows": [["640x480 RGB-D", "43", ...], ...],
+      "notes": ["..."]              # optional lines under the table
+    }
+
+Cells are strings or numbers, as the script formatted them; ``null`` is shown as "–".
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+import platform
+import shlex
+import sys
+from pathlib import Path
+
+from biovln_ms.io_utils import atomic_write_text
+
+REQUIRED = ("title", "command", "machine", "columns", "rows")
+
+
+def docs_data_dir() -> Path:
+    """``docs/data`` of the source checkout this package runs from (benchmarks run from a checkout)."""
+    return Path(__file__).resolve().parents[1] / "docs" / "data"
+
+
+def machine(render_device: str | None = None) -> str:
+    """A one-line description of this machine for a table's ``machine`` field."""
+    text = f"{os.cpu_count()} CPU cores ({platform.machine()}), Python {platform.python_version()}"
+    return f"{text}; Vulkan: {render_device}" if render_device else text
+
+
+def write_table(
+    path: str | Path,
+    title: str,
+    columns: list[str],
+    rows: list[list],
+    notes: list[str] = (),
+    render_device: str | None = None,
+) -> Path:
+    """Write a measured table; ``command`` is this process's command line, ``written`` today's date."""
+    script = Path(sys.argv[0]).resolve()
+    root = docs_data_dir().parents[1]
+    name = script.relative_to(root).as_posix() if script.is_relative_to(root) else script.name
+    data = {
+        "title": title,
+        "command": "python " + shlex.join([name, *sys.argv[1:]]),
+        "machine": machine(render_device),
+        "written": datetime.date.today().isoformat(),
+        "columns": list(columns),
+        "rows": [list(r) for r in rows],
+        "notes": list(notes),
+    }
+    check_table(data, str(path))
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(path, dumps(data))
+    print(f"wrote {path}")
+    return Path(path)
+
+
+def dumps(data: dict) -> str:
+    """JSON with one line per field and per row, so that a re-measured table diffs row by row."""
+
+    def one(v) -> str:
+        return json.dumps(v, ensure_ascii=False)
+
+    fields = [
+        f" {one(k)}: [\n  " + ",\n  ".join(one(r) for r in v) + "\n ]"
+        if k == "rows" and v
+        else f" {one(k)}: {one(v)}"
+        for k, v in data.items()
+    ]
+    return "{\n" + ",\n".join(fields) + "\n}\n"
+
+
+def check_table(data: dict, source: str) -> dict:
+    """``data`` if it is a measured table, else a ValueError naming the file and what is wrong."""
+    missing = [k for k in REQUIRED if k not in data]
+    if missing:
+        raise ValueError(f"{source}: a measured table needs {', '.join(missing)}")
+    width = len(data["columns"])
+    for i, row in enumerate(data["rows"]):
+        if len(row) != width:
+            raise ValueError(f"{source}: row {i} has {len(row)} cells, the table {width} columns")
+    return data
+
+
+def load_table(path: str | Path) -> dict:
+    return check_table(json.loads(Path(path).read_text()), str(path))
+
+
+def _cell(v) -> str:
+    if v is None:
+        return "–"
+    if isinstance(v, int) and not isinstance(v, bool):
+        return f"{v:,}"
+    return str(v).replace("|", "\\|")
+
+
+def table_markdown(data: dict) -> str:
+    """The table as Markdown, then its notes and one line saying what measured it, where and when."""
+    lines = [
+        "| " + " | ".join(data["columns"]) + " |",
+        "|" + "---|" * len(data["columns"]),
+        *("| " + " | ".join(_cell(c) for c in row) + " |" for row in data["rows"]),
+        "",
+    ]
+    lines += [f"{n}" for n in data.get("notes", [])] + ([""] if data.get("notes") else [])
+    source = f"`{data['command']}` on {data['machine']}" + (
+        f", {data['written']}" if data.get("written") else ""
+    )
+    lines.append(f"*Measured by {source}.*" + (f" {data['provenance']}" if data.get("provenance") else ""))
+    return "\n".join(lines)

@@ -1,0 +1,62 @@
+"""Regenerate the pictures of the README and the docs from the code (nothing here is drawn by hand).
+
+    python docs/images/generate.py [--only map view]
+
+- ``lab_s150_v0_view.png``: the held-out scene ``lab_s150_v0`` rendered by SAPIEN from above at an
+  angle (``biovln_ms.render.scene_view.render_overview``; needs a Vulkan driver, lavapipe is fine);
+- ``lab_s150_v0_episode.png``: its top-down map with Zones 1/2/3, faces, goals, the navigable islands
+  and one episode's start, goal, view points and exact shortest path (``biovln_ms.scene.topdown``).
+
+Both are what ``biovln-ms demo`` writes for the same scene, at a size fit for a web page.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from PIL import Image, ImageChops
+
+from biovln_ms.benchmark import FOUR_CATEGORIES
+from biovln_ms.episodes.generator import EpisodeSampler
+from biovln_ms.scene.generator import generate_scene
+from biovln_ms.scene.rules import scene_navigation
+from biovln_ms.scene.topdown import save_map
+
+HERE = Path(__file__).resolve().parent
+WIDTH = 900  # px: the pictures are shown at page width
+
+
+def _shrink(path: Path) -> Path:
+    """Crop the empty margin (the colour of the top-left pixel), fit the page width, 256 colours."""
+    img = Image.open(path).convert("RGB")
+    margin = ImageChops.difference(img, Image.new("RGB", img.size, img.getpixel((0, 0))))
+    x0, y0, x1, y1 = margin.convert("L").point(lambda v: 255 if v > 8 else 0).getbbox()
+    img = img.crop((max(x0 - 8, 0), max(y0 - 8, 0), min(x1 + 8, img.width), min(y1 + 8, img.height)))
+    if img.width > WIDTH:
+        img = img.resize((WIDTH, round(img.height * WIDTH / img.width)), Image.LANCZOS)
+    img.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(path, optimize=True)
+    return path
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--only", nargs="*", choices=("view", "map"), default=("view", "map"))
+    ap.add_argument("--out", type=Path, default=HERE)
+    args = ap.parse_args()
+    spec = generate_scene("single_room", 150, required_categories=FOUR_CATEGORIES)
+    if "map" in args.only:
+        nav = scene_navigation(spec)
+        episode = EpisodeSampler(spec, nav).episodes(1, seed=0)[0]
+        print(
+            _shrink(save_map(spec, args.out / f"{spec.name}_episode.png", episode=episode, nav=nav, dpi=100))
+        )
+    if "view" in args.only:
+        from biovln_ms.render.scene_view import render_overview
+
+        view = render_overview(spec, args.out / f"{spec.name}_view.png", size=(1200, 800))
+        print(_shrink(view))
+
+
+if __name__ == "__main__":
+    main()
