@@ -244,23 +244,31 @@ class BioVLNNavEnv(BaseEnv):
         self._measures.reset(self._ctx, StepState.at_rest(pose), idx)
 
     def _episode_context(self, i: int) -> EpisodeContext:
+        """Sub-env ``i``'s episode for the measures: every goal of the episode counts (one, or each instance
+        of the category where any instance counts), with the geodesic to the nearest."""
         ep, spec, nav = self._episodes[i], self.scene_specs[i], self.navs[i]
-        target = spec.get(ep["object_id"]).placed()
-        if self.cfg.goal_mode == "centroid":
-            goal = target.centroid_goal()
-            geodesic = nav.distance_to(nav.snap(goal))
-        else:
-            goal = np.asarray(ep["goals"][0]["position"][:2], float)
-            geodesic = nav.distance_to(goal)
+        goals, distance_fns = [], []
+        for g in ep["goals"]:
+            target = spec.get(g["object_id"]).placed()
+            if self.cfg.goal_mode == "centroid":
+                goal = target.centroid_goal()
+                distance_fns.append(nav.distance_to(nav.snap(goal)))
+            else:
+                goal = np.asarray(g["position"][:2], float)
+                distance_fns.append(nav.distance_to(goal))
+            goals.append((goal, float(g["radius"]), target))
+        geodesic = distance_fns[0] if len(distance_fns) == 1 else (lambda p: min(f(p) for f in distance_fns))
         start = np.asarray(ep["start_position"][:2], float)
+        (goal, radius, target), *others = goals
         return EpisodeContext(
             goal=goal,
-            success_radius=float(ep["goals"][0]["radius"]),
+            success_radius=radius,
             target=target,
             instruments=[o.placed() for o in spec.instruments],
             geodesic=geodesic,
             start_geodesic=float(geodesic(start)),
             hfov=self.cfg.hfov,
+            other_goals=tuple(others),
         )
 
     def _pose(self) -> np.ndarray:

@@ -23,7 +23,7 @@ from biovln_ms.variants import VARIANTS
 # A 1 x 1 m instrument at the origin facing -Y; its Zone 3 (delta 0.6) is y in [-1.1, -0.5].
 BOX = PlacedInstrument((0.0, 0.0, 0.5), 0.0, (1.0, 1.0, 1.0), (0.0, -1.0), 0.5, 0.6, "box_0", "cabinet")
 GOAL = (0.0, -1.1)
-NAMES = NavTaskConfig().measures + ("nav_reward", "failed_stop", "strict_failed_stop")
+NAMES = NavTaskConfig().measures + ("nav_reward", "failed_stop", "strict_failed_stop", "facing_face")
 
 
 def ctx(goal=GOAL, radius=0.8, start_geodesic=4.0):
@@ -143,6 +143,26 @@ def test_strict_success_needs_zone3_and_the_face(end, yaw, radius_ok, strict_ok)
     m, _ = run([(0.0, -3.0), end], yaws=[math.pi / 2, math.radians(yaw)])
     assert v(m, "success") == radius_ok and v(m, "strict_success") == strict_ok
     assert v(m, "strict_failed_stop") == (not strict_ok)
+
+
+def test_any_instance_counts_when_an_episode_has_several_goals():
+    # a second box of the same category 4 m to the right, facing -Y: its goal is (4.0, -1.1)
+    other = PlacedInstrument((4.0, 0.0, 0.5), 0.0, (1.0, 1.0, 1.0), (0.0, -1.0), 0.5, 0.6, "box_1", "cabinet")
+    goals = [np.array(GOAL), np.array((4.0, -1.1))]
+    c = ctx(start_geodesic=3.0)
+    c.other_goals = ((goals[1], 0.8, other),)
+    c.geodesic = lambda p: min(float(np.linalg.norm(np.asarray(p) - g)) for g in goals)
+    m, b = MeasureSet(NAMES, 1), BatchContext(1)
+    b.set(0, c)
+    m.reset(b, state([(4.0, -4.1)], [math.pi / 2]))
+    assert v(m, "distance_to_goal") == pytest.approx(3.0)  # the nearest instance
+    assert v(m, "geodesic_distance_to_goal") == pytest.approx(3.0)
+    m.update(b, state([(4.0, -1.1)], [math.pi / 2], stopped=[True], commanded=[0.25], moved=[0.25]))
+    assert v(m, "success") and v(m, "strict_success") and v(m, "in_zone3") and v(m, "facing_face")
+    assert v(m, "distance_to_goal") == pytest.approx(0.0)
+    assert b.k == 2 and b.goal_ok[0].tolist() == [True, True]
+    b.set(0, ctx())  # a one-goal episode after it: the second slot is masked
+    assert b.goal_ok[0].tolist() == [True, False]
 
 
 def test_unknown_measure_and_cycles_are_refused():

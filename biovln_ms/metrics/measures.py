@@ -42,11 +42,16 @@ from biovln_ms.geometry.zones import SAFETY_THRESHOLD, InstrumentArray, PlacedIn
 from biovln_ms.task_config import NavTaskConfig
 
 F64 = np.float64
+#: strict operational success: the heading within this angle of the face's inward normal
+STRICT_FACING_DEG = 30.0
 
 
 @dataclass
 class EpisodeContext:
-    """What the measures know about one sub-env's episode (fixed at reset)."""
+    """What the measures know about one sub-env's episode (fixed at reset). ``goal``, ``success_radius``
+    and ``target`` are the episode's first goal; ``other_goals`` the further instances of its category
+    when any instance counts (ObjectNav's rule), each (goal, radius, instrument). ``geodesic`` is the
+    distance to the nearest goal."""
 
     goal: np.ndarray
     success_radius: float
@@ -55,40 +60,66 @@ class EpisodeContext:
     geodesic: Callable[[np.ndarray], float]
     start_geodesic: float
     hfov: float
+    other_goals: tuple[tuple[np.ndarray, float, PlacedInstrument], ...] = ()
     array: InstrumentArray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.array = InstrumentArray(self.instruments)
 
+    @property
+    def goals(self) -> list[tuple[np.ndarray, float, PlacedInstrument]]:
+        return [(self.goal, self.success_radius, self.target), *self.other_goals]
+
 
 class BatchContext:
-    """The episodes of ``n`` sub-envs, with the per-env numbers the batched measures need as tensors."""
+    """The episodes of ``n`` sub-envs, with the per-env numbers the batched measures need as arrays. Goal
+    arrays have a second axis over an episode's goals (``k``, grown to the most any episode has; unused
+    slots are masked by ``goal_ok``)."""
 
     def __init__(self, n: int) -> None:
-        self.n = n
+        self.n, self.k = n, 0
         self.episodes: list[EpisodeContext | None] = [None] * n
-        self.goal, self.target_centre = np.zeros((n, 2)), np.zeros((n, 2))
-        self.radius, self.start_geodesic, self.hfov = np.zeros(n), np.zeros(n), np.zeros(n)
-        self.zone3 = np.zeros((n, 8))  # centre (2), unit axes u, v (2 + 2), half extents (2)
-        self.face = np.zeros((n, 2))  # the target's operational face normal f (zero: none)
-        self.has_zone3 = np.zeros(n, dtype=bool)
+        self.goal = np.zeros((n, 2))  # the first goal (the pointgoal sensors' and the logs')
+        self.start_geodesic, self.hfov = np.zeros(n), np.zeros(n)
+        self._grow(1)
+
+    def _grow(self, k: int) -> None:
+        """Room for ``k`` goals per episode."""
+        if k <= self.k:
+            return
+        n, old = self.n, self.k
+        new = {
+            "goals": np.zeros((n, k, 2)),
+            "radii": np.zeros((n, k)),
+            "goal_ok": np.zeros((n, k), dtype=bool),
+            "target_centres": np.zeros((n, k, 2)),
+            "zone3": np.zeros((n, k, 8)),  # centre (2), unit axes u, v (2 + 2), half extents (2)
+            "face": np.zeros((n, k, 2)),  # operational face normal f (zero: none)
+            "has_zone3": np.zeros((n, k), dtype=bool),
+        }
+        for name, arr in new.items():
+            if old:
+                arr[:, :old] = getattr(self, name)
+            setattr(self, name, arr)
+        self.k = k
 
     def set(self, i: int, ctx: EpisodeContext) -> None:
         """Sub-env ``i`` starts the episode ``ctx``."""
         self.episodes[i] = ctx
-        self.goal[i], self.target_centre[i] = ctx.goal, ctx.target.center_xy
-        self.radius[i], self.start_geodesic[i], self.hfov[i] = (
-            ctx.success_radius,
-            ctx.start_geodesic,
-            ctx.hfov,
-        )
-        self.has_zone3[i] = ctx.target.model_face is not None
-        self.face[i] = 0.0 if ctx.target.face is None else ctx.target.face
-        if ctx.target.model_face is not None:
-            corners = ctx.target.zone3_corners()
-            u, v = corners[1] - corners[0], corners[3] - corners[0]
-            lu, lv = np.linalg.norm(u), np.linalg.norm(v)
-            self.zone3[i] = np.concatenate([corners.mean(axis=0), u / lu, v / lv, [lu / 2, lv / 2]])
+        goals = ctx.goals
+        self._grow(len(goals))
+        self.goal[i], self.start_geodesic[i], self.hfov[i] = ctx.goal, ctx.start_geodesic, ctx.hfov
+        self.goal_ok[i] = False
+        for j, (goal, radius, target) in enumerate(goals):
+            self.goal_ok[i, j] = True
+            self.goals[i, j], self.radii[i, j], self.target_centres[i, j] = goal, radius, target.center_xy
+            self.has_zone3[i, j] = target.model_face is not None
+            self.face[i, j] = 0.0 if target.face is None else target.face
+            if target.model_face is not None:
+                corners = target.zone3_corners()
+                u, v = corners[1] - corners[0], corners[3] - corners[0]
+                lu, lv = np.linalg.norm(u), np.linalg.norm(v)
+                self.zone3[i, j] = np.concatenate([corners.mean(axis=0), u / lu, v / lv, [lu / 2, lv / 2]])
 
     def episode(self, i: int) -> EpisodeContext:
         ctx = self.episodes[i]
@@ -189,13 +220,36 @@ class SceneQueryMeasure(Measure):
         self.at[todo] = s.position[todo]
 
 
+def _goal_distances(ctx: BatchContext, s: StepState, idx: Rows) -> np.ndarray:
+    """(N, k) Euclidean distances to each goal (inf for unused slots)."""
+    d = ctx.goals[idx] - s.position[idx][:, None, :]
+    return np.where(ctx.goal_ok[idx], np.hypot(d[..., 0], d[..., 1]), np.inf)
+
+
+def _in_zone3(ctx: BatchContext, s: StepState, idx: Rows) -> np.ndarray:
+    """(N, k) whether the robot's centre is in each goal's Zone 3."""
+    z = ctx.zone3[idx]
+    d = s.position[idx][:, None, :] - z[..., 0:2]
+    du = d[..., 0] * z[..., 2] + d[..., 1] * z[..., 3]
+    dv = d[..., 0] * z[..., 4] + d[..., 1] * z[..., 5]
+    return ctx.has_zone3[idx] & (np.abs(du) <= z[..., 6] + 1e-9) & (np.abs(dv) <= z[..., 7] + 1e-9)
+
+
+def _facing_face(ctx: BatchContext, s: StepState, idx: Rows) -> np.ndarray:
+    """(N, k) whether the heading is within STRICT_FACING_DEG of each goal's inward face normal."""
+    f, yaw = ctx.face[idx], s.yaw[idx][:, None]
+    cos = -(np.cos(yaw) * f[..., 0] + np.sin(yaw) * f[..., 1])
+    return ctx.has_zone3[idx] & (cos >= math.cos(math.radians(STRICT_FACING_DEG)) - 1e-12)
+
+
 @register_measure
 class DistanceToGoal(Measure):
+    """To the nearest goal (the episode's one, or any instance of its category)."""
+
     uuid = "distance_to_goal"
 
     def compute(self, ctx, s, m, idx):
-        d = s.position[idx] - ctx.goal[idx]
-        return np.hypot(d[:, 0], d[:, 1])
+        return _goal_distances(ctx, s, idx).min(axis=1)
 
 
 @register_measure
@@ -225,14 +279,13 @@ class Zone2Violation(SceneQueryMeasure):
 
 @register_measure
 class InZone3(Measure):
+    """In a goal's Zone 3."""
+
     uuid = "in_zone3"
     dtype = bool
 
     def compute(self, ctx, s, m, idx):
-        z = ctx.zone3[idx]
-        d = s.position[idx] - z[:, 0:2]
-        du, dv = d[:, 0] * z[:, 2] + d[:, 1] * z[:, 3], d[:, 0] * z[:, 4] + d[:, 1] * z[:, 5]
-        return ctx.has_zone3[idx] & (np.abs(du) <= z[:, 6] + 1e-9) & (np.abs(dv) <= z[:, 7] + 1e-9)
+        return _in_zone3(ctx, s, idx).any(axis=1)
 
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:
@@ -246,38 +299,34 @@ class FacingInstrument(Measure):
     dtype = bool
 
     def compute(self, ctx, s, m, idx):
-        d = ctx.target_centre[idx] - s.position[idx]
-        bearing = wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - s.yaw[idx])
-        return np.abs(bearing) <= ctx.hfov[idx] / 2
-
-
-#: strict operational success: the heading within this angle of the face's inward normal
-STRICT_FACING_DEG = 30.0
+        d = ctx.target_centres[idx] - s.position[idx][:, None, :]
+        bearing = wrap_angle(np.arctan2(d[..., 1], d[..., 0]) - s.yaw[idx][:, None])
+        return (ctx.goal_ok[idx] & (np.abs(bearing) <= ctx.hfov[idx][:, None] / 2)).any(axis=1)
 
 
 @register_measure
 class FacingFace(Measure):
-    """The robot looks at the operational face: its heading within 30 degrees of ``-f``."""
+    """The robot looks at a goal's operational face: its heading within 30 degrees of ``-f``."""
 
     uuid = "facing_face"
     dtype = bool
 
     def compute(self, ctx, s, m, idx):
-        f, yaw = ctx.face[idx], s.yaw[idx]
-        cos = -(np.cos(yaw) * f[:, 0] + np.sin(yaw) * f[:, 1])
-        return ctx.has_zone3[idx] & (cos >= math.cos(math.radians(STRICT_FACING_DEG)) - 1e-12)
+        return _facing_face(ctx, s, idx).any(axis=1)
 
 
 @register_measure
 class StrictSuccess(Measure):
-    """Operational success: a successful STOP (radius rule) in Zone 3, facing the face."""
+    """Operational success: STOP within a goal's radius, in that goal's Zone 3, facing its face."""
 
     uuid = "strict_success"
     dtype = bool
-    dependencies = ("success", "in_zone3", "facing_face")
+    dependencies = ("stopped",)
 
     def compute(self, ctx, s, m, idx):
-        return m["success"][idx] & m["in_zone3"][idx] & m["facing_face"][idx]
+        within = _goal_distances(ctx, s, idx) <= ctx.radii[idx]
+        at = within & _in_zone3(ctx, s, idx) & _facing_face(ctx, s, idx)
+        return m["stopped"][idx] & at.any(axis=1)
 
 
 @register_measure
@@ -316,12 +365,14 @@ class Stopped(Measure):
 
 @register_measure
 class Success(Measure):
+    """STOP within a goal's success radius (the paper's rule)."""
+
     uuid = "success"
     dtype = bool
-    dependencies = ("distance_to_goal", "stopped")
+    dependencies = ("stopped",)
 
     def compute(self, ctx, s, m, idx):
-        return m["stopped"][idx] & (m["distance_to_goal"][idx] <= ctx.radius[idx])
+        return m["stopped"][idx] & (_goal_distances(ctx, s, idx) <= ctx.radii[idx]).any(axis=1)
 
 
 @register_measure
