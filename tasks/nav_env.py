@@ -35,6 +35,7 @@ from biovln_ms.geometry.motion import SweptMotion
 from biovln_ms.scene.rules import floor_polygon, scene_navigation
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, MeasureSet, StepState
 from biovln_ms.noise import actuation_errors, resolve_noise
+from biovln_ms.sensor_noise import DepthNoise, RGBNoise, frame_keys
 from biovln_ms.sim.footprints import collision_footprints
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
@@ -50,6 +51,8 @@ SLIDE_TOLERANCE = 0.01
 #: the noise stream of a sub-env at a step is seeded by (episode seed, NOISE_STREAM, step): stateless, so a
 #: replay from any saved state draws the same noise
 NOISE_STREAM = 0x6E6F6973
+#: the image noise banks' seed; a frame's noise is chosen by (episode seed, step) (biovln_ms.sensor_noise)
+IMAGE_NOISE_SEED = 0x696D67
 #: the follow camera of ``render()``: behind and above the robot, looking at a point ahead of it
 FOLLOW_CAMERA_EYE = (-2.2, 0.0, 2.3)
 FOLLOW_CAMERA_TARGET = (1.0, 0.0, 0.3)
@@ -382,11 +385,30 @@ class BioVLNNavEnv(BaseEnv):
     def _get_obs_with_sensor_data(self, info: dict, apply_texture_transforms: bool = True) -> dict:
         obs = super()._get_obs_with_sensor_data(info, apply_texture_transforms)
         head = obs.get("sensor_data", {}).get("head", {})
+        rgb_noise, depth_noise = self._image_noise()
+        if (rgb_noise and "rgb" in head) or (depth_noise and "depth" in head):
+            keys = frame_keys(self._episode_seed, self._elapsed_steps.cpu().numpy())
+            if rgb_noise and "rgb" in head:
+                rgb_noise(head["rgb"], keys, out=head["rgb"])
+            if depth_noise and "depth" in head:
+                depth_noise(head["depth"], keys, out=head["depth"])
         if "segmentation" in head:
             obs["extra"]["semantic_category"] = semantic_category(
                 head["segmentation"], self._segmentation_lookup
             )
         return obs
+
+    def _image_noise(self) -> tuple[RGBNoise | None, DepthNoise | None]:
+        """The noise config's RGB and depth noise models for the head camera (built once, on first use)."""
+        if not hasattr(self, "_image_noise_models"):
+            c, noise = self.cfg, self.cfg.noise
+            h, w, seed = c.camera_height, c.camera_width, IMAGE_NOISE_SEED
+            focal = w / (2 * math.tan(c.hfov / 2))  # pixels, as the camera's intrinsic matrix has it
+            self._image_noise_models = (
+                RGBNoise(h, w, sigma=noise.rgb, seed=seed, device=self.device) if noise.rgb > 0 else None,
+                DepthNoise(h, w, focal_px=focal, seed=seed, device=self.device) if noise.depth else None,
+            )
+        return self._image_noise_models
 
     def _build_segmentation_lookup(self) -> None:
         """Segmentation id -> 1 + goal-category index (0: not a goal-category object), over all sub-scenes."""

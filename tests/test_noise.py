@@ -176,3 +176,28 @@ def test_sliding_along_walls_on_and_off(sliding):
     else:
         np.testing.assert_allclose(after[:2], before[:2], atol=1e-4)  # blocked moves leave it in place
     assert int(info["collisions"][0]) >= 1
+
+
+def test_image_noise_is_deterministic_and_applied_to_rgbd():
+    frames = {}
+    for noise, run in (("ideal", 0), ("realistic", 0), ("realistic", 1)):
+        env = gym.make(
+            "BioVLN-OpFace-v0",
+            split="ms_val",
+            obs_mode="rgbd",
+            camera_width=128,
+            camera_height=128,
+            noise={"preset": noise, "actuation": 0.0},  # same poses, so the images differ by noise alone
+            **CPU,
+        )
+        env.reset(seed=5, options={"episode_index": 0})
+        head = env.step(2)[0]["sensor_data"]["head"]
+        frames[(noise, run)] = (head["rgb"].clone(), head["depth"].clone())
+        env.close()
+    (rgb0, d0), (rgb1, d1), (rgb2, d2) = frames.values()
+    assert rgb1.dtype == torch.uint8 and d1.dtype == torch.int16 and d1.shape == d0.shape
+    assert torch.equal(rgb1, rgb2) and torch.equal(d1, d2)  # same seed and step: the same noise
+    rgb_err = (rgb1.float() - rgb0.float())[rgb0.float().sub(127).abs() < 100]  # unclipped pixels
+    assert 20 < float(rgb_err.std()) < 30  # sigma 0.1 of 255
+    err = (d1.float() - d0.float())[d0 > 0]
+    assert 0 < float(err.abs().median()) < 200  # millimetres: a few disparity steps at 1-5 m

@@ -1,0 +1,494 @@
+"""Sensor noise for camera observations: Gaussian RGB noise and a structured-light depth model.
+
+Pure torch + NumPy (no simulator import), batched over sub-envs, on the device of the input images.
+
+Two models, each built once per camera resolution (and seed):
+
+* :class:`RGBNoise`: ``out = clip(round(rgb + 255 * sigma * z), 0, 255)`` on uint8 ``(N, H, W, 3)`` images,
+  ``z ~ N(0, 1)`` i.i.d. per pixel and channel (Habitat's Gaussian RGB noise model convention: ``sigma`` is
+  the standard deviation on the [0, 1] intensity scale; the PointNav 2020 challenge used 0.1).
+* :class:`DepthNoise`: a Kinect-style structured-light model (the simulated-Kinect model of Handa et al.
+  2014, with the disparity noise of Barron & Malik): pixel jitter, Gaussian noise on the disparity, disparity
+  quantisation and a range limit. See its docstring for the formula.
+
+Determinism. ``__call__(img, keys)`` takes one integer key per image (``keys``: ints, an int64 array or a
+tensor of shape ``(N,)``); the noise of image ``i`` is a function of ``(seed, keys[i])`` only: the same key
+gives the same noise whatever the batch, the device, the memory layout or the history of calls, and
+different keys give different noise. The env derives the keys from ``(episode, step)`` (:func:`frame_keys`),
+so a recorded episode replays exactly. The banks come from NumPy's PCG64, the same on every platform.
+
+Speed. A fresh ``torch.randn`` of a 640x480x3 frame costs several milliseconds on a CPU core, more than the
+whole noise budget. Both models therefore draw their standard-normal samples once, at construction, into a
+*noise bank* of ``bank_frames`` (default 4, at least 4) frames' worth, already scaled and stored as the
+per-frame arithmetic uses them, and a frame takes a window of the bank at an offset hashed from
+``(seed, key)`` (SplitMix64):
+
+* RGB: int16 intensity steps, windows at pixel granularity: ``(bank_frames - 1) * H * W + 1`` of them
+  (0.9 M at 640x480);
+* depth, disparity noise: float32, pixel-granular windows, as many;
+* depth, pixel jitter: int32 absolute read positions (border clamping baked in), windows at row
+  granularity: ``(bank_frames - 1) * H + 1`` jitter patterns (1441 at 480 rows), drawn independently of the
+  disparity window.
+
+Two frames share noise structure only as shifted copies of the same bank; within a frame all samples are
+distinct draws. Memory at 640x480 with 4 bank frames: RGB 9.8 MB (an RGBA-layout bank; 7.4 MB more if
+contiguous RGB images come too) plus a 2.5 MB work buffer; depth 9.8 MB of banks plus 4.3 MB of work
+buffers. Per frame the models run a few in-place passes and gathers (no fresh random numbers, no full-size
+allocation but the returned image): on one CPU core about 0.2-0.3 ms for RGB and 0.6 ms for depth at
+640x480 with warm caches (``benchmarks/sensor_noise.py``). On a GPU the whole batch goes through one set
+of kernels.
+
+The objects keep work buffers: one instance must not be called from two threads at once.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+__all__ = ["DepthNoise", "RGBNoise", "frame_keys"]
+
+_M64 = (1 << 64) - 1
+# stream constants: the three noise terms draw independent banks and offsets from one (seed, key)
+_RGB_STREAM = 0x52474221
+_SHIFT_STREAM = 0x4A495454
+_DISP_STREAM = 0x44495350
+_CPU = torch.device("cpu")
+
+
+def _mix(x: int) -> int:
+    """SplitMix64's finaliser on a Python int in ``[0, 2**64)``."""
+    x = (x + 0x9E3779B97F4A7C15) & _M64
+    x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & _M64
+    x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & _M64
+    return x ^ (x >> 31)
+
+
+def _mix_np(x: np.ndarray) -> np.ndarray:
+    """:func:`_mix` on a uint64 array (NumPy wraps modulo 2**64 silently)."""
+    x = x + np.uint64(0x9E3779B97F4A7C15)
+    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return x ^ (x >> np.uint64(31))
+
+
+def _bank_seed(seed: int, stream: int) -> int:
+    return _mix((seed ^ (stream << 32)) & _M64)
+
+
+def _standard_normal(seed: int, stream: int, shape: tuple[int, ...]) -> torch.Tensor:
+    """float32 N(0, 1) samples for a bank, from NumPy's PCG64 (the same on every platform and device)."""
+    rng = np.random.Generator(np.random.PCG64(_bank_seed(seed, stream)))
+    return torch.from_numpy(rng.standard_normal(shape, dtype=np.float32))
+
+
+def _offsets(seed: int, stream: int, keys: list[int] | np.ndarray, n_offsets: int) -> list[int]:
+    """Bank offset in ``[0, n_offsets)`` of each key: ``mix(key ^ mix(seed ^ stream << 32)) % n_offsets``."""
+    s = _bank_seed(seed, stream)
+    if len(keys) <= 64:  # Python ints beat NumPy's per-call overhead on a few keys
+        return [_mix((int(k) & _M64) ^ s) % n_offsets for k in keys]
+    h = _mix_np(np.asarray(keys, dtype=np.int64).view(np.uint64) ^ np.uint64(s))
+    return (h % np.uint64(n_offsets)).astype(np.int64).tolist()
+
+
+def frame_keys(episodes, steps) -> np.ndarray:
+    """One int64 noise key per sub-env from its episode id and step: ``episode << 32 | step``.
+
+    ``episodes`` and ``steps`` broadcast (ints or arrays). Collision-free for ``0 <= episode < 2**31`` and
+    ``0 <= step < 2**32``; the models hash the key with their seed, so neighbouring keys give unrelated noise.
+    """
+    e, s = np.broadcast_arrays(np.asarray(episodes, dtype=np.int64), np.asarray(steps, dtype=np.int64))
+    if (e < 0).any() or (e >= 1 << 31).any() or (s < 0).any() or (s >= 1 << 32).any():
+        raise ValueError("frame_keys needs 0 <= episode < 2**31 and 0 <= step < 2**32")
+    return ((e << 32) | s).reshape(-1)
+
+
+def _key_list(keys, n: int | None) -> list[int]:
+    """``keys`` (an int, a sequence, an integer array or tensor) as ``n`` Python ints (any number if None)."""
+    if isinstance(keys, (int, np.integer)) and not isinstance(keys, bool):
+        out = [int(keys)]
+    else:
+        if isinstance(keys, torch.Tensor):
+            keys = keys.detach().cpu().numpy()
+        k = np.asarray(keys)
+        if k.ndim > 1 or (k.size and not np.issubdtype(k.dtype, np.integer)):
+            raise ValueError(f"keys must be integers, one per image in the batch; got {k.dtype} {k.shape}")
+        out = k.reshape(-1).astype(np.int64).tolist()
+    if n is not None and len(out) != n:
+        raise ValueError(f"keys must be {n} integers (one per image in the batch), got {len(out)}")
+    return out
+
+
+def _check_image(img, height: int, width: int, channels: int, what: str) -> None:
+    if not isinstance(img, torch.Tensor) or img.ndim != 4 or img.shape[1:] != (height, width, channels):
+        shape = tuple(img.shape) if isinstance(img, torch.Tensor) else type(img).__name__
+        raise ValueError(f"{what} expects a (N, {height}, {width}, {channels}) tensor, got {shape}")
+
+
+def _check_out(out, img: torch.Tensor) -> torch.Tensor:
+    if out is None:
+        return torch.empty(img.shape, dtype=img.dtype, device=img.device)
+    if not isinstance(out, torch.Tensor) or out.shape != img.shape or out.dtype != img.dtype:
+        raise ValueError("out must be a tensor of the input's shape and dtype")
+    if not out.is_contiguous() or out.device != img.device:
+        raise ValueError("out must be contiguous and on the input's device")
+    return out
+
+
+def _windows(bank: torch.Tensor, size: int, offsets: list[int]) -> torch.Tensor:
+    """``(n, size)``: row ``i`` is ``bank[offsets[i] : offsets[i] + size]``; a view for one offset (no copy),
+    a gather from the bank's sliding windows (a strided view) for several."""
+    if len(offsets) == 1:
+        o = offsets[0]
+        return bank[o : o + size].unsqueeze(0)
+    win = torch.tensor(offsets, dtype=torch.int64, device=bank.device)
+    return bank.unfold(0, size, 1)[win]
+
+
+def _batched(img: torch.Tensor) -> bool:
+    """CPU: one image at a time, so the bank windows are views and the work buffers one frame (cache
+    sized); other devices: the whole batch in one set of kernels (gathered windows)."""
+    return img.device.type != "cpu"
+
+
+def _bank_frames_ok(bank_frames: int) -> None:
+    if int(bank_frames) != bank_frames or bank_frames < 4:
+        raise ValueError(f"bank_frames must be an integer >= 4, got {bank_frames}")
+
+
+def _rgba_base(img: torch.Tensor) -> torch.Tensor | None:
+    """The RGBA tensor under an ``(N, H, W, 3)`` view of it (ManiSkill's minimal shader hands out
+    ``rgba[..., :3]``): ``(N, H, W, 4)`` with each image contiguous, or None if ``img`` is not such a view."""
+    n, h, w, _ = img.shape
+    s0 = img.stride(0)
+    if img.stride()[1:] != (4 * w, 4, 1) or (n > 1 and s0 < h * w * 4):
+        return None
+    end = img.storage_offset() + (n - 1) * s0 + h * w * 4  # one past the last alpha byte
+    if end > img.untyped_storage().nbytes() // img.element_size():
+        return None
+    return img.as_strided((n, h, w, 4), (s0, 4 * w, 4, 1))
+
+
+@dataclass(eq=False)
+class RGBNoise:
+    """Gaussian noise on uint8 RGB images ``(N, H, W, 3)`` (ManiSkill's ``obs["sensor_data"][cam]["rgb"]``).
+
+    ``out = clip(round(rgb + 255 * sigma * z), 0, 255)`` as uint8, with ``z ~ N(0, 1)`` i.i.d. per pixel and
+    channel and ``sigma`` the standard deviation on the [0, 1] intensity scale (Habitat's Gaussian noise
+    model; the PointNav 2020 challenge used ``sigma = 0.1``). As ``rgb`` is an integer,
+    ``round(rgb + 255 sigma z) = rgb + round(255 sigma z)``: the bank holds those int16 steps (clipped to
+    +-255, which saturate any pixel anyway, so no output changes).
+
+    ``__call__(rgb, keys)``: the noise of image ``i`` is a function of ``(seed, keys[i])`` only (module
+    docstring), whatever the memory layout: a contiguous image and a 3-channel view of an RGBA image (what
+    ManiSkill's minimal shader returns; the result is then such a view too, its alpha the input's) get the
+    same noise. Other layouts are copied to a contiguous image first. ``sigma = 0`` returns the input.
+    """
+
+    height: int
+    width: int
+    sigma: float = 0.1
+    seed: int = 0
+    bank_frames: int = 4
+    device: str | torch.device = "cpu"
+    _banks: dict = field(init=False, repr=False, default_factory=dict)
+    _plans: dict = field(init=False, repr=False, default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.height < 1 or self.width < 1:
+            raise ValueError(f"image size must be positive, got {self.height}x{self.width}")
+        if not (self.sigma >= 0.0 and math.isfinite(self.sigma)):
+            raise ValueError(f"sigma must be a finite number >= 0, got {self.sigma}")
+        _bank_frames_ok(self.bank_frames)
+        self.frame_pixels = self.height * self.width
+        self.n_offsets = (self.bank_frames - 1) * self.frame_pixels + 1  # pixel-granular windows
+        if self.sigma > 0:
+            z = _standard_normal(int(self.seed), _RGB_STREAM, (self.bank_frames * self.frame_pixels, 4))
+            bank = z.mul_(255.0 * self.sigma).round_().clamp_(-255, 255).to(torch.int16)
+            bank[:, 3] = 0  # alpha passes through
+            self._banks[(_CPU, 4)] = bank.reshape(-1)
+            self._bank(torch.device(self.device), 4)
+
+    def _bank(self, device: torch.device, channels: int) -> torch.Tensor:
+        """The bank laid out as RGBA (4) or RGB (3) pixels: the same samples, pixel for pixel."""
+        bank = self._banks.get((device, channels))
+        if bank is None:
+            if channels == 3:
+                rgba = self._banks[(_CPU, 4)].view(-1, 4)
+                bank = rgba[:, :3].contiguous().reshape(-1).to(device)
+            else:
+                bank = self._banks[(_CPU, 4)].to(device)
+            self._banks[(device, channels)] = bank
+        return bank
+
+    def offsets(self, keys) -> list[int]:
+        """The bank offset of each key, in pixels (what selects a frame's noise)."""
+        return _offsets(int(self.seed), _RGB_STREAM, _key_list(keys, None), self.n_offsets)
+
+    def __call__(self, rgb: torch.Tensor, keys, out: torch.Tensor | None = None) -> torch.Tensor:
+        """Noisy copy of ``rgb`` (uint8 ``(N, H, W, 3)``), one key per image, in the input's layout.
+        ``out`` (optional) receives the result and may be ``rgb`` itself; it must be laid out as ``rgb``
+        (contiguous, or a view of a contiguous RGBA tensor)."""
+        _check_image(rgb, self.height, self.width, 3, "RGBNoise")
+        if rgb.dtype != torch.uint8:
+            raise ValueError(f"RGBNoise expects uint8 images, got {rgb.dtype}")
+        n = rgb.shape[0]
+        keys = _key_list(keys, n)
+        if self.sigma == 0:
+            return rgb if out is None else _check_out(out, rgb).copy_(rgb)
+        src = rgb if rgb.is_contiguous() else _rgba_base(rgb)
+        if src is None:  # another layout: the slow copy once, then the contiguous path
+            src = rgb = rgb.contiguous()
+        channels = src.shape[3]
+        if out is None:
+            dst = torch.empty(src.shape, dtype=torch.uint8, device=rgb.device)
+            out = dst if channels == 3 else dst[..., :3]
+        else:
+            if not isinstance(out, torch.Tensor) or out.shape != rgb.shape or out.dtype != torch.uint8:
+                raise ValueError("out must be a uint8 tensor of the input's shape")
+            dst = out if channels == 3 else _rgba_base(out)
+            if out.device != rgb.device or dst is None or not dst.is_contiguous():
+                raise ValueError(
+                    "out must be laid out as the input (contiguous, or an RGBA view), on its device"
+                )
+        if n == 0:
+            return out
+        bank = self._bank(rgb.device, channels)
+        size = self.frame_pixels * channels
+        offs = [o * channels for o in _offsets(int(self.seed), _RGB_STREAM, keys, self.n_offsets)]
+        if _batched(rgb):
+            self._apply(src, _windows(bank, size, offs), dst)
+        else:
+            for i in range(n):
+                self._apply(src[i : i + 1], bank[offs[i] : offs[i] + size], dst[i : i + 1])
+        return out
+
+    def _apply(self, src: torch.Tensor, noise: torch.Tensor, dst: torch.Tensor) -> None:
+        n = src.shape[0]
+        key = (src.device, n, src.shape[3])
+        buf = self._plans.get(key)
+        if buf is None:
+            buf = self._plans[key] = torch.empty(src.shape, dtype=torch.int16, device=src.device)
+        buf.copy_(src)
+        flat = buf.view(n, -1)
+        flat.add_(noise.view(n, -1))
+        flat.clamp_(0, 255)
+        dst.copy_(buf)
+
+
+@dataclass(eq=False)
+class DepthNoise:
+    """Structured-light (Kinect-style) depth noise: the simulated-Kinect model of Handa et al. 2014 with
+    Barron & Malik's disparity noise.
+
+    Input: depth images ``(N, H, W, 1)``, integer millimetres (what ManiSkill's rgbd obs mode returns in
+    ``obs["sensor_data"][cam]["depth"]``: int16 mm, 0 where no surface was hit) or floating-point metres.
+    The output has the input's dtype and units; 0 means "no reading" in both.
+
+    For each pixel ``(u, v)``, with ``f`` the focal length in pixels (``focal_px``: ``fx``, entry ``[0, 0]``
+    of ManiSkill's ``intrinsic_cv``) and ``b`` the projector-camera baseline (``baseline_m``):
+
+    1. pixel jitter: ``z = depth[v + round(sigma_shift * n_v), u + round(sigma_shift * n_u)]``, the shifts
+       clipped to ``+-ceil(5 sigma_shift)`` px and the coordinates clamped at the image borders;
+    2. disparity ``d = f b / z``, with Gaussian noise and quantised to ``disparity_step``:
+       ``d' = disparity_step * round((d + sigma_disparity * n_d) / disparity_step)``;
+    3. ``z' = f b / d'``, and ``z' = 0`` (no reading, as a real sensor reports) where ``d' <= 0`` or ``z'``
+       is outside ``[min_depth, max_depth]``; input pixels at 0 (no hit) stay 0.
+
+    ``n_u, n_v, n_d ~ N(0, 1)`` i.i.d. per pixel. The depth error has std about
+    ``z**2 * sigma_disparity / (f b)`` (quadratic in depth) and the output takes only the discrete values
+    ``f b / (k disparity_step)``, ``k = 1, 2, ...``. Defaults: ``b = 0.075 m``, ``sigma_shift = 0.5 px``,
+    ``sigma_disparity = 1/6 px``, ``disparity_step = 1/8 px``, range ``[0.3 m, 10 m]``.
+
+    Computed as ``k = trunc(clip(f b / (disparity_step z) + n_d sigma_disparity / disparity_step + 1/2,
+    0, k_max))`` (the bank holds the shifted, scaled ``n_d``) and ``z' = lut[k]`` (:meth:`depth_lut`).
+    ``__call__(depth, keys)``: the noise of image ``i`` is a function of ``(seed, keys[i])`` only. The
+    jitter bank holds absolute read positions (border clamping baked in), so a frame's jitter window starts
+    at a whole bank row: ``(bank_frames - 1) * H + 1`` jitter patterns, combined with
+    ``(bank_frames - 1) * H * W + 1`` independently chosen disparity-noise windows.
+    """
+
+    height: int
+    width: int
+    focal_px: float
+    baseline_m: float = 0.075
+    sigma_shift_px: float = 0.5
+    sigma_disparity_px: float = 1.0 / 6.0
+    disparity_step_px: float = 1.0 / 8.0
+    min_depth_m: float = 0.3
+    max_depth_m: float = 10.0
+    seed: int = 0
+    bank_frames: int = 4
+    device: str | torch.device = "cpu"
+    _banks: dict = field(init=False, repr=False, default_factory=dict)
+    _luts: dict = field(init=False, repr=False, default_factory=dict)
+    _plans: dict = field(init=False, repr=False, default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.height < 1 or self.width < 1:
+            raise ValueError(f"image size must be positive, got {self.height}x{self.width}")
+        for name in ("focal_px", "baseline_m", "disparity_step_px", "min_depth_m"):
+            v = getattr(self, name)
+            if not (v > 0 and math.isfinite(v)):
+                raise ValueError(f"{name} must be a finite number > 0, got {v}")
+        for name in ("sigma_shift_px", "sigma_disparity_px"):
+            v = getattr(self, name)
+            if not (v >= 0 and math.isfinite(v)):
+                raise ValueError(f"{name} must be a finite number >= 0, got {v}")
+        if not (self.max_depth_m > self.min_depth_m and math.isfinite(self.max_depth_m)):
+            raise ValueError(f"max_depth_m ({self.max_depth_m}) must be finite and exceed min_depth_m")
+        _bank_frames_ok(self.bank_frames)
+        H, W, B = self.height, self.width, self.bank_frames
+        self.frame_size = H * W
+        self.n_offsets = (B - 1) * H * W + 1  # disparity-noise windows (element-granular)
+        self.n_row_offsets = (B - 1) * H + 1  # jitter windows (row-granular)
+        self.pad = int(math.ceil(5.0 * self.sigma_shift_px))  # rows replicated above and below
+        if (B * H + 2 * self.pad) * W >= 1 << 31:
+            raise ValueError(f"a {H}x{W} image with {B} bank frames is too large for int32 indices")
+        self.q_scale = self.focal_px * self.baseline_m / self.disparity_step_px  # k = q_scale / z, z in m
+        # k above k_max means nearer than min_depth; lut[k_max] = 0 also catches z = 0 (k = inf)
+        self.k_max = int(math.floor(self.q_scale / self.min_depth_m)) + 1
+        if self.k_max >= 1 << 24:
+            raise ValueError("focal_px * baseline_m / (disparity_step_px * min_depth_m) must be < 2**24")
+        seed = int(self.seed)
+        p = self.pad
+        if p:
+            # jitter[Y * W + x]: where bank pixel (Y, x) reads, in an image stack with p replicated rows
+            # above and below: row Y + p + dy, column x + dx clamped to the image
+            dy, dx = _standard_normal(seed, _SHIFT_STREAM, (2, B * H, W)).mul_(self.sigma_shift_px)
+            dy, dx = dy.round_().clamp_(-p, p), dx.round_().clamp_(-p, p)
+            rows = torch.arange(B * H).reshape(-1, 1) + p + dy
+            cols = (torch.arange(W).reshape(1, -1) + dx).clamp_(0, W - 1)
+            jitter = (rows * W + cols).to(torch.int32).reshape(-1)
+        else:
+            jitter = torch.zeros(0, dtype=torch.int32)
+        disp = _standard_normal(seed, _DISP_STREAM, (B * H * W,))
+        disp.mul_(self.sigma_disparity_px / self.disparity_step_px).add_(0.5)
+        self._banks[_CPU] = (jitter, disp)
+        self._banks_on(torch.device(self.device))
+
+    def _banks_on(self, device: torch.device) -> tuple[torch.Tensor, torch.Tensor]:
+        banks = self._banks.get(device)
+        if banks is None:
+            banks = self._banks[device] = tuple(t.to(device) for t in self._banks[_CPU])
+        return banks
+
+    def depth_lut(self, dtype: torch.dtype, device: torch.device | str = "cpu") -> torch.Tensor:
+        """``lut[k]``, ``k`` in ``[0, k_max]``: the measured depth at disparity ``k * disparity_step_px``,
+        ``f b / (k disparity_step)`` in mm (rounded) for integer dtypes and metres for floating ones, and 0
+        where that is outside ``[min_depth_m, max_depth_m]`` (``k = 0`` and ``k = k_max`` included)."""
+        key = (dtype, torch.device(device))
+        lut = self._luts.get(key)
+        if lut is None:
+            k = np.arange(self.k_max + 1, dtype=np.float64)
+            with np.errstate(divide="ignore"):
+                z = self.q_scale / k  # metres, inf at k = 0
+            valid = (z >= self.min_depth_m) & (z <= self.max_depth_m)
+            valid[-1] = False
+            if dtype.is_floating_point:
+                table = np.where(valid, z, 0.0)
+            else:
+                table = np.where(valid, np.round(z * 1000.0), 0.0)
+                if table.max() > torch.iinfo(dtype).max:
+                    raise ValueError(f"max_depth_m = {self.max_depth_m} m overflows {dtype} millimetres")
+            lut = self._luts[key] = torch.as_tensor(table).to(dtype=dtype, device=key[1])
+        return lut
+
+    def offsets(self, keys) -> tuple[list[int], list[int]]:
+        """``(jitter bank rows, disparity-noise offsets)`` of each key: where its two windows start."""
+        k, seed = _key_list(keys, None), int(self.seed)
+        rows = _offsets(seed, _SHIFT_STREAM, k, self.n_row_offsets)
+        return rows, _offsets(seed, _DISP_STREAM, k, self.n_offsets)
+
+    def __call__(self, depth: torch.Tensor, keys, out: torch.Tensor | None = None) -> torch.Tensor:
+        """Noisy copy of ``depth`` (``(N, H, W, 1)``, integer mm or floating m), one key per image. ``out``
+        (optional, contiguous) receives the result and may be ``depth`` itself."""
+        _check_image(depth, self.height, self.width, 1, "DepthNoise")
+        if depth.dtype == torch.bool or depth.dtype.is_complex or depth.dtype == torch.uint8:
+            raise ValueError(f"DepthNoise expects integer millimetres or floating metres, got {depth.dtype}")
+        n = depth.shape[0]
+        keys = _key_list(keys, n)
+        out = _check_out(out, depth)
+        if n == 0:
+            return out
+        jitter, disp = self._banks_on(depth.device)
+        lut = self.depth_lut(depth.dtype, depth.device)
+        rows, offs = self.offsets(keys)
+        if _batched(depth):
+            self._batch(depth, jitter, rows, _windows(disp, self.frame_size, offs), lut, out)
+        else:
+            for i in range(n):
+                noise = disp[offs[i] : offs[i] + self.frame_size]
+                self._single(depth[i], jitter, rows[i], noise, lut, out[i])
+        return out
+
+    def _plan(self, device: torch.device, n: int | None, dtype: torch.dtype) -> dict:
+        """Work buffers, per ``dtype`` of the depth copy (int16 mm stays int16, anything else float32): for
+        one image at a time (``n`` None) a stack of ``bank_frames`` images' rows plus padding, so the jitter
+        window reads it without index arithmetic; for a batch of ``n``, one padded image each."""
+        plan = self._plans.get((device, n, dtype))
+        if plan is None:
+            H, W, p = self.height, self.width, self.pad
+            rows = self.bank_frames * H + 2 * p if n is None else H + 2 * p
+            m = n or 1
+            if m * rows * W >= 1 << 31:
+                raise ValueError(f"a batch of {m} {H}x{W} depth images is too large for int32 indices")
+            v = torch.empty(m * H * W, dtype=torch.float32, device=device)  # disparity, in steps
+            plan = self._plans[(device, n, dtype)] = {
+                "stack": torch.empty((m, rows, W), dtype=dtype, device=device) if p else None,
+                "z": torch.empty(m * H * W, dtype=dtype, device=device) if p else None,  # jittered depth
+                "v": v,
+                "q": v.view(torch.int32),  # the lut index, converted in place
+                True: torch.tensor(self.q_scale, dtype=torch.float32, device=device),  # z in metres
+                False: torch.tensor(self.q_scale * 1000.0, dtype=torch.float32, device=device),  # mm
+            }
+        return plan
+
+    def _single(self, depth, jitter, row, noise, lut, out) -> None:
+        """One ``(H, W, 1)`` image on the CPU: the jitter window is a view of the bank (no copy)."""
+        H, W, p = self.height, self.width, self.pad
+        plan = self._plan(depth.device, None, torch.int16 if depth.dtype == torch.int16 else torch.float32)
+        if p:
+            img = plan["stack"][0, row : row + H + 2 * p]  # this frame's padded image in the stack
+            img[p : p + H].copy_(depth[..., 0])
+            img[:p].copy_(img[p : p + 1].expand(p, W))  # replicated rows: reads past the edge clamp
+            img[p + H :].copy_(img[p + H - 1 : p + H].expand(p, W))
+            z = torch.index_select(plan["stack"].view(-1), 0, jitter[row * W : (row + H) * W], out=plan["z"])
+        else:
+            z, noise = depth[..., 0], noise.view(H, W)
+        self._measure(z, plan, noise, depth.dtype.is_floating_point, lut, out.view(-1))
+
+    def _batch(self, depth, jitter, rows, noise, lut, out) -> None:
+        """The whole batch in one set of kernels (GPU): the same reads as :meth:`_single`, by index."""
+        n = depth.shape[0]
+        H, W, p = self.height, self.width, self.pad
+        plan = self._plan(depth.device, n, torch.int16 if depth.dtype == torch.int16 else torch.float32)
+        if p:
+            img = plan["stack"]
+            img[:, p : p + H].copy_(depth[..., 0])
+            img[:, :p].copy_(img[:, p : p + 1].expand(n, p, W))
+            img[:, p + H :].copy_(img[:, p + H - 1 : p + H].expand(n, p, W))
+            shift = [i * (H + 2 * p) * W - r * W for i, r in enumerate(rows)]  # bank row r -> image i
+            idx = _windows(jitter, H * W, [r * W for r in rows])
+            idx = idx + torch.tensor(shift, dtype=torch.int32, device=depth.device).unsqueeze(1)
+            z = torch.index_select(img.view(-1), 0, idx.view(-1), out=plan["z"])
+            noise = noise.reshape(-1)
+        else:
+            z, noise = depth[..., 0], noise.view(n, H, W)
+        self._measure(z, plan, noise, depth.dtype.is_floating_point, lut, out.view(-1))
+
+    def _measure(self, z, plan, noise, floating: bool, lut, out) -> None:
+        """Disparity with noise, quantisation and range limit of the (jittered) depth ``z``, into ``out``."""
+        v = plan["v"]
+        # k = q_scale / z + the bank's noise (+ 1/2): inf at z = 0 (no hit), negative for z < 0, both
+        # land on lut entries holding 0
+        torch.addcdiv(noise, plan[floating], z, out=v.view(noise.shape))
+        if floating:  # a NaN depth reads as "no reading"
+            torch.nan_to_num_(v, nan=0.0)
+        v.clamp_(0, self.k_max)
+        q = plan["q"]
+        q.copy_(v)  # float -> int32 in place; truncation = floor for v >= 0, the bank's + 1/2 rounds
+        torch.index_select(lut, 0, q, out=out)
