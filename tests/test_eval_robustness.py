@@ -157,7 +157,8 @@ def test_report_counts_errored_episodes_as_failures(ds, tmp_path, monkeypatch):
     assert "oracle on ms_val (4 episodes, 1 errored)" in text and "random on ms_val (4 episodes)" in text
     assert "Errored episodes: 1. An errored episode" in text and "counts as a failure" in text
     oracle_row = next(line for line in text.splitlines() if line.startswith("| Oracle |"))
-    assert f"{100 * sum(r['success'] for r in ran) / 4:.1f} (" in oracle_row
+    assert f"| {100 * sum(r['success'] for r in ran) / 4:.1f} [" in oracle_row
+    assert "| 4, 1 errored |" in oracle_row  # the row's episodes, the errored one named
     assert any("oracle on ms_val: 1" in line for line in said)
 
 

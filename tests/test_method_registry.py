@@ -121,9 +121,11 @@ def test_a_registered_method_reaches_the_reports_tables(dataset, tmp_path, monke
         tmp_path / "res", tmp_path / "rep", dataset=dataset, videos=0, hard_figures=0, echo=lambda *_: None
     ).read_text()
     t5 = _section(md, "(Table 5 layout)")
-    assert "| Dummy Walker | – | – | – | – | 75.0 | 0.600 |" in t5
+    # the dataset's MS VAL holds 4 episodes: a whole run, n = 4; no strict_success in these records: –
+    assert "| Dummy Walker | 4 | 75.0 [30.1, 95.4] | – | 0.600 [" in t5
     assert t5.index("| Random |") < t5.index("| Dummy Walker |") < t5.index("| Oracle |")  # report_order 15
-    assert "| Dummy Walker | – | – | – | 75.0 | 0.92 | 2.0 |" in _section(md, "(Table 10 layout)")
+    t10 = _section(md, "(Table 10 layout)")
+    assert "| Dummy Walker | 4 | 75.0 [30.1, 95.4] | – | 0.92 [" in t10 and "| 2.0; n=3 |" in t10
     assert (tmp_path / "rep" / "figures" / "trajectories_dummy_ms_val.png").exists()
 
     from biovln_ms.cli import _methods_help
@@ -135,7 +137,9 @@ def test_paper_numbers_follow_the_paper_key_not_the_name_or_label(dataset, tmp_p
     monkeypatch.setitem(METHODS, "oracle", dataclasses.replace(METHODS["oracle"], label="Geodesic Oracle"))
     _fake_run(dataset, tmp_path, "oracle", [True, True, False, True])
     md = "\n".join(line for block in tables(load_runs(tmp_path)) for line in block)
-    assert "| Geodesic Oracle | – (71.9) | – (0.719) | – (0.944) | – (9.7) | 75.0 (76.0) |" in md
+    # no dataset given: MS VAL's full 50 episodes, so 4 of them is a partial run
+    assert "| Geodesic Oracle | partial (4/50) | 75.0 [30.1, 95.4] (76.0) | – | 0.600 [" in md
+    assert "Not compared with the paper (partial runs" in md and "Geodesic Oracle on MS VAL: partial" in md
     assert "| Oracle |" not in md
 
 
@@ -152,9 +156,13 @@ def test_learned_policies_appear_in_the_report_when_their_results_exist(dataset,
     ).read_text()
     assert "ppo on ms_val (4 episodes)" in md and "frontier@centroid on ms_val (4 episodes)" in md
     t5, t10 = _section(md, "(Table 5 layout)"), _section(md, "(Table 10 layout)")
-    for label, sr in (("PPO", "50.0"), ("A2C", "0.0"), ("SAC", "100.0")):
-        assert f"| {label} | – | – | – | – | {sr} |" in t5
-        assert f"| {label} | – | – | – | {sr} |" in t10
+    for label, sr in (
+        ("PPO", "50.0 [15.0, 85.0]"),
+        ("A2C", "0.0 [0.0, 49.0]"),
+        ("SAC", "100.0 [51.0, 100.0]"),
+    ):
+        assert f"| {label} | 4 | {sr} |" in t5
+        assert f"| {label} | 4 | {sr} |" in t10
     order = [t5.index(f"| {label} |") for label in ("VLFM (GT detector)", "PPO", "A2C", "SAC")]
     assert order == sorted(order)  # report_order
     mc = _section(md, "Pairwise McNemar")
@@ -164,6 +172,9 @@ def test_learned_policies_appear_in_the_report_when_their_results_exist(dataset,
         "| A2C | SAC | MS VAL | 4 |",
     ):
         assert pair in mc, pair
-    assert "| MS VAL (4) | 50.0 | 75.0 |" in _section(md, "(Table 9 layout)")  # centroid: a run of its own
+    t9 = _section(md, "(Table 9 layout)")
+    assert (
+        "| MS VAL (4) | 50.0 [15.0, 85.0] | 75.0 [30.1, 95.4] | -25.0 | 1.000 | 1.000 | no |" in t9
+    )  # centroid: a run of its own
     figs = {p.name for p in (tmp_path / "rep" / "figures").iterdir()}
     assert {f"trajectories_{algo}_ms_val.png" for algo in ("ppo", "a2c", "sac")} <= figs

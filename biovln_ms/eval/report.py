@@ -21,12 +21,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from biovln_ms.benchmark import HELD_OUT, LSAT_EPISODES, TWO_ROOM_BENCH
 from biovln_ms.eval import paper
 from biovln_ms.eval.harness import EvalConfig, episode_key, load_records, unique_records
 from biovln_ms.eval.methods import METHODS, method_of_paper_key, report_methods
-from biovln_ms.eval.metrics import aggregate, aggregate_all, record_error, succeeded
+from biovln_ms.eval.metrics import INTERVALS, UNITS, aggregate, aggregate_all, record_error, succeeded
 from biovln_ms.eval.rollout import rollout
-from biovln_ms.eval.stats import mcnemar
+from biovln_ms.eval.stats import holm, mcnemar, wilson_interval
 from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.measured import machine
 
@@ -80,44 +81,107 @@ def _fmt(v, nd=1):
     return "–" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.{nd}f}"
 
 
-def _cell(ours, theirs, nd):
-    return f"{_fmt(ours, nd)} ({_fmt(theirs, nd)})" if theirs is not None else _fmt(ours, nd)
+def _ci(interval, nd=1) -> str:
+    """`` [lo, hi]``, or nothing when the interval is unknown."""
+    if not interval or any(x is None or not math.isfinite(x) for x in interval):
+        return ""
+    return f" [{interval[0]:.{nd}f}, {interval[1]:.{nd}f}]"
+
+
+def _cell(ours, theirs, nd, interval=None, n=None):
+    """``ours [lo, hi] (paper); n=k``: each part only when known (no ``] [`` in a row: Markdown would
+    read it as a link)."""
+    text = _fmt(ours, nd) + ("" if ours is None else _ci(interval, nd))
+    text += f" ({_fmt(theirs, nd)})" if theirs is not None else ""
+    return text + (f"; n={n}" if n is not None else "")
+
+
+def _metric(agg: dict, key: str, nd: int, theirs=None, n=None) -> str:
+    """One metric of an aggregate as a cell, with its interval (``key_ci95``) and the paper's value."""
+    return _cell(agg.get(key), theirs, nd, agg.get(f"{key}_ci95"), n)
 
 
 # What ``summarize`` keeps of each aggregate (biovln_ms.eval.metrics): overall, and per category / tier.
 OVERALL_KEYS = (
     "episodes",
     "errors",
+    "successes",
     "sr",
+    "sr_ci95",
+    "strict_successes",
+    "strict_sr",
+    "strict_sr_ci95",
     "spl",
+    "spl_ci95",
     "soft_spl",
+    "soft_spl_ci95",
     "dtg",
+    "dtg_ci95",
     "steps_success",
     "mcr",
+    "mcr_ci95",
     "vrt",
+    "vrt_ci95",
     "collisions",
 )
-BREAKDOWN_KEYS = ("episodes", "errors", "sr", "spl")
+BREAKDOWN_KEYS = ("episodes", "errors", "successes", "sr", "sr_ci95", "strict_sr", "strict_sr_ci95", "spl")
+SCHEMA = 2  # measured.json: 2 = intervals, strict SR, split sizes, Holm-adjusted McNemar tests
+ALPHA = 0.05
+# The benchmark splits' full sizes (Table 4, as biovln_ms.benchmark builds them); the dataset's own
+# sizes replace them when the report knows its dataset.
+SPLIT_EPISODES = {
+    **{s: len(seeds) * n for s, (seeds, n) in HELD_OUT.items()},
+    "two_room": TWO_ROOM_BENCH[1],
+    "lsat_target": LSAT_EPISODES,
+}
+SIGNIFICANCE = (
+    f"McNemar p-values adjusted by Holm's step-down method over every test of the report (the pairwise "
+    f"table and Table 9 together); significant: adjusted p < {ALPHA}"
+)
 
 
-def _plain(agg: dict, keys: tuple[str, ...]) -> dict:
-    """The ``keys`` of an aggregate, a non-finite mean (no episode to average) as None (valid JSON)."""
-    return {k: (None if isinstance(agg[k], float) and not math.isfinite(agg[k]) else agg[k]) for k in keys}
+def _plain(value):
+    """JSON-safe: a non-finite number (no episode to average) as None, through lists and dicts."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    return value
 
 
-def summarize(runs) -> dict:
+def _keep(agg: dict, keys: tuple[str, ...]) -> dict:
+    return {k: _plain(agg[k]) for k in keys}
+
+
+def summarize(runs, split_sizes: dict[str, int] | None = None) -> dict:
     """What the report's tables show, as plain data: per run and split the overall metrics, by category
-    and by difficulty tier, and the pairwise McNemar tests (every pair of methods on a split, and each
-    ``method@centroid`` run against its method). ``write_report`` saves it as ``measured.json``; the
-    tables below are made from it alone, so the documentation renders the same tables from a copy
+    and by difficulty tier, each with its 95 % interval, the split's full size and whether the run is
+    partial (fewer episodes than the split: ``split_sizes``, default the benchmark's ``SPLIT_EPISODES``),
+    and the pairwise McNemar tests (every pair of methods on a split, and each ``method@centroid`` run
+    against its method) with each SR's Wilson interval and Holm-adjusted p-values. Units (``units``):
+    SR, strict SR and VRT in %, SPL in [0, 1]. ``write_report`` saves it as ``measured.json``; the tables
+    below are made from it alone, so the documentation renders the same tables from a copy
     (``docs/data/reproduction.json``)."""
-    out: dict = {"runs": {}, "mcnemar": []}
+    sizes = {**SPLIT_EPISODES, **(split_sizes or {})}
+    out: dict = {
+        "schema": SCHEMA,
+        "units": dict(UNITS),
+        "intervals": INTERVALS,
+        "significance": SIGNIFICANCE,
+        "runs": {},
+        "mcnemar": [],
+    }
     for (run, split), recs in sorted(runs.items()):
         a = aggregate_all(recs)
+        total = sizes.get(split)
         out["runs"].setdefault(run, {})[split] = {
-            "overall": _plain(a["overall"], OVERALL_KEYS),
-            "per_category": {c: _plain(v, BREAKDOWN_KEYS) for c, v in a["per_category"].items()},
-            "per_difficulty": {d: _plain(v, BREAKDOWN_KEYS) for d, v in a["per_difficulty"].items()},
+            "split_episodes": total,
+            "partial": total is not None and a["overall"]["episodes"] < total,
+            "overall": _keep(a["overall"], OVERALL_KEYS),
+            "per_category": {c: _keep(v, BREAKDOWN_KEYS) for c, v in a["per_category"].items()},
+            "per_difficulty": {d: _keep(v, BREAKDOWN_KEYS) for d, v in a["per_difficulty"].items()},
         }
     methods = [m for m in report_methods() if any((m, s) in runs for s in SPLITS)]
     pairs = [(a, b) for a, b in combinations(methods, 2)]
@@ -134,79 +198,151 @@ def summarize(runs) -> dict:
                         "split": s,
                         "n": len(x),
                         "sr_a": 100 * float(np.mean(x)) if x else None,
+                        "sr_a_ci95": _plain([100 * v for v in wilson_interval(sum(x), len(x))]),
                         "sr_b": 100 * float(np.mean(y)) if y else None,
+                        "sr_b_ci95": _plain([100 * v for v in wilson_interval(sum(y), len(y))]),
                         "n01": r.n01,
                         "n10": r.n10,
                         "p": r.p_value,
                         "exact": r.exact,
                     }
                 )
+    adjust_mcnemar(out["mcnemar"])
     return out
+
+
+def adjust_mcnemar(tests: list[dict]) -> list[dict]:
+    """Holm-adjusted p-values (``p_holm``) and ``significant`` (adjusted p < ``ALPHA``) on every test, in
+    place: one family, all the report's McNemar tests."""
+    for t, p in zip(tests, holm([t["p"] for t in tests])):
+        t["p_holm"] = p
+        t["significant"] = p < ALPHA
+    return tests
+
+
+def _split(summ: dict, run: str, split: str) -> dict:
+    return summ["runs"].get(run, {}).get(split, {})
 
 
 def _get(summ: dict, run: str, split: str, part: str = "overall") -> dict:
     """One run's ``part`` (overall, per_category, per_difficulty) on a split; {} when it did not run."""
-    return summ["runs"].get(run, {}).get(split, {}).get(part, {})
+    return _split(summ, run, split).get(part, {})
 
 
 def _ran(summ: dict, run: str, split: str) -> bool:
     return split in summ["runs"].get(run, {})
 
 
+def _partial(summ: dict, run: str, split: str) -> str:
+    """``partial (n/N)`` when the run holds fewer episodes than its split's N, else ''."""
+    part = _split(summ, run, split)
+    n, total = part.get("overall", {}).get("episodes"), part.get("split_episodes")
+    if n is not None and total is not None and n < total:
+        return f"partial ({n}/{total})"
+    return "partial" if part.get("partial") else ""
+
+
+def _n(summ: dict, run: str, split: str) -> str:
+    """The n column: the run's episodes on the split, errored ones named, a partial run labelled."""
+    if not _ran(summ, run, split):
+        return "–"
+    agg = _get(summ, run, split)
+    text = _partial(summ, run, split) or _fmt(agg.get("episodes"), 0)
+    return text + (f", {agg['errors']} errored" if agg.get("errors") else "")
+
+
+def _with_partial(head: str, summ: dict, run: str, split: str) -> str:
+    label = _partial(summ, run, split)
+    return f"{head}: {label}" if label else head
+
+
 def _test(summ: dict, a: str, b: str, split: str) -> dict | None:
     return next((t for t in summ["mcnemar"] if (t["a"], t["b"], t["split"]) == (a, b, split)), None)
 
 
+def _split_heading(summ: dict, split: str) -> str:
+    total = next(
+        (p.get("split_episodes") for r in summ["runs"].values() for s, p in r.items() if s == split), None
+    )
+    total = total if total is not None else SPLIT_EPISODES.get(split)
+    return f"**{paper.SPLIT_LABELS[split]}**" + (f" (full split: {total} episodes)" if total else "")
+
+
+def _not_run(summ, splits) -> list[str]:
+    missing = [paper.SPLIT_LABELS[s] for s in splits if not any(_ran(summ, m, s) for m in summ["runs"])]
+    return [f"Not run here: {', '.join(missing)}.", ""] if missing else []
+
+
+N_NOTE = (
+    "n: the episodes behind every cell of its row, a run on fewer episodes than its split's N marked "
+    "partial (n/N): its numbers are not the paper's full-split ones. An errored episode counts as a "
+    "failure in SR, strict SR and SPL; DTG, MCR and VRT are means over the episodes that ran."
+)
+
+
 def table5(summ) -> list[str]:
-    metrics = {
-        "ms_dev": ("sr", "spl", "mcr", "vrt"),
-        "ms_val": ("sr", "spl"),
-        "ms_test": ("sr", "spl"),
-        "two_room": ("sr", "spl", "mcr", "vrt"),
-        "lsat_target": ("sr", "mcr", "vrt"),
-    }
-    nd = {"sr": 1, "spl": 3, "mcr": 3, "vrt": 1}
-    head = ["Method"] + [f"{paper.SPLIT_LABELS[s]} {m.upper()}" for s in SPLITS for m in metrics[s]]
-    rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for m in report_methods():
-        ref = _paper_row(paper.TABLE5, m)
-        if not any(_ran(summ, m, s) for s in SPLITS) and not ref:
-            continue
-        cells = [_label(m)]
-        for s in SPLITS:
-            agg = _get(summ, m, s)
-            for k in metrics[s]:
-                cells.append(_cell(agg.get(k), ref.get(s, {}).get(k), nd[k]))
-        rows.append("| " + " | ".join(cells) + " |")
-    return [
-        "## Navigation and safety (Table 5 layout): ours (paper)",
+    out = [
+        "## Navigation and safety (Table 5 layout): ours [95 % CI] (paper)",
         "",
-        "SR %, SPL, MCR m (robot centre to the nearest instrument body), VRT % of poses within 0.5 m.",
+        "SR and strict SR in % (Wilson intervals); SPL in [0, 1], MCR in m (robot centre to the nearest "
+        "instrument body), VRT in % of poses within 0.5 m (bootstrap intervals clipped to the range). SR is "
+        "the paper's radius success; strict SR also asks for a STOP in Zone 3 facing the operational face "
+        "(the paper reports no strict SR). " + N_NOTE,
         "",
-        *rows,
     ]
+    for s in SPLITS:
+        ms = [m for m in report_methods() if _ran(summ, m, s)]
+        ms += [m for m in report_methods() if m not in ms and s in _paper_row(paper.TABLE5, m)]
+        if not any(_ran(summ, m, s) for m in ms):
+            continue
+        rows = [
+            "| Method | n | SR % | strict SR % | SPL | MCR m | VRT % |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for m in sorted(ms, key=report_methods().index):
+            agg, ref = _get(summ, m, s), _paper_row(paper.TABLE5, m).get(s, {})
+            cells = [_label(m), _n(summ, m, s), _metric(agg, "sr", 1, ref.get("sr"))]
+            cells += [_metric(agg, "strict_sr", 1), _metric(agg, "spl", 3, ref.get("spl"))]
+            cells += [_metric(agg, "mcr", 3, ref.get("mcr")), _metric(agg, "vrt", 1, ref.get("vrt"))]
+            rows.append("| " + " | ".join(cells) + " |")
+        out += [_split_heading(summ, s), "", *rows, ""]
+    return out + _not_run(summ, SPLITS)
 
 
 def table10(summ) -> list[str]:
-    rows = [
-        "| Method | DEV SR | DEV DTG | DEV Steps | VAL SR | VAL DTG | VAL Steps | "
-        "TEST SR | TEST DTG | TEST Steps |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+    splits = ("ms_dev", "ms_val", "ms_test")
+    out = [
+        "## Detailed metrics (Table 10 layout): ours [95 % CI] (paper)",
+        "",
+        "SR and strict SR in %, DTG in m (final distance to the goal), steps: mean actions of the "
+        "successful episodes, n=… of them. " + N_NOTE,
+        "",
     ]
-    for m in report_methods():
-        if not any(_ran(summ, m, s) for s in ("ms_dev", "ms_val", "ms_test")):
+    for s in splits:
+        ms = [m for m in report_methods() if _ran(summ, m, s)]
+        if not ms:
             continue
-        cells = [_label(m)]
-        for s in ("ms_dev", "ms_val", "ms_test"):
+        rows = ["| Method | n | SR % | strict SR % | DTG m | Steps |", "|---|---|---|---|---|---|"]
+        for m in ms:
             a = _get(summ, m, s)
             p = _paper_row(paper.TABLE10, m).get(s, (None, None, None))
+            cells = [_label(m), _n(summ, m, s), _metric(a, "sr", 1, p[0]), _metric(a, "strict_sr", 1)]
             cells += [
-                _cell(a.get("sr"), p[0], 1),
-                _cell(a.get("dtg"), p[1], 2),
-                _cell(a.get("steps_success"), p[2], 1),
+                _metric(a, "dtg", 2, p[1]),
+                _cell(a.get("steps_success"), p[2], 1, n=a.get("successes")),
             ]
-        rows.append("| " + " | ".join(cells) + " |")
-    return ["## Detailed metrics (Table 10 layout): ours (paper)", "", *rows]
+            rows.append("| " + " | ".join(cells) + " |")
+        out += [_split_heading(summ, s), "", *rows, ""]
+    return out + _not_run(summ, splits)
+
+
+def _sr_cell(d: dict, theirs=None) -> str:
+    """SR [Wilson CI] (paper); n=episodes of a breakdown (– when it has no episodes; n=? when the data
+    holds an SR without its count)."""
+    if not d:
+        return _cell(None, theirs, 1)
+    n = d.get("episodes")
+    return _cell(d.get("sr"), theirs, 1, d.get("sr_ci95"), "?" if n is None else n)
 
 
 def table6(summ) -> list[str]:
@@ -217,18 +353,12 @@ def table6(summ) -> list[str]:
         ref = _paper_row(paper.TABLE6, m)
         per = {s: _get(summ, m, s, "per_category") for s in cols if _ran(summ, m, s)}
         cats = sorted(set(ref) | {c for v in per.values() for c in v})
-        rows = ["| Category | " + " | ".join(paper.SPLIT_LABELS[s] for s in cols) + " |", "|---|---|---|---|"]
+        head = [_with_partial(paper.SPLIT_LABELS[s], summ, m, s) for s in cols]
+        rows = ["| Category | " + " | ".join(head) + " |", "|---|---|---|---|"]
         for c in cats:
-            rows.append(
-                "| "
-                + c
-                + " | "
-                + " | ".join(
-                    _cell(per.get(s, {}).get(c, {}).get("sr"), ref.get(c, {}).get(s), 1) for s in cols
-                )
-                + " |"
-            )
-        title = f"## {_label(m)} SR by category (Table 6 layout): ours (paper)"
+            cells = [_sr_cell(per.get(s, {}).get(c, {}), ref.get(c, {}).get(s)) for s in cols]
+            rows.append(f"| {c} | " + " | ".join(cells) + " |")
+        title = f"## {_label(m)} SR by category (Table 6 layout): ours [95 % CI] (paper); n=episodes"
         out += [*([""] if out else []), title, "", *rows]
     return out
 
@@ -239,7 +369,8 @@ def table17(summ) -> list[str]:
     if not all(_ran(summ, m, "ms_val") for m in pair):
         return []
     a, b = pair
-    rows = [f"| Category | Eps. | {_label(a)} | {_label(b)} | Δ |", "|---|---|---|---|---|"]
+    la, lb = (_with_partial(_label(m), summ, m, "ms_val") for m in pair)
+    rows = [f"| Category | Eps. | {la} | {lb} | Δ |", "|---|---|---|---|---|"]
     for c in sorted(_get(summ, b, "ms_val", "per_category")) + ["overall"]:
         per = {m: _get(summ, m, "ms_val", "per_category") for m in pair}
         got = {m: _get(summ, m, "ms_val") if c == "overall" else per[m].get(c, {}) for m in pair}
@@ -248,10 +379,17 @@ def table17(summ) -> list[str]:
         delta = None if sa is None or sb is None else sa - sb
         ref_delta = None if pa is None else pa - pb
         rows.append(
-            f"| {c} | {got[b].get('episodes', '-')} ({_fmt(paper.TABLE17_EPISODES.get(c), 0)}) | "
-            f"{_cell(sa, pa, 1)} | {_cell(sb, pb, 1)} | {_cell(delta, ref_delta, 1)} |"
+            f"| {c} | {_fmt(got[b].get('episodes'), 0)} ({_fmt(paper.TABLE17_EPISODES.get(c), 0)}) | "
+            f"{_sr_cell(got[a], pa)} | {_sr_cell(got[b], pb)} | {_cell(delta, ref_delta, 1)} |"
         )
-    return [f"## {_label(a)} vs {_label(b)} on MS VAL by category (Table 17 layout): ours (paper)", "", *rows]
+    return [
+        f"## {_label(a)} vs {_label(b)} on MS VAL by category (Table 17 layout): ours [95 % CI] "
+        "(paper); n=episodes",
+        "",
+        "Eps.: the episodes of the category ours (paper's).",
+        "",
+        *rows,
+    ]
 
 
 def _paired(a: list[dict], b: list[dict]):
@@ -262,6 +400,17 @@ def _paired(a: list[dict], b: list[dict]):
     return [ka[k] for k in keys], [kb[k] for k in keys]
 
 
+def _p(t: dict, key: str) -> str:
+    v = t.get(key)
+    if v is None:
+        return "–"
+    return f"{v:.3f}" if v >= 0.001 else f"{v:.1e}"
+
+
+def _significant(t: dict) -> str:
+    return "–" if t.get("significant") is None else ("**yes**" if t["significant"] else "no")
+
+
 def table9(summ) -> list[str]:
     """Centroid vs operational-face goals of each method the paper's Table 9 reports (Frontier)."""
     out: list[str] = []
@@ -269,10 +418,10 @@ def table9(summ) -> list[str]:
         ref, centroid = _paper_row(paper.TABLE9, m), _run_name(m, CENTROID_ENV)
         rows = [
             (
-                "| Split (n) | Centroid | Op-Face | Δ | p (McNemar) | Cent. wins | OpF. wins | "
-                "paper (C / O / Δ / p) |"
+                "| Split (n) | Centroid SR % | Op-Face SR % | Δ | p (McNemar) | p (Holm) | significant | "
+                "Cent. wins | OpF. wins | paper (C / O / Δ / p) |"
             ),
-            "|---|---|---|---|---|---|---|---|",
+            "|---|---|---|---|---|---|---|---|---|---|",
         ]
         for s in ("ms_dev", "ms_val", "ms_test"):
             t = _test(summ, centroid, m, s)
@@ -280,82 +429,134 @@ def table9(summ) -> list[str]:
                 continue
             sc, so, p = t["sr_a"], t["sr_b"], ref[s]
             delta = None if sc is None or so is None else sc - so
+            partial = [x for x in (_partial(summ, centroid, s), _partial(summ, m, s)) if x]
+            n = _fmt(t["n"], 0) + (f"; {', '.join(dict.fromkeys(partial))}" if partial else "")
             rows.append(
-                f"| {paper.SPLIT_LABELS[s]} ({_fmt(t['n'], 0)}) | {_fmt(sc)} | {_fmt(so)} | "
-                f"{'–' if delta is None else f'{delta:+.1f}'} | {_fmt(t['p'], 3)} | {_fmt(t['n10'], 0)} | "
+                f"| {paper.SPLIT_LABELS[s]} ({n}) | {_cell(sc, None, 1, t.get('sr_a_ci95'))} | "
+                f"{_cell(so, None, 1, t.get('sr_b_ci95'))} | {'–' if delta is None else f'{delta:+.1f}'} | "
+                f"{_p(t, 'p')} | {_p(t, 'p_holm')} | {_significant(t)} | {_fmt(t['n10'], 0)} | "
                 f"{_fmt(t['n01'], 0)} | {p[0]} / {p[1]} / {p[2]:+} / {p[3]} |"
             )
         if len(rows) == 2:
             rows.append(
                 f"| (run `biovln-ms eval --method {m} --env {CENTROID_ENV}` and the op-face run on "
-                "the same split) |||||||"
+                "the same split) |||||||||"
             )
         title = f"## Centroid vs operational-face goals, {_label(m)} (Table 9 layout)"
-        out += [*([""] if out else []), title, "", *rows]
+        note = (
+            "SR [95 % Wilson CI] over the n episodes both runs hold. " + _significance_note(summ) + " The "
+            "paper's p-values are uncorrected."
+        )
+        out += [*([""] if out else []), title, "", note, "", *rows]
     return out
 
 
 def table11(summ) -> list[str]:
     methods = _with_paper_rows(paper.TABLE11)
     splits = ("ms_dev", "ms_val", "ms_test")
-    head = [f"{_label(m)} {paper.SPLIT_LABELS[s]}" for m in methods for s in splits]
+    head = [
+        _with_partial(f"{_label(m)} {paper.SPLIT_LABELS[s]}", summ, m, s) for m in methods for s in splits
+    ]
     rows = ["| Difficulty | " + " | ".join(head) + " |", "|---" * (1 + len(head)) + "|"]
     for tier in ("easy", "medium", "hard"):
         cells = [tier]
         for m in methods:
             for s in splits:
                 d = _get(summ, m, s, "per_difficulty").get(tier, {})
-                label = f"{_fmt(d.get('sr'))} [n={d.get('episodes', 0)}]" if d else "–"
-                cells.append(f"{label} ({_paper_row(paper.TABLE11, m)[s][tier]})")
+                cells.append(_sr_cell(d, _paper_row(paper.TABLE11, m)[s][tier]))
         rows.append("| " + " | ".join(cells) + " |")
-    return ["## SR by difficulty tier (Table 11 layout): ours [episodes] (paper)", "", *rows]
+    return [
+        "## SR by difficulty tier (Table 11 layout): ours [95 % CI] (paper); n=episodes",
+        "",
+        "Tiers by geodesic start-goal distance: easy < 3 m, medium 3-6 m, hard > 6 m; – : no episode of the "
+        "tier in the run.",
+        "",
+        *rows,
+    ]
+
+
+def _significance_note(summ) -> str:
+    k = len(summ["mcnemar"])
+    return (
+        f"Holm's step-down correction over all {k} McNemar tests of this report (the pairwise table and "
+        f"Table 9 together) holds the family-wise error rate at {ALPHA}; significant: Holm-adjusted p < "
+        f"{ALPHA}."
+    )
 
 
 def mcnemar_table(summ) -> list[str]:
     rows = [
-        "| Method A | Method B | Split | n | n01 | n10 | test | p | paper (n01, n10, p) |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| Method A | Method B | Split | n | SR A % | SR B % | n01 | n10 | test | p | p (Holm) | "
+        "significant | paper (n01, n10, p) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for t in summ["mcnemar"]:
         a, b, s = t["a"], t["b"], t["split"]
         if a not in METHODS or b not in METHODS:  # the centroid runs are Table 9's
             continue
         p = paper.TABLE16.get((METHODS[a].paper_key, METHODS[b].paper_key, s))
+        partial = [x for x in (_partial(summ, a, s), _partial(summ, b, s)) if x]
+        n = f"{t['n']}" + (f"; {', '.join(dict.fromkeys(partial))}" if partial else "")
+        sr_a, sr_b = (
+            _cell(t["sr_a"], None, 1, t.get("sr_a_ci95")),
+            _cell(t["sr_b"], None, 1, t.get("sr_b_ci95")),
+        )
         rows.append(
-            f"| {_label(a)} | {_label(b)} | {paper.SPLIT_LABELS[s]} | {t['n']} | {t['n01']} | "
-            f"{t['n10']} | {'exact' if t['exact'] else 'χ² (cc)'} | {t['p']:.3f} | {p if p else '–'} |"
+            f"| {_label(a)} | {_label(b)} | {paper.SPLIT_LABELS[s]} | {n} | {sr_a} | {sr_b} | "
+            f"{t['n01']} | {t['n10']} | {'exact' if t['exact'] else 'χ² (cc)'} | {_p(t, 'p')} | "
+            f"{_p(t, 'p_holm')} | {_significant(t)} | {p if p else '–'} |"
+        )
+    if len(rows) == 2:
+        rows.append(
+            "| (no test of two methods in this data: none ran on the same split, or the data holds "
+            "none) ||||||||||||"
         )
     return [
         "## Pairwise McNemar tests (two-sided; exact binomial when n01 + n10 < 10)",
         "",
-        "n01: A fails and B succeeds; n10: A succeeds and B fails.",
+        "n: the episodes both runs hold; SR A, SR B: their SR % [95 % Wilson CI] on those episodes. n01: A "
+        "fails and B succeeds; n10: A succeeds and B fails. " + _significance_note(summ),
         "",
         *rows,
     ]
 
 
 def _easy_share(summ, split: str) -> str:
-    """The share of easy episodes in ``split``, from the first method evaluated on all of it."""
-    for splits in summ["runs"].values():
+    """The share of easy episodes in ``split``, from the first run on all of it (partial runs hold a
+    part of the split, not its mix)."""
+    for run, splits in summ["runs"].items():
         tiers = splits.get(split, {}).get("per_difficulty", {})
-        total = sum(t.get("episodes", 0) for t in tiers.values())
-        if total:
-            return f"{100 * tiers.get('easy', {}).get('episodes', 0) / total:.0f} %"
-    return "(no run)"
+        total = sum(t.get("episodes") or 0 for t in tiers.values())
+        if total and not _partial(summ, run, split):
+            return f"{100 * (tiers.get('easy', {}).get('episodes') or 0) / total:.0f} %"
+    return "(no full run to count)"
 
 
 def differences(summ) -> list[str]:
     out = ["## Where ours differ from the paper, and why", ""]
-    flagged = []
+    flagged, partial = [], []
     for m, splits in sorted(summ["runs"].items()):
         for s, parts in sorted(splits.items()):
             ref = _paper_row(paper.TABLE5, m).get(s, {}).get("sr")
-            ours = parts["overall"].get("sr")
+            if ref is not None and _partial(summ, m, s):
+                partial.append(f"{_label(m)} on {paper.SPLIT_LABELS[s]}: {_partial(summ, m, s)}")
+                continue
+            ours, ci = parts["overall"].get("sr"), parts["overall"].get("sr_ci95")
             if ref is not None and ours is not None and abs(ours - ref) >= 10:
-                flagged.append(
-                    f"- {_label(m)} on {paper.SPLIT_LABELS[s]}: SR {ours:.1f} % vs {ref} % in the paper."
-                )
-    out += flagged or ["- No SR differs from the paper's by 10 points or more."]
+                inside = ""
+                if ci and None not in ci:
+                    where = "inside" if ci[0] <= ref <= ci[1] else "outside"
+                    inside = f" (95 % CI {ci[0]:.1f}-{ci[1]:.1f}: the paper's value lies {where} it)"
+                name = f"{_label(m)} on {paper.SPLIT_LABELS[s]}"
+                flagged.append(f"- {name}: SR {ours:.1f} % vs {ref} % in the paper{inside}.")
+    out += flagged or ["- No SR of a full run differs from the paper's by 10 points or more."]
+    if partial:
+        out += [
+            "",
+            "Not compared with the paper (partial runs: the paper's numbers are over whole splits): "
+            + "; ".join(partial)
+            + ".",
+        ]
     out += [
         "",
         "Known causes (nothing here is tuned to the paper's numbers):",
@@ -365,9 +566,10 @@ def differences(summ) -> list[str]:
             "paper's Habitat oracle lost 20-30 % to it."
         ),
         (
-            f"- Our episodes are shorter (MS DEV {_easy_share(summ, 'ms_dev')} easy vs 11.9 %): the start "
-            "rule (>= 1.0 m from every body and wall, >= r + 1.0 m from the goal along the floor) leaves "
-            "only the middle of an 8 x 6 m room, close to every goal; see the datasets guide."
+            f"- Our episodes are shorter (easy episodes of MS DEV: {_easy_share(summ, 'ms_dev')} here vs "
+            "11.9 % in the paper): the start rule (>= 1.0 m from every body and wall, >= r + 1.0 m from "
+            "the goal along the floor) leaves only the middle of an 8 x 6 m room, close to every goal; see "
+            "the datasets guide."
         ),
         (
             "- Success radii and approach distances are our documented choices within the paper's ranges "
@@ -409,19 +611,29 @@ def differences(summ) -> list[str]:
     return out
 
 
-def plot_sr(runs, out: Path) -> Path:
-    methods = [m for m in report_methods() if any((m, s) in runs for s in SPLITS)]
-    splits = [s for s in SPLITS if any((m, s) in runs for m in methods)]
+def plot_sr(summ: dict, out: Path) -> Path:
+    """SR by method and split from ``summarize``'s data: bars with their Wilson 95 % intervals, the paper's
+    values as black ticks, a partial run's bar hatched."""
+    methods = [m for m in report_methods() if any(_ran(summ, m, s) for s in SPLITS)]
+    splits = [s for s in SPLITS if any(_ran(summ, m, s) for m in methods)]
     fig, ax = plt.subplots(figsize=(9, 4))
     w = 0.8 / max(len(methods), 1)
     for i, m in enumerate(methods):
-        ys = [aggregate(runs[(m, s)])["sr"] if (m, s) in runs else np.nan for s in splits]
-        ax.bar(np.arange(len(splits)) + i * w, ys, w, label=_label(m))
+        x = np.arange(len(splits)) + i * w
+        aggs = [_get(summ, m, s) for s in splits]
+        ys = np.array([np.nan if a.get("sr") is None else a["sr"] for a in aggs])
+        ci = np.array([a.get("sr_ci95") or [None, None] for a in aggs], dtype=float)
+        err = np.nan_to_num(np.abs(ci.T - ys), nan=0.0)
+        bars = ax.bar(x, ys, w, yerr=err, capsize=2, label=_label(m), error_kw={"lw": 0.8})
+        for bar, s in zip(bars, splits):
+            if _partial(summ, m, s):
+                bar.set_hatch("//")
         ps = [_paper_row(paper.TABLE5, m).get(s, {}).get("sr", np.nan) for s in splits]
-        ax.scatter(np.arange(len(splits)) + i * w, ps, marker="_", s=200, color="black", zorder=5)
+        ax.scatter(x, ps, marker="_", s=200, color="black", zorder=5)
     ax.set_xticks(np.arange(len(splits)) + 0.4 - w / 2, [paper.SPLIT_LABELS[s] for s in splits])
     ax.set_ylabel("success rate (%)")
-    ax.set_title("SR by method and split (bars: ours, black ticks: paper)")
+    ax.set_ylim(0, 105)
+    ax.set_title("SR by method and split (bars: ours with 95 % CI, hatched: partial run; ticks: paper)")
     ax.legend(fontsize=8, ncol=3)
     fig.tight_layout()
     fig.savefig(out, dpi=120)
@@ -476,8 +688,38 @@ def plot_trajectories(recs: list[dict], specs, out: Path, title: str, limit: int
     return out
 
 
+def is_hard(rec: dict) -> bool:
+    """A hard episode: the dataset's tier (geodesic start-goal distance > 6 m)."""
+    return rec.get("difficulty") == "hard"
+
+
+def hard_figure_title(rec: dict, success: bool) -> str:
+    """The figure's title: "Hard episode ..." only for a hard one; any other episode is named as the
+    longest of the runs, with its tier, and the title says there was no hard episode to show."""
+    where = f"{rec['scene_id']}/{rec['episode_id']} (geodesic {rec['geodesic_distance']:.1f} m)"
+    what = f"{'success' if success else 'failure'}; blue = free, black = occupied on the agent's map"
+    if is_hard(rec):
+        return f"Hard episode {where}: {what}"
+    return (
+        f"No hard episode (geodesic > 6 m) in these runs; the longest, {rec.get('difficulty', 'unknown')} "
+        f"episode {where}:\n{what}"
+    )
+
+
+def hard_episodes(runs, limit: int) -> tuple[list[dict], bool]:
+    """The frontier episodes that ran to draw, and whether they are hard: the longest hard ones, else
+    (no hard episode in the runs) the longest ones."""
+    ran = [
+        r for (m, _), recs in sorted(runs.items()) if m == "frontier" for r in recs if record_error(r) is None
+    ]
+    hard = [r for r in ran if is_hard(r)]
+    pick = hard or ran
+    return sorted(pick, key=lambda r: -r["geodesic_distance"])[:limit], bool(hard)
+
+
 def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
-    """Start, goal, geodesic path and the frontier agent's occupancy grid at the end (re-run)."""
+    """Start, goal, geodesic path and the frontier agent's occupancy grid at the end (re-run), titled by
+    ``hard_figure_title``."""
     import gymnasium as gym
 
     import biovln_ms  # noqa: F401
@@ -525,12 +767,7 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
         )
         ax.plot(*rec["start"], "o", color="#1f77b4", ms=9, zorder=11)
         ax.plot(*rec["goal"], "X", color="#d62728", ms=11, zorder=11)
-        ax.set_title(
-            f"Hard episode {rec['scene_id']}/{rec['episode_id']} "
-            f"(geodesic {rec['geodesic_distance']:.1f} m): "
-            f"{'success' if bool(info['success']) else 'failure'}; "
-            "blue = free, black = occupied on the agent's map"
-        )
+        ax.set_title(hard_figure_title(rec, bool(info["success"])), fontsize=9)
         ax.legend(loc="upper left", fontsize=8)
         fig.tight_layout()
         fig.savefig(out, dpi=110)
@@ -540,15 +777,21 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
     return out
 
 
-def runs_header(runs, results) -> list[str]:
-    """The report's first lines: each run with its episodes and how many of them errored (when any), and
-    what an errored episode counts as."""
-    listed, errored = [], 0
+def runs_header(runs, results, summ: dict | None = None) -> list[str]:
+    """The report's first lines: each run with its episodes, how many of them errored (when any) and
+    whether it is partial (by ``summarize``'s ``summ``), what an errored episode counts as, the units
+    and the intervals."""
+    listed, errored, partial = [], 0, 0
     for (m, s), recs in sorted(runs.items()):
         a = aggregate(recs)
         errored += a["errors"]
+        label = _partial(summ, m, s) if summ else ""
+        partial += bool(label)
         listed.append(
-            f"{m} on {s} ({a['episodes']} episodes" + (f", {a['errors']} errored)" if a["errors"] else ")")
+            f"{m} on {s} ({a['episodes']} episodes"
+            + (f", {a['errors']} errored" if a["errors"] else "")
+            + (f"; {label}" if label else "")
+            + ")"
         )
     return [
         f"Results: `{results}`. Runs: " + ", ".join(listed) + ".",
@@ -556,12 +799,21 @@ def runs_header(runs, results) -> list[str]:
         f"Errored episodes: {errored or 'none'}. An errored episode (it failed to run; its reason is the "
         "`error` field of `episodes.jsonl`) counts as a failure: in SR, and with SPL 0 in SPL. It has no "
         "trajectory, so DTG, steps, MCR and VRT are means over the episodes that ran.",
+        "",
+        (
+            f"Partial runs: {partial} (fewer episodes than their split, marked partial (n/N) in the tables); "
+            "their numbers are not comparable with the paper's, which are over whole splits."
+            if partial
+            else "Partial runs: none (every run covers its whole split)."
+        ),
+        "",
+        "Units: SR, strict SR and VRT in %, SPL in [0, 1], DTG and MCR in m. " + INTERVALS + ".",
     ]
 
 
-def tables(runs) -> list[list[str]]:
+def tables(runs, split_sizes: dict[str, int] | None = None) -> list[list[str]]:
     """The report's Markdown sections, in order (one list of lines each)."""
-    return tables_of(summarize(runs))
+    return tables_of(summarize(runs, split_sizes))
 
 
 TABLES = {
@@ -581,6 +833,19 @@ def tables_of(summ: dict) -> list[list[str]]:
     return [make(summ) for make in TABLES.values()]
 
 
+def split_sizes(ds) -> dict[str, int]:
+    """Each split's episode count in the dataset ``ds`` (its manifest), for the partial-run labels."""
+    from biovln_ms.episodes.dataset import DatasetError
+
+    out = {}
+    for s in ds.split_names():
+        try:
+            out[s] = int(ds.split_info(s)["episodes"])
+        except (DatasetError, KeyError, TypeError, ValueError):  # not built, or no count: no label
+            continue
+    return out
+
+
 def write_report(
     results: Path, out: Path, dataset: str | None = None, videos: int = 1, hard_figures: int = 2, echo=print
 ) -> Path:
@@ -596,14 +861,14 @@ def write_report(
     out = Path(out)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     ds = EpisodeDataset(dataset or ensure_default_dataset(echo))
-    lines = ["# BioVLN-MS evaluation report", "", *runs_header(runs, results), ""]
+    summ = summarize(runs, split_sizes(ds))
+    lines = ["# BioVLN-MS evaluation report", "", *runs_header(runs, results, summ), ""]
     errored = {k: aggregate(r)["errors"] for k, r in sorted(runs.items())}
     if any(errored.values()):
         echo(
             "errored episodes (counted as failures): "
             + ", ".join(f"{m} on {s}: {n}" for (m, s), n in errored.items() if n)
         )
-    summ = summarize(runs)
     meta = {
         "command": f"biovln-ms report {results}",
         "machine": machine(),
@@ -615,7 +880,7 @@ def write_report(
     for block in tables_of(summ):
         lines += block + [""]
     figs = [
-        plot_sr(runs, out / "figures" / "sr_by_method.png"),
+        plot_sr(summ, out / "figures" / "sr_by_method.png"),
         plot_safety(runs, out / "figures" / "safety.png"),
     ]
     for (m, s), recs in sorted(runs.items()):
@@ -626,25 +891,19 @@ def write_report(
         )
     lines += ["## Figures", ""] + [f"![{f.stem}](figures/{f.name})" for f in figs] + [""]
     ran = {k: [r for r in recs if record_error(r) is None] for k, recs in runs.items()}
-    hard = sorted(
-        (r for (m, s), recs in ran.items() if m == "frontier" for r in recs if r["difficulty"] == "hard"),
-        key=lambda r: -r["geodesic_distance"],
-    )[:hard_figures]
-    if not hard:
-        hard = sorted(
-            (r for (m, s), recs in ran.items() if m == "frontier" for r in recs),
-            key=lambda r: -r["geodesic_distance"],
-        )[:hard_figures]
+    hard, any_hard = hard_episodes(runs, hard_figures)
+    prefix = "hard" if any_hard else "longest"
     hard_files = [
-        hard_episode_figure(r, dataset, out / "figures" / f"hard_{r['scene_id']}_{r['episode_id']}.png")
+        hard_episode_figure(r, dataset, out / "figures" / f"{prefix}_{r['scene_id']}_{r['episode_id']}.png")
         for r in hard
     ]
     if hard_files:
-        lines += (
-            ["## Longest frontier episodes (hard-episode analysis)", ""]
-            + [f"![{f.stem}](figures/{f.name})" for f in hard_files]
-            + [""]
+        heading = (
+            "## Hard frontier episodes (geodesic > 6 m), longest first"
+            if any_hard
+            else "## Longest frontier episodes (no hard episode, geodesic > 6 m, in these runs)"
         )
+        lines += [heading, ""] + [f"![{f.stem}](figures/{f.name})" for f in hard_files] + [""]
     if videos:
         from biovln_ms.record import record_episode
 
