@@ -483,3 +483,19 @@ def test_no_tunnelling_at_any_step_size(dataset):
                 assert not bodies.contains(shapely.Point(x, y)), (step, mode, ep, x, y)
             assert int(info["collisions"]) > 0, (step, mode, ep)
         e.close()
+
+
+def test_many_turns_one_way_stay_thirty_degrees_each():
+    """PhysX keeps the yaw joint within +-2 pi; a drive target past it used to spin the robot the long way
+    round (+131 deg for one right turn). The controller re-seats the joint before that."""
+    env = gym.make("BioVLN-OpFace-v0", split="ms_val", obs_mode="state", max_episode_steps=100, **CPU)
+    env.reset(options={"episode_index": 0})
+    for action, sign in ((3, -1), (2, 1)):
+        prev = float(env.unwrapped._pose()[0, 2])
+        for _ in range(30):  # 900 degrees one way
+            yaw = float(env.step(action)[4]["agent_pose"][0, 2])
+            turn = math.degrees((yaw - prev + math.pi) % (2 * math.pi) - math.pi)
+            assert turn == pytest.approx(sign * 30.0, abs=0.5)
+            assert abs(yaw) <= 1.5 * math.pi + math.radians(30)
+            prev = yaw
+    env.close()

@@ -44,6 +44,10 @@ DRIVE_STIFFNESS = 3e6
 DRIVE_DAMPING = 1e4
 DRIVE_FORCE_LIMIT = 1e5
 ACTIONS = {0: "STOP", 1: "FORWARD", 2: "TURN_LEFT", 3: "TURN_RIGHT"}
+#: a yaw drive target beyond this (rad) re-seats the yaw joint by a turn first: PhysX keeps the joint's
+#: position within +-2 pi, so a target past it made the drive spin the long way round (+131 deg for a
+#: 30 deg right turn)
+YAW_RESEAT = 1.5 * math.pi
 CONTROL_MODES = ("discrete", "continuous")
 
 
@@ -147,12 +151,30 @@ class NavBaseController(PDJointPosController):
             target[:, 1] += forward * s + across * c
             moving = (forward != 0) | (across != 0)
         target[:, 2] += turn
+        if self._reseat_yaw(p, target):
+            pose = self.qpos
         self.command = NavCommand(p, stop, forward, turn, target)  # limit returns a new array
         if self.limit is not None:
             target = self.limit(p, target, moving)
         target = torch.from_numpy(target).to(device=pose.device, dtype=pose.dtype)
         self._start_qpos, self._target_qpos = pose, target
         self.set_drive_targets(target)
+
+    def _reseat_yaw(self, pose: np.ndarray, target: np.ndarray) -> bool:
+        """Where a yaw target passes +-YAW_RESEAT, turn the yaw joint's position and the target by a full
+        turn back toward zero (the same orientation; ``pose`` and ``target`` rows change in place).
+        Whether any did."""
+        rows = np.flatnonzero(np.abs(target[:, 2]) > YAW_RESEAT)
+        if len(rows) == 0:
+            return False
+        shift = -2 * math.pi * np.sign(target[rows, 2])
+        pose[rows, 2] += shift
+        target[rows, 2] += shift
+        qpos = self.articulation.get_qpos().clone()
+        yaw = self.active_joint_indices[2]
+        qpos[rows, yaw] += torch.from_numpy(shift).to(qpos.device, qpos.dtype)
+        self.articulation.set_qpos(qpos)
+        return True
 
 
 @dataclass
