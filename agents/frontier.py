@@ -11,6 +11,14 @@ the camera extrinsics use), the map is centred on the first pose, and the goal i
 step, from the ``pointgoal_with_gps_compass`` sensor and kept fixed (re-reading it each step would make
 float32 noise move the goal).
 
+Without GPS+compass (``task.noise.gps_compass`` false, e.g. the ``realistic`` preset) there is no odometry:
+the policy runs in the episode frame (origin at the start pose), keeps its pose by dead reckoning of its
+commands corrected by matching each depth scan to its map (:mod:`~biovln_ms.agents.localisation`), builds
+the map with camera extrinsics of that pose (only the camera's mount, its height and tilt, is read from
+the observed ones), and reads the goal once from ``pointgoal`` (the start frame). A FORWARD after which
+the estimate moved less than half a step was blocked. ``episode_stats`` reports the pose it acted on at
+every step (``pose_estimates``, in ``pose_frame``), from which the harness measures the drift.
+
 Goal rule (the paper leaves it implicit): the goal position is used only to decide when to go there
 and stop: as soon as the goal cell is known free and reachable on the robot's map it navigates to it
 and STOPs within half a step (or when a step would not bring it closer). With no frontier left and
@@ -35,7 +43,8 @@ from biovln_ms.agents.frontier_planner import (
     nearest_candidate,
     nearest_reachable,
 )
-from biovln_ms.agents.policy import EpisodeInfo, Policy, TaskSpec
+from biovln_ms.agents.localisation import Localiser, camera_mount, extrinsic_at, scan_points
+from biovln_ms.agents.policy import STOP, EpisodeInfo, Policy, TaskSpec
 
 __all__ = [
     "FREE",
@@ -47,6 +56,7 @@ __all__ = [
     "Scan",
     "backproject",
     "goal_from_sensor",
+    "head_depth",
     "head_frame",
     "pose_from_odometry",
     "to_numpy",
@@ -75,8 +85,13 @@ def goal_from_sensor(pose: np.ndarray, pointgoal) -> np.ndarray:
 def head_frame(obs: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The head camera's depth (m, float32) and its OpenCV intrinsics and extrinsics."""
     params = obs["sensor_param"]["head"]
+    return (*head_depth(obs), to_numpy(params["extrinsic_cv"][0]))
+
+
+def head_depth(obs: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The head camera's depth (m, float32) and its OpenCV intrinsics."""
     depth = to_numpy(obs["sensor_data"]["head"]["depth"][0, ..., 0]).astype(np.float32) / 1000.0
-    return depth, to_numpy(params["intrinsic_cv"][0]), to_numpy(params["extrinsic_cv"][0])
+    return depth, to_numpy(obs["sensor_param"]["head"]["intrinsic_cv"][0])
 
 
 class FrontierPolicy(Policy):
@@ -97,31 +112,79 @@ class FrontierPolicy(Policy):
         self.control: FrontierController | None = None
         self.goal: np.ndarray | None = None
         self.pose: np.ndarray | None = None  # (x, y, yaw) at the current step
+        # without GPS+compass: the pose in the episode frame, estimated (biovln_ms.agents.localisation)
+        self.localiser = None if self.task.noise.gps_compass else Localiser()
+        self.mount: np.ndarray | None = None  # the head camera on the base (height and tilt)
+        self.pose_estimates: list[np.ndarray] = []
 
     def act(self, obs, info: dict) -> int:
-        self.pose = pose_from_odometry(obs)
+        self.pose = pose_from_odometry(obs) if self.localiser is None else self._localise(obs)
         if self.map is None:
             self._start(obs, self.pose)
         self._integrate(obs)
+        self.pose_estimates.append(self.pose)
         return self.control.act(self.pose)
+
+    def _localise(self, obs) -> np.ndarray:
+        """The pose without odometry: the start at the first step, then the previous command's dead
+        reckoning corrected by matching this frame's depth scan to the map built so far."""
+        if self.map is None:
+            self.mount = camera_mount(to_numpy(obs["sensor_param"]["head"]["extrinsic_cv"][0]))
+            return self.localiser.reset()
+        last = self.control.last_action
+        self.localiser.predict(STOP if last is None else last, self.task)
+        if self.params.scan_match:
+            p = self.params
+            points = scan_points(
+                *head_depth(obs), self.mount, p.pixel_stride, p.depth_clip, p.floor_z, p.top_z
+            )
+            self.localiser.correct(points, self.map)
+        return self.localiser.pose.copy()
+
+    def _frame(self, obs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The head camera's depth, intrinsics and extrinsics in the policy's frame: the observed ones
+        with odometry, else those of the estimated pose."""
+        if self.localiser is None:
+            return head_frame(obs)
+        return (*head_depth(obs), extrinsic_at(self.pose, self.mount))
 
     def _start(self, obs, pose: np.ndarray) -> None:
         """First step: the map, planner and controller, and the goal from the goal sensor (fixed from
-        here on)."""
+        here on): ``pointgoal_with_gps_compass`` from the pose, or without GPS+compass ``pointgoal``
+        from the start (the episode frame's origin)."""
         self._build(pose)
-        self.goal = goal_from_sensor(pose, to_numpy(obs["extra"]["pointgoal_with_gps_compass"][0]))
+        if self.localiser is None:
+            self.goal = goal_from_sensor(pose, to_numpy(obs["extra"]["pointgoal_with_gps_compass"][0]))
+        else:
+            self.goal = goal_from_sensor(np.zeros(3), to_numpy(obs["extra"]["pointgoal"][0]))
 
     def _build(self, pose: np.ndarray) -> None:
         p = self.params
         self.map = OccupancyMap(pose[:2], p.resolution, p.extent)
         self.planner = FrontierPlanner(p, self)
         turn = math.radians(self.task.turn_deg)
+        if self.localiser is not None:  # an estimated pose: a blocked FORWARD moved it less than half a step
+            p = replace(p, blocked_move=max(p.blocked_move, self.task.forward_step / 2))
         self.control = FrontierController(p, self.task.forward_step, turn, self.map, self.planner)
 
     def _integrate(self, obs) -> Scan:
         """Add the head camera's depth frame to the map (VLFM also scores and detects on it)."""
         p = self.params
-        return self.map.integrate(*head_frame(obs), p.pixel_stride, p.depth_clip, p.floor_z, p.top_z)
+        return self.map.integrate(*self._frame(obs), p.pixel_stride, p.depth_clip, p.floor_z, p.top_z)
+
+    def episode_stats(self) -> dict:
+        """The pose acted on at each step (x, y, yaw; ``pose_frame``: "world" from odometry, "episode"
+        when estimated) and, when estimated, the scan matches accepted and dropped as weak; empty before
+        the first step."""
+        if not getattr(self, "pose_estimates", None):
+            return {}
+        out = {
+            "pose_frame": "world" if self.localiser is None else "episode",
+            "pose_estimates": [[round(float(v), 4) for v in pose] for pose in self.pose_estimates],
+        }
+        if self.localiser is not None:
+            out.update(scan_matches=self.localiser.accepted, scan_matches_weak=self.localiser.rejected)
+        return out
 
     # --- target rules (VLFM and LLM-Frontier override them) --------------------------------------
     def known_target(self, field: PlanField) -> np.ndarray | None:

@@ -51,6 +51,11 @@ class FrontierController:
     def target(self) -> np.ndarray | None:
         return None if self.plan is None else self.plan.target
 
+    @property
+    def last_action(self) -> int | None:
+        """The action of the previous step (None before the first)."""
+        return None if self._last is None else self._last[1]
+
     def act(self, pose: np.ndarray) -> int:
         """The action at ``pose`` (x, y, yaw)."""
         p, yaw = pose[:2], float(pose[2])

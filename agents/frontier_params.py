@@ -29,6 +29,9 @@ class FrontierParams:
     waypoint_reach: float = 0.3  # m: a nearer waypoint is passed, a nearer exploration target re-planned
     blocked_move: float = 0.02  # m: a FORWARD that moved less was blocked by something the map missed
     stuck_turns: int = 12  # consecutive steps without a path (turning left to look around) before STOP
+    # localisation without GPS+compass (biovln_ms.agents.localisation)
+    scan_match: bool = True  # correct dead reckoning by matching each depth scan to the map (False: dead
+    # reckoning alone, for comparison)
 
     @property
     def inflate_cells(self) -> int:

@@ -48,8 +48,9 @@ class LLMFrontierPolicy(FrontierPolicy):
         self.consulted = self.fallbacks = 0
 
     def episode_stats(self) -> dict:
-        """LLM use in the current episode (recorded per episode by the harness)."""
-        return {"llm_consulted": self.consulted, "llm_fallbacks": self.fallbacks}
+        """LLM use in the current episode, and the frontier baseline's pose estimates (recorded per
+        episode by the harness)."""
+        return {"llm_consulted": self.consulted, "llm_fallbacks": self.fallbacks, **super().episode_stats()}
 
     def choose(self, candidates: list[Candidate], pose: np.ndarray) -> np.ndarray:
         """The LLM's pick among the nearest frontiers within the threshold of the nearest (the nearest

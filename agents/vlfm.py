@@ -15,7 +15,8 @@ The structure of VLFM, with pluggable components:
 
 Unlike the frontier baseline, VLFM is never told the goal position: it only knows the target
 category, as in ObjectNav (it reads the head camera's images, the odometry, and the GT detector the
-``semantic_category`` sensor, never ``pointgoal_with_gps_compass``). It early-stops after 100
+``semantic_category`` sensor, never ``pointgoal_with_gps_compass``; without GPS+compass it localises as
+the frontier baseline does, see :mod:`~biovln_ms.agents.frontier`). It early-stops after 100
 consecutive steps without progress (paper Table 15): progress = the known free area grew, or the
 distance to the current target shrank.
 """
@@ -26,7 +27,7 @@ import math
 
 import numpy as np
 
-from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy, head_frame, to_numpy
+from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy, to_numpy
 from biovln_ms.agents.frontier_map import FREE, Scan, backproject
 from biovln_ms.agents.frontier_planner import Candidate, PlanField
 from biovln_ms.agents.policy import STOP, EpisodeInfo
@@ -103,7 +104,7 @@ class VLFMPolicy(FrontierPolicy):
         mask = self._detector.detect(obs, self.category)
         if not mask.any():
             return
-        depth, intrinsic, extrinsic = head_frame(obs)
+        depth, intrinsic, extrinsic = self._frame(obs)
         v, u = np.nonzero(mask & (depth > 0) & (depth <= self.params.depth_clip))
         if len(v) < self.min_object_points:
             return
@@ -180,6 +181,7 @@ class VLFMPolicy(FrontierPolicy):
 
     def episode_stats(self) -> dict:
         return {
+            **super().episode_stats(),
             "detections": self.detections,
             "object_seen": bool(len(self.object_points) >= self.min_object_points),
             "detector": self._detector.name,

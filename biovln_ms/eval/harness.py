@@ -184,9 +184,10 @@ def _run(index: int) -> dict:
     t0 = time.perf_counter()
     ep = None
     try:
-        positions, headings, clearance, zone2, actions = [], [], [], [], []
+        positions, headings, clearance, zone2, actions, poses = [], [], [], [], [], []
         for st in rollout(env, policy, index, _W["privileged"]):
             pose = st.info["agent_pose"][0].cpu().numpy()
+            poses.append([float(v) for v in pose[:3]])
             if st.action is None:
                 ep = u.current_episode
                 goal = st.info["goal_position"][0].cpu().numpy()
@@ -230,6 +231,7 @@ def _run(index: int) -> dict:
         }
         if hasattr(policy, "episode_stats"):
             rec["policy_stats"] = policy.episode_stats()
+            rec.update(pose_drift(rec["policy_stats"], poses))
         bad = record_error(rec)
         if bad:  # a failure, never a silent gap in a mean; JSON gets null, not NaN
             rec["error"] = f"invalid record: {bad}"
@@ -257,6 +259,25 @@ def _run(index: int) -> dict:
         }
     )
     return rec
+
+
+def pose_drift(stats: dict, poses: list) -> dict:
+    """``pose_drift`` and ``pose_drift_max``: the planar distance (m) between the pose a policy estimated
+    at its last step, and at its worst, and the true pose it acted from (``info["agent_pose"]``, in
+    ``poses`` from the reset on). Estimates in the episode frame (``pose_frame`` "episode": origin at
+    the start pose, x along the start heading) are put in the world with the start pose. Empty when the
+    policy reports no ``pose_estimates``."""
+    est = stats.get("pose_estimates") or []
+    if not est:
+        return {}
+    x0, y0, yaw0 = poses[0]
+    c, s = math.cos(yaw0), math.sin(yaw0)
+    drift = []
+    for (x, y, *_), (tx, ty, *_) in zip(est, poses):
+        if stats.get("pose_frame") == "episode":
+            x, y = x0 + c * x - s * y, y0 + s * x + c * y
+        drift.append(math.hypot(x - tx, y - ty))
+    return {"pose_drift": round(drift[-1], 4), "pose_drift_max": round(max(drift), 4)}
 
 
 # --- driver --------------------------------------------------------------------------------------
