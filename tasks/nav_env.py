@@ -276,7 +276,7 @@ class BioVLNNavEnv(BaseEnv):
 
     def _pose(self) -> np.ndarray:
         """(N, 3) float64 planar poses from the base joints (host)."""
-        return self.agent.planar_pose().cpu().numpy().astype(np.float64)
+        return self.agent.planar_pose().astype(np.float64)
 
     def _step_action(self, action):
         """ManiSkill's, after turning what gymnasium users pass for ``Discrete(4)`` — ``2``, ``np.int64(2)``,
@@ -425,13 +425,13 @@ class BioVLNNavEnv(BaseEnv):
     # --- rewards: measures chosen by the config (Eq. 5) ----------------------------------------
     def compute_dense_reward(self, obs, action, info):
         reward = np.where(self._frozen, 0.0, self._measures[self.cfg.reward_measure])  # nothing after the end
-        return torch.tensor(reward, dtype=torch.float32, device=self.device)
+        return torch.from_numpy(reward.astype(np.float32)).to(self.device)
 
     def compute_normalized_dense_reward(self, obs, action, info):
         return self.compute_dense_reward(obs, action, info) / self.cfg.success_bonus
 
     def compute_sparse_reward(self, obs, action, info):
-        return (info["success"] & ~torch.tensor(self._frozen, device=self.device)).to(torch.float32)
+        return (info["success"] & ~torch.from_numpy(self._frozen).to(self.device)).to(torch.float32)
 
     # --- state: the simulator's and the task's -------------------------------------------------
     def get_state_dict(self):

@@ -20,7 +20,7 @@ CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
 
 def pose(u) -> np.ndarray:
     """The robot's planar pose from its base joints (tests may look inside the env; policies may not)."""
-    return u.agent.planar_pose()[0].double().numpy()
+    return u.agent.planar_pose()[0].astype(np.float64)
 
 
 @pytest.fixture(scope="module")

@@ -101,7 +101,7 @@ class NavBaseController(PDJointPosController):
         if not hasattr(self, "forward_step"):
             self.set_motion(self.config.forward_step, self.config.turn_deg)
         n = self.scene.num_envs
-        pose = self.qpos.cpu().numpy().astype(np.float64)
+        pose = self.host_qpos().astype(np.float64)
         self.command = NavCommand(pose, np.zeros(n, dtype=bool), np.zeros(n), np.zeros(n), pose)
 
     def _decode(self, action) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -133,10 +133,33 @@ class NavBaseController(PDJointPosController):
         a = a.reshape(n, 3).astype(np.float64)
         return a[:, 2] > 0, (a[:, 0] + 1) / 2 * self.forward_step, a[:, 1] * self.turn
 
+    def _initialize_joints(self):
+        super()._initialize_joints()
+        self._joint_columns = self.active_joint_indices.cpu().numpy()  # the planar joints' qpos columns
+
+    def host_qpos(self) -> np.ndarray:
+        """(N, 3) float32 joint positions on the host: ManiSkill's ``qpos``, read straight from SAPIEN's
+        articulation on the CPU backend (no tensor round trip: a tenth of a CPU step)."""
+        if self.scene.gpu_sim_enabled:
+            return self.qpos.cpu().numpy()
+        return self.articulation._objs[0].qpos[None, self._joint_columns]
+
+    def _set_host_targets(self, target: np.ndarray) -> torch.Tensor:
+        """Drive targets from (N, 3) host values, as float32 like ManiSkill's; SAPIEN's joints are set
+        directly on the CPU backend (what ManiSkill's per-joint setters do, without their tensor work)."""
+        t32 = target.astype(np.float32)
+        out = torch.from_numpy(t32).to(self.device)
+        if self.scene.gpu_sim_enabled:
+            self.set_drive_targets(out)
+        else:
+            for i, joint in enumerate(self.joints):
+                joint._objs[0].drive_target = t32[0, i : i + 1]
+        return out
+
     def set_action(self, action: torch.Tensor):
         stop, forward, turn = self._decode(action)
-        pose = self.qpos
-        p = pose.cpu().numpy().astype(np.float64)  # targets are computed as exactly as the pose allows
+        q = self.host_qpos()
+        p = q.astype(np.float64)  # targets are computed as exactly as the pose allows
         held = stop if self.frozen is None else stop | self.frozen  # STOP, or an ended episode: stay put
         forward, turn = np.where(held, 0.0, forward), np.where(held, 0.0, turn)
         target = p.copy()
@@ -152,13 +175,12 @@ class NavBaseController(PDJointPosController):
             moving = (forward != 0) | (across != 0)
         target[:, 2] += turn
         if self._reseat_yaw(p, target):
-            pose = self.qpos
+            q = self.host_qpos()
         self.command = NavCommand(p, stop, forward, turn, target)  # limit returns a new array
         if self.limit is not None:
             target = self.limit(p, target, moving)
-        target = torch.from_numpy(target).to(device=pose.device, dtype=pose.dtype)
-        self._start_qpos, self._target_qpos = pose, target
-        self.set_drive_targets(target)
+        self._start_qpos = torch.from_numpy(q.copy()).to(self.device)
+        self._target_qpos = self._set_host_targets(target)
 
     def _reseat_yaw(self, pose: np.ndarray, target: np.ndarray) -> bool:
         """Where a yaw target passes +-YAW_RESEAT, turn the yaw joint's position and the target by a full
@@ -233,9 +255,9 @@ class BioVLNBase(BaseAgent):
         """The body's radius (m), read from its collision cylinder in the URDF."""
         return urdf_body_radius()
 
-    def planar_pose(self) -> torch.Tensor:
-        """(num_envs, 3): x, y, yaw from the joint positions."""
-        return self.robot.get_qpos()
+    def planar_pose(self) -> np.ndarray:
+        """(num_envs, 3) float32 on the host: x, y, yaw from the joint positions."""
+        return self.controller.host_qpos()
 
 
 def urdf_body_radius(path: Path = URDF_PATH) -> float:

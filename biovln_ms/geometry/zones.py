@@ -247,13 +247,19 @@ class InstrumentArray:
         self.cos, self.sin = np.cos(yaw), np.sin(yaw)
         self.half = np.array([i.half_xy for i in instruments]).reshape(-1, 2)
         self.eps = np.array([i.eps_c for i in instruments])
+        self._last: tuple[float, float, np.ndarray] | None = None
 
     def _local(self, p: np.ndarray) -> np.ndarray:
-        """|p| in each instrument's frame, (n, 2)."""
-        d = np.asarray(p, float)[:2] - self.centers
+        """|p| in each instrument's frame, (n, 2); the last point's is kept (clearance and Zone 2 ask in
+        turn for the same point)."""
+        x, y = float(p[0]), float(p[1])
+        if self._last is not None and self._last[0] == x and self._last[1] == y:
+            return self._last[2]
+        d = np.array([x, y]) - self.centers
         out = np.empty_like(d)
         out[:, 0] = np.abs(self.cos * d[:, 0] + self.sin * d[:, 1])
         out[:, 1] = np.abs(-self.sin * d[:, 0] + self.cos * d[:, 1])
+        self._last = (x, y, out)
         return out
 
     def clearance(self, p) -> float:

@@ -44,6 +44,7 @@ from biovln_ms.task_config import NavTaskConfig
 F64 = np.float64
 #: strict operational success: the heading within this angle of the face's inward normal
 STRICT_FACING_DEG = 30.0
+COS_STRICT_FACING = math.cos(math.radians(STRICT_FACING_DEG))
 
 
 @dataclass
@@ -137,6 +138,8 @@ class StepState:
     stopped: np.ndarray  # (N,) bool
     commanded_forward: np.ndarray  # (N,) float64
     moved_forward: np.ndarray  # (N,) float64
+    #: per-goal arrays several measures share, computed once per (quantity, rows) (see :func:`_once`)
+    cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
     def at_rest(cls, pose: np.ndarray) -> "StepState":
@@ -220,26 +223,52 @@ class SceneQueryMeasure(Measure):
         self.at[todo] = s.position[todo]
 
 
+def _once(s: StepState, idx: Rows, name: str, compute: Callable[[], np.ndarray]) -> np.ndarray:
+    """``compute()`` for this step's rows ``idx``, shared by the measures that need it (the state and the
+    rows object are the same for every measure of one update)."""
+    key = (name, id(idx))
+    if key not in s.cache:
+        s.cache[key] = compute()
+    return s.cache[key]
+
+
+def _any_goal(a: np.ndarray) -> np.ndarray:
+    """(N,) whether any goal's column of (N, k) ``a`` holds (one goal: its column, the common case)."""
+    return a[:, 0] if a.shape[1] == 1 else a.any(axis=1)
+
+
 def _goal_distances(ctx: BatchContext, s: StepState, idx: Rows) -> np.ndarray:
     """(N, k) Euclidean distances to each goal (inf for unused slots)."""
-    d = ctx.goals[idx] - s.position[idx][:, None, :]
-    return np.where(ctx.goal_ok[idx], np.hypot(d[..., 0], d[..., 1]), np.inf)
+
+    def compute() -> np.ndarray:
+        d = ctx.goals[idx] - s.position[idx][:, None, :]
+        return np.where(ctx.goal_ok[idx], np.hypot(d[..., 0], d[..., 1]), np.inf)
+
+    return _once(s, idx, "distances", compute)
 
 
 def _in_zone3(ctx: BatchContext, s: StepState, idx: Rows) -> np.ndarray:
     """(N, k) whether the robot's centre is in each goal's Zone 3."""
-    z = ctx.zone3[idx]
-    d = s.position[idx][:, None, :] - z[..., 0:2]
-    du = d[..., 0] * z[..., 2] + d[..., 1] * z[..., 3]
-    dv = d[..., 0] * z[..., 4] + d[..., 1] * z[..., 5]
-    return ctx.has_zone3[idx] & (np.abs(du) <= z[..., 6] + 1e-9) & (np.abs(dv) <= z[..., 7] + 1e-9)
+
+    def compute() -> np.ndarray:
+        z = ctx.zone3[idx]
+        d = s.position[idx][:, None, :] - z[..., 0:2]
+        du = d[..., 0] * z[..., 2] + d[..., 1] * z[..., 3]
+        dv = d[..., 0] * z[..., 4] + d[..., 1] * z[..., 5]
+        return ctx.has_zone3[idx] & (np.abs(du) <= z[..., 6] + 1e-9) & (np.abs(dv) <= z[..., 7] + 1e-9)
+
+    return _once(s, idx, "in_zone3", compute)
 
 
 def _facing_face(ctx: BatchContext, s: StepState, idx: Rows) -> np.ndarray:
     """(N, k) whether the heading is within STRICT_FACING_DEG of each goal's inward face normal."""
-    f, yaw = ctx.face[idx], s.yaw[idx][:, None]
-    cos = -(np.cos(yaw) * f[..., 0] + np.sin(yaw) * f[..., 1])
-    return ctx.has_zone3[idx] & (cos >= math.cos(math.radians(STRICT_FACING_DEG)) - 1e-12)
+
+    def compute() -> np.ndarray:
+        f, yaw = ctx.face[idx], s.yaw[idx][:, None]
+        cos = -(np.cos(yaw) * f[..., 0] + np.sin(yaw) * f[..., 1])
+        return ctx.has_zone3[idx] & (cos >= COS_STRICT_FACING - 1e-12)
+
+    return _once(s, idx, "facing_face", compute)
 
 
 @register_measure
@@ -249,7 +278,8 @@ class DistanceToGoal(Measure):
     uuid = "distance_to_goal"
 
     def compute(self, ctx, s, m, idx):
-        return _goal_distances(ctx, s, idx).min(axis=1)
+        d = _goal_distances(ctx, s, idx)
+        return d[:, 0] if d.shape[1] == 1 else d.min(axis=1)
 
 
 @register_measure
@@ -285,7 +315,7 @@ class InZone3(Measure):
     dtype = bool
 
     def compute(self, ctx, s, m, idx):
-        return _in_zone3(ctx, s, idx).any(axis=1)
+        return _any_goal(_in_zone3(ctx, s, idx))
 
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:
@@ -301,7 +331,7 @@ class FacingInstrument(Measure):
     def compute(self, ctx, s, m, idx):
         d = ctx.target_centres[idx] - s.position[idx][:, None, :]
         bearing = wrap_angle(np.arctan2(d[..., 1], d[..., 0]) - s.yaw[idx][:, None])
-        return (ctx.goal_ok[idx] & (np.abs(bearing) <= ctx.hfov[idx][:, None] / 2)).any(axis=1)
+        return _any_goal(ctx.goal_ok[idx] & (np.abs(bearing) <= ctx.hfov[idx][:, None] / 2))
 
 
 @register_measure
@@ -312,7 +342,7 @@ class FacingFace(Measure):
     dtype = bool
 
     def compute(self, ctx, s, m, idx):
-        return _facing_face(ctx, s, idx).any(axis=1)
+        return _any_goal(_facing_face(ctx, s, idx))
 
 
 @register_measure
@@ -326,7 +356,7 @@ class StrictSuccess(Measure):
     def compute(self, ctx, s, m, idx):
         within = _goal_distances(ctx, s, idx) <= ctx.radii[idx]
         at = within & _in_zone3(ctx, s, idx) & _facing_face(ctx, s, idx)
-        return m["stopped"][idx] & at.any(axis=1)
+        return m["stopped"][idx] & _any_goal(at)
 
 
 @register_measure
@@ -372,7 +402,7 @@ class Success(Measure):
     dependencies = ("stopped",)
 
     def compute(self, ctx, s, m, idx):
-        return m["stopped"][idx] & (_goal_distances(ctx, s, idx) <= ctx.radii[idx]).any(axis=1)
+        return m["stopped"][idx] & _any_goal(_goal_distances(ctx, s, idx) <= ctx.radii[idx])
 
 
 @register_measure
@@ -580,7 +610,8 @@ class MeasureSet:
 
     def tensor(self, name: str, dtype: torch.dtype | None = None) -> torch.Tensor:
         """A copy of measure ``name``'s values as a tensor on the device."""
-        return torch.tensor(self.measures[name].value, dtype=dtype, device=self.device)
+        t = torch.from_numpy(self.measures[name].value.copy())  # a fifth of torch.tensor's cost on the CPU
+        return t.to(self.device, dtype) if dtype is not None or self.device.type != "cpu" else t
 
     @staticmethod
     def _idx(env_idx: torch.Tensor | np.ndarray | None) -> Rows:
