@@ -39,6 +39,30 @@ def rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
+def time_noise_work(env) -> list[float]:
+    """Wrap the noise work of ``env`` (actuation noise, the no-sliding check, the image noise models) with
+    a timer; the returned one-element list accumulates its seconds. Under actuation noise the robot takes
+    another path than the ideal run, and a frame's cost depends on what it sees, so the end-to-end ratio
+    of two runs mixes the noise's cost with the views'; this is the noise's own."""
+    u, spent = env.unwrapped, [0.0]
+
+    def timed(fn):
+        def run(*args, **kwargs):
+            t = time.perf_counter()
+            out = fn(*args, **kwargs)
+            spent[0] += time.perf_counter() - t
+            return out
+
+        return run
+
+    for controller in u.agent.controllers.values():
+        if controller.perturb is not None:
+            controller.perturb = timed(controller.perturb)
+    u._no_sliding = timed(u._no_sliding)
+    u._image_noise_models = tuple(m and timed(m) for m in u._image_noise())
+    return spent
+
+
 def step_rate(env, steps: int) -> float:
     rng = np.random.default_rng(0)
     env.reset(options={"episode_index": 0})
@@ -61,7 +85,7 @@ def main() -> None:
     ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "env_speed.json")
     args = ap.parse_args()
     torch.set_num_threads(1)
-    rows = []
+    rows, noise_seconds = [], {}
     for label, obs_mode, w, h, noise in (
         ("640x480 RGB-D", "rgbd", 640, 480, "ideal"),
         ("640x480 RGB-D, noise=realistic", "rgbd", 640, 480, "realistic"),
@@ -79,8 +103,11 @@ def main() -> None:
         )
         env.reset(seed=0)
         raw = raw_camera_rate(env, max(20, args.steps // 5)) if obs_mode != "state" else None
-        rate = step_rate(env, args.steps if obs_mode != "state" else args.steps * 5)
+        spent = time_noise_work(env) if noise != "ideal" else [0.0]
+        steps = args.steps if obs_mode != "state" else args.steps * 5
+        rate = step_rate(env, steps)
         rows.append((label, rate, raw))
+        noise_seconds[label] = spent[0] / (steps + 10)  # per step, the 10 warm-up steps included
         env.close()
     print(f"{'mode':<32} {'env steps/s':>12} {'raw SAPIEN frames/s':>20} {'ratio':>7}")
     for label, rate, raw in rows:
@@ -88,8 +115,13 @@ def main() -> None:
             f"{label:<32} {rate:12.0f} {raw if raw else float('nan'):20.0f} "
             f"{rate / raw if raw else float('nan'):7.2f}"
         )
-    overhead = rows[0][1] / rows[1][1] - 1  # step time under realistic noise over ideal, same run
-    print(f"realistic noise costs {100 * overhead:+.1f} % step time at 640x480 RGB-D (budget <= 5 %)")
+    end_to_end = rows[0][1] / rows[1][1] - 1  # another path, other views: see time_noise_work
+    # the realistic run's noise work per step over the ideal step time
+    overhead = noise_seconds["640x480 RGB-D, noise=realistic"] * rows[0][1]
+    print(
+        f"realistic noise: its work costs {100 * overhead:.1f} % of an ideal 640x480 RGB-D step "
+        f"(budget <= 5 %); end to end (another path) {100 * end_to_end:+.1f} %"
+    )
 
     # Resets: same scene vs new scene (state obs, so the timing is the env's, not a frame's).
     env = gym.make("BioVLN-OpFace-v0", split="ms_dev", obs_mode="state", **CPU)
@@ -129,7 +161,7 @@ def main() -> None:
     env.close()
     budgets = {
         "640x480 RGB-D": "≥ 0.85× raw",
-        "640x480 RGB-D, noise=realistic": "≤ 5 % over ideal",
+        "640x480 RGB-D, noise=realistic": "(see the noise's own work below)",
         "128x128 RGB-D": "≥ 300 steps/s",
         "state only": "≥ 1,500 steps/s",
     }
@@ -143,6 +175,12 @@ def main() -> None:
         for label, rate, raw in rows
     ]
     table += [
+        [
+            "realistic noise's own work (actuation, no-sliding check, RGB and depth noise)",
+            f"{100 * overhead:.1f} % of an ideal 640x480 RGB-D step",
+            f"end to end {100 * end_to_end:+.1f} % (another path, other views)",
+            "≤ 5 %",
+        ],
         ["reset, same scene (median)", f"{np.median(same) * 1e3:.1f} ms", "", "≤ 20 ms"],
         [
             "reset, new scene (median / max)",
