@@ -8,6 +8,9 @@ default dataset built from them (a composition of the episode model and the LSAT
   The 13 four-to-five-instrument scenes include the seven held-out scenes; the others are the first
   seeds from 0 up that have the needed number of active slots.
 * ``train``: the scenes of ``full`` that are in no benchmark split (a view of ``full``'s files).
+* Hard track (ours; the paper has none): ``hard_val`` / ``hard_test``, 160 episodes each over held-out
+  seeds of ``suite``, ``open_plan`` and ``single_room`` (see ``HARD_SPLITS``); the goal is a category and
+  any instance counts (ObjectNav's rule), half of each scene's episodes drawn for a geodesic over 6 m.
 * Benchmark splits (Table 4, pairwise disjoint): ``ms_dev`` seeds 150-153 x 40, ``ms_val`` 154 x 50,
   ``ms_test`` 155-156 x 60 (all holding cabinet, centrifuge, refrigerator and waste bin, Table 12:
   the generator's ``required_categories`` option), ``two_room`` (seed 200, 50 cross-room episodes)
@@ -26,6 +29,27 @@ from biovln_ms.scene.generator import generate_scene
 FOUR_CATEGORIES = ("cabinet", "centrifuge", "refrigerator", "waste_bin")
 HELD_OUT = {"ms_dev": ((150, 151, 152, 153), 40), "ms_val": ((154,), 50), "ms_test": ((155, 156), 60)}
 TWO_ROOM_SEEDS = tuple(range(200, 208))
+#: the Hard track (ours, not the paper's): held-out seeds of the multi-room templates and single rooms with
+#: two instances of a category; any instance counts; per scene (template, seed, episodes)
+HARD_SPLITS = {
+    "hard_val": (
+        ("suite", 400, 30),
+        ("suite", 401, 30),
+        ("open_plan", 450, 30),
+        ("open_plan", 451, 30),
+        ("single_room", 500, 20),
+        ("single_room", 501, 20),
+    ),
+    "hard_test": (
+        ("suite", 402, 30),
+        ("suite", 403, 30),
+        ("open_plan", 452, 30),
+        ("open_plan", 453, 30),
+        ("single_room", 503, 20),
+        ("single_room", 504, 20),
+    ),
+}
+HARD_SHARE = 0.5  # of each scene's episodes drawn for a geodesic over 6 m
 TWO_ROOM_BENCH = (200, 50)
 LSAT_EPISODES = 40
 EPISODES_BY_ACTIVE = {2: 35, 3: 30, 4: 40, 5: 40}
@@ -91,6 +115,15 @@ def paper_splits() -> list[SplitPlan]:
             "two_room", [(two_bench, TWO_ROOM_BENCH[1], True)], description="Table 4: cross-room episodes"
         )
     )
+    for name, scenes in HARD_SPLITS.items():
+        out.append(
+            SplitPlan(
+                name,
+                [(generate_scene(t, seed), n, False) for t, seed, n in scenes],
+                description="Hard track: suite / open_plan / single_room held-out seeds, any instance counts",
+                hard_share=HARD_SHARE,
+            )
+        )
     out.append(
         SplitPlan(
             "lsat_target",

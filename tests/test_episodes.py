@@ -241,14 +241,43 @@ def test_no_trivial_episodes_in_any_split_of_the_default_dataset():
     )
     for split in ds.split_names():
         for e in ds.episodes(split):
-            (goal,) = e["goals"]
-            s, g, r = np.asarray(e["start_position"][:2]), np.asarray(goal["position"][:2]), goal["radius"]
             if e["scene_id"] not in navs:
                 navs[e["scene_id"]] = scene_navigation(ds.spec(e["scene_id"]))
             where = (split, e["scene_id"], e["episode_id"])
-            assert np.linalg.norm(g - s) > r, where
+            s = np.asarray(e["start_position"][:2])
+            for goal in e["goals"]:  # the Hard track's episodes have every instance as a goal
+                assert np.linalg.norm(np.asarray(goal["position"][:2]) - s) > goal["radius"], where
+            nearest = e["goals"][0]  # nearest first
+            g, r = np.asarray(nearest["position"][:2]), nearest["radius"]
             assert e["info"]["geodesic_distance"] >= r + MIN_START_GEODESIC_MARGIN, where
             assert navs[e["scene_id"]].geodesic_distance(s, g) >= r + MIN_START_GEODESIC_MARGIN, where
+
+
+def test_hard_track_is_long_multi_instance_and_held_out():
+    """Issue 15 item 5: >= 300 episodes on suite / open_plan / single_room held-out seeds, >= 40 % hard
+    (geodesic > 6 m), several instances of a category as goals (any counts), nearest first."""
+    from biovln_ms.benchmark import HARD_SPLITS, ensure_default_dataset
+
+    ds = EpisodeDataset(ensure_default_dataset(echo=lambda *_: None))
+    eps = [e for split in HARD_SPLITS for e in ds.episodes(split)]
+    assert len(eps) >= 300
+    assert sum(e["info"]["difficulty"] == "hard" for e in eps) >= 0.4 * len(eps)
+    assert {ds.spec(e["scene_id"]).template for e in eps} == {"suite", "open_plan", "single_room"}
+    multi = [e for e in eps if len(e["goals"]) > 1]
+    assert len(multi) >= 100
+    navs: dict = {}
+    for e in multi[:40]:
+        assert e["info"]["any_instance"] and e["info"]["instances"] == len(e["goals"])
+        assert {g["object_category"] for g in e["goals"]} == {e["object_category"]}
+        spec = ds.spec(e["scene_id"])
+        same = {o.id for o in spec.goal_objects() if o.category == e["object_category"]}
+        assert {g["object_id"] for g in e["goals"]} == same  # every instance of the category
+        nav = navs.setdefault(e["scene_id"], scene_navigation(spec))
+        s = np.asarray(e["start_position"][:2])
+        geo = [nav.geodesic_distance(s, np.asarray(g["position"][:2])) for g in e["goals"]]
+        assert geo == sorted(geo) and geo[0] == pytest.approx(e["info"]["geodesic_distance"], abs=1e-5)
+    train = set(ds.manifest["splits"]["full"]["scenes"])
+    assert not train & {e["scene_id"] for e in eps}  # held out from the paper's scenes (train included)
 
 
 def test_episodes_of_an_older_generator_are_refused_with_the_rebuild_command(tmp_path):

@@ -499,3 +499,22 @@ def test_many_turns_one_way_stay_thirty_degrees_each():
             assert abs(yaw) <= 1.5 * math.pi + math.radians(30)
             prev = yaw
     env.close()
+
+
+def test_any_instance_counts_on_the_hard_track():
+    """A Hard-track episode lists every instance of its category; STOP at the farther one succeeds."""
+    env = gym.make("BioVLN-OpFace-v0", split="hard_val", obs_mode="state", **CPU)
+    u = env.unwrapped
+    index = next(i for i, e in enumerate(u.source.episodes) if len(e["goals"]) > 1)
+    env.reset(options={"episode_index": index})
+    ep = u.current_episode
+    assert float(env.step(2)[4]["distance_to_goal"]) == pytest.approx(ep["info"]["geodesic_distance"], abs=3)
+    far = ep["goals"][-1]
+    face = u.scene_specs[0].get(far["object_id"]).placed().face
+    x, y = far["view_points"][0]["agent_state"]["position"][:2]  # in Zone 3, within r
+    u._put_back([0], np.array([[x, y, math.atan2(-face[1], -face[0])]]))
+    info = env.step(0)[4]
+    assert bool(info["success"]) and bool(info["strict_success"]) and bool(info["in_zone3"])
+    d = math.dist((x, y), far["position"][:2])
+    assert float(info["distance_to_goal"]) == pytest.approx(d, abs=1e-4)  # the nearest goal is now this one
+    env.close()

@@ -48,7 +48,7 @@ from biovln_ms.scene.spec import (
 )
 from biovln_ms.scene.spec import MAX_FILE_BYTES as MAX_SCENE_FILE_BYTES
 
-DATASET_FORMAT_VERSION = 2  # 2: the lsat_target split and marker goals (goal_source)
+DATASET_FORMAT_VERSION = 3  # 2: the lsat_target split and marker goals; 3: the Hard track (any instance)
 EPISODE_GENERATOR_VERSION = 2  # 2: no trivial episodes (generator.MIN_START_GEODESIC_MARGIN)
 
 # Limits (docs/guides/datasets.md), checked before parsing. The paper's datasets: a 29 kB
@@ -170,6 +170,9 @@ class _Info(TypedDict):
     start_clearance: _Coord
     start_clearance_fallback: bool
     cross_room: bool
+    any_instance: NotRequired[bool]  # the Hard track: every goal is an instance of the category; any counts
+    instances: NotRequired[Annotated[int, Field(ge=1, le=MAX_GOALS)]]
+    drawn_hard: NotRequired[bool]  # the start was drawn for a geodesic over 6 m
 
 
 @with_config(_STRICT)
@@ -269,6 +272,7 @@ class SplitPlan:
     missing: str | None = None
     description: str = ""
     view_of: str | None = None  # reuse these scenes' episode files from another split
+    hard_share: float | None = None  # the Hard track: any-instance episodes, this share drawn hard
 
 
 # --- building -------------------------------------------------------------------------------------
@@ -401,7 +405,11 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, radius
                     "file": f"scenes/{spec.name}.json",
                 }
                 samplers[spec.name] = EpisodeSampler(spec)
-            eps = samplers[spec.name].episodes(n, seed=stable_split_seed(split.name), cross_room=cross)
+            seed = stable_split_seed(split.name)
+            if split.hard_share is None:
+                eps = samplers[spec.name].episodes(n, seed=seed, cross_room=cross)
+            else:
+                eps = samplers[spec.name].any_instance_episodes(n, seed=seed, hard_share=split.hard_share)
             blob = gz_json({"episodes": eps})
             rel = f"{split.name}/content/{spec.name}.json.gz"
             (tmp / rel).parent.mkdir(parents=True, exist_ok=True)

@@ -10,6 +10,12 @@ and records that clearance on the episode.
 Goals are the Eq. 1 operational-face goals snapped to navigable floor, with view points (navigable
 poses inside Zone 3 and the success radius, turned toward the instrument). Difficulty tiers follow
 the geodesic distance: easy < 3.0 m, medium 3.0-6.0 m, hard > 6.0 m.
+
+The Hard track (``any_instance_episodes``) asks for a category, not an instance, as ObjectNav does: every
+instance of the category in the scene is a goal and reaching any counts. The rule then holds for the
+nearest instance (outside every instance's radius, >= r + 1.0 m along the floor from the nearest), and a
+share of the episodes is drawn for a geodesic distance over 6 m (hard): up to ``MAX_HARD_ATTEMPTS``
+starts, else the longest valid one (the episode then records its true tier).
 """
 
 from __future__ import annotations
@@ -37,6 +43,8 @@ MAX_START_ATTEMPTS = 1000  # starts drawn per episode before a scene is declared
 RASTER = 0.05  # m, cell of the clearance raster of start regions
 VIEW_POINT_SPACING = 0.15
 MAX_VIEW_POINTS = 12
+HARD_GEODESIC = 6.0  # m: the appendix's hard tier starts here
+MAX_HARD_ATTEMPTS = 200  # starts drawn for a hard episode before the longest valid one is taken
 
 
 class EpisodeError(BioVLNError):
@@ -248,6 +256,84 @@ class EpisodeSampler:
             field=oid,
             fix="give the scene more free floor away from this instrument, or move the instrument",
         )
+
+    def _any_instance_start(
+        self, region: Polygon, targets: list[dict], hard: bool, rng: np.random.Generator
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """A start in ``region`` that keeps the rule for the nearest of ``targets`` and lies outside every
+        target's radius; for a ``hard`` episode the first such start over ``HARD_GEODESIC`` from the
+        nearest, else the longest of ``MAX_HARD_ATTEMPTS``. Returns the start and the geodesic to each."""
+        goals = np.array([t["position"][:2] for t in targets])
+        radii = np.array([t["radius"] for t in targets])
+        best: tuple[np.ndarray, np.ndarray] | None = None
+        for _ in range(MAX_HARD_ATTEMPTS if hard else MAX_START_ATTEMPTS):
+            start = np.round(self.sample_in(region, rng), 6)
+            euclidean = np.linalg.norm(goals - start, axis=1)
+            if np.any(euclidean <= radii):
+                continue
+            geo = np.array([self.nav.geodesic_distance(start, g) for g in goals])
+            k = int(np.argmin(geo))
+            if not keeps_start_rule(geo[k], euclidean[k], radii[k]):
+                continue
+            if not hard or geo[k] > HARD_GEODESIC:
+                return start, geo
+            if best is None or geo[k] > best[1].min():
+                best = start, geo
+        if best is not None:
+            return best
+        cat = targets[0]["object_category"]
+        raise EpisodeError(
+            f"scene '{self.spec.name}': no start drawn keeps the rule for the nearest {cat}",
+            field=cat,
+            fix="give the scene more free floor away from its instruments",
+        )
+
+    def any_instance_episodes(
+        self, n: int, seed: int, hard_share: float = 0.5, id_offset: int = 0
+    ) -> list[dict]:
+        """``n`` Hard-track episodes cycling over the scene's goal categories (shuffled): every instance
+        of the category is a goal, nearest first; episode k is drawn hard when floor((k + 1) h) >
+        floor(k h), h = ``hard_share``."""
+        rng = np.random.default_rng([stable_seed(self.spec.name), seed, 1])
+        by_category: dict[str, list[dict]] = {}
+        for o in self.spec.goal_objects():
+            by_category.setdefault(o.category, []).append(self._targets[o.id])
+        categories = sorted(by_category)
+        order = [categories[i] for i in rng.permutation(len(categories))]
+        allowed, blocked = self._floor_for_starts(None)
+        region = allowed.difference(grow(blocked, self.min_start_clearance))
+        out = []
+        for k in range(n):
+            category = order[k % len(order)]
+            hard = math.floor((k + 1) * hard_share) > math.floor(k * hard_share)
+            start, geo = self._any_instance_start(region, by_category[category], hard, rng)
+            yaw = float(rng.uniform(-math.pi, math.pi))
+            goals = [by_category[category][i] for i in np.argsort(geo, kind="stable")]
+            nearest = float(geo.min())
+            euc = float(np.linalg.norm(np.asarray(goals[0]["position"][:2]) - start))
+            out.append(
+                {
+                    "episode_id": str(id_offset + k),
+                    "scene_id": self.spec.name,
+                    "start_position": _r6([start[0], start[1], 0.0]),
+                    "start_rotation": _r6(yaw_to_quat(yaw)),
+                    "object_category": category,
+                    "object_id": goals[0]["object_id"],
+                    "goals": goals,
+                    "info": {
+                        "geodesic_distance": round(nearest, 6),
+                        "euclidean_distance": round(euc, 6),
+                        "difficulty": difficulty(nearest),
+                        "start_clearance": round(self.min_start_clearance, 6),
+                        "start_clearance_fallback": False,
+                        "cross_room": False,
+                        "any_instance": True,
+                        "instances": len(goals),
+                        "drawn_hard": hard,
+                    },
+                }
+            )
+        return out
 
     # --- episodes -------------------------------------------------------------------------------
     def episodes(self, n: int, seed: int, cross_room: bool = False, id_offset: int = 0) -> list[dict]:

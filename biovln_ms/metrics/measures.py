@@ -45,6 +45,9 @@ F64 = np.float64
 #: strict operational success: the heading within this angle of the face's inward normal
 STRICT_FACING_DEG = 30.0
 COS_STRICT_FACING = math.cos(math.radians(STRICT_FACING_DEG))
+#: m: Zone 3 includes its boundary within this; the Eq. 1 goal lies on its outer edge and the physics keeps
+#: poses in float32 (a robot stopped exactly at the goal reads up to ~1e-6 m outside it)
+ZONE3_TOLERANCE = 1e-5
 
 
 @dataclass
@@ -255,7 +258,8 @@ def _in_zone3(ctx: BatchContext, s: StepState, idx: Rows) -> np.ndarray:
         d = s.position[idx][:, None, :] - z[..., 0:2]
         du = d[..., 0] * z[..., 2] + d[..., 1] * z[..., 3]
         dv = d[..., 0] * z[..., 4] + d[..., 1] * z[..., 5]
-        return ctx.has_zone3[idx] & (np.abs(du) <= z[..., 6] + 1e-9) & (np.abs(dv) <= z[..., 7] + 1e-9)
+        tol = ZONE3_TOLERANCE
+        return ctx.has_zone3[idx] & (np.abs(du) <= z[..., 6] + tol) & (np.abs(dv) <= z[..., 7] + tol)
 
     return _once(s, idx, "in_zone3", compute)
 
