@@ -9,6 +9,7 @@ never typed in. A page asks for one with a placeholder alone on its line:
   ``docs/data/reproduction.json`` (a copy of the report's ``measured.json``); the paper's numbers come
   from ``biovln_ms.eval.paper``. ``{{ report: source }}`` says where that file comes from.
 - ``{{ catalog }}``: the instrument catalog, read from ``assets/catalog.json``.
+- ``{{ protocols }}``: the shipped lab protocols (``biovln_ms/protocols/data/``), every step and its purpose.
 - ``{{ dataset: splits }}``: scenes, episodes, categories and difficulty mix of each split of the default
   dataset, built by the code (about 4 s, cached like ``gym.make`` does).
 
@@ -76,6 +77,21 @@ def _catalog(_: str | None) -> str:
     return "\n".join(rows)
 
 
+def _protocols(_: str | None) -> str:
+    from biovln_ms.protocols import load_protocols
+
+    def step(s) -> str:
+        if s.any_order is None:
+            return f"`{s.category}`: {s.purpose}"
+        return "any order: " + "; ".join(f"`{v.category}`: {v.purpose}" for v in s.any_order)
+
+    rows = ["| protocol | K | steps (in order) |", "|---|---|---|"]
+    for p in load_protocols(env=False):
+        steps = "<br>".join(f"{i}. {step(s)}" for i, s in enumerate(p.steps, 1))
+        rows.append(f"| `{p.id}`<br>**{p.name}**<br>{p.description} | {p.k} | {steps} |")
+    return "\n".join(rows)
+
+
 def _dataset(name: str) -> str:
     if name != "splits":
         raise PluginError(f"docs: no dataset table {name!r}; known: splits")
@@ -97,7 +113,13 @@ def _dataset(name: str) -> str:
     return "\n".join(rows)
 
 
-KINDS = {"table": _table, "report": _report, "catalog": _catalog, "dataset": _dataset}
+KINDS = {
+    "table": _table,
+    "report": _report,
+    "catalog": _catalog,
+    "dataset": _dataset,
+    "protocols": _protocols,
+}
 # Sphinx roles in docstrings (:class:`~a.b.C`), as mkdocstrings renders them: ":class:<code>~a.b.C</code>"
 SPHINX_ROLE = re.compile(r":(?:class|meth|func|mod|data|attr|obj|exc):<code>(~?)([^<]*)</code>")
 
