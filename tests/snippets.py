@@ -9,7 +9,8 @@ and the pages under docs/ (test_docs.py).
   ``make_context``, without running anything.
 - ``make_workspace``: a folder where the placeholder inputs are real files: ``DIR`` (a dataset),
   ``SPEC.json`` (its MS VAL scene), ``scene.glb`` / ``my_lab.glb`` (that scene exported), ``lab.json`` /
-  ``my_lab.json`` (spec copies). The cheap commands (``EXECUTED``) run there.
+  ``my_lab.json`` (spec copies), ``map.yaml`` (a designer-name map). The cheap commands (``EXECUTED``) run
+  there.
 - ``run_python``: code blocks run by this interpreter in a subprocess from a given folder.
 """
 
@@ -237,6 +238,7 @@ def make_workspace(ws: Path) -> Path:
     shutil.copy(ws / "scene.glb", ws / "my_lab.glb")
     for name in ("lab.json", "my_lab.json"):
         shutil.copy(ws / "SPEC.json", ws / name)
+    (ws / "map.yaml").write_text("'Fridge*': refrigerator\n")  # an lsat import --names map
     return ws
 
 
