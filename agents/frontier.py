@@ -160,7 +160,8 @@ class FrontierPolicy(Policy):
 
     def _build(self, pose: np.ndarray) -> None:
         p = self.params
-        self.map = OccupancyMap(pose[:2], p.resolution, p.extent)
+        # a noisy depth sensor (the robot knows its own): cells weigh evidence over frames
+        self.map = OccupancyMap(pose[:2], p.resolution, p.extent, evidence=self.task.noise.depth)
         self.planner = FrontierPlanner(p, self)
         turn = math.radians(self.task.turn_deg)
         if self.localiser is not None:  # an estimated pose: a blocked FORWARD moved it less than half a step

@@ -11,6 +11,11 @@ from biovln_ms.agents.frontier_params import FrontierParams
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 SCAN_COLUMNS = 320  # image columns sampled per frame: rays 5 m away are ~2 cm apart
 RAY_STEP = 0.7  # cells between the samples that mark a ray's cells free
+# evidence mode (a noisy depth sensor): log-odds per cell, a hit adds HIT, a ray through it adds MISS;
+# a cell is an obstacle above OCCUPIED_ABOVE (three hits in all: a noisy hit or two are cleared by the
+# rays that later pass through the cell), free below FREE_BELOW
+HIT, MISS, LOG_ODDS_LIMIT = 0.85, -0.4, 3.5
+OCCUPIED_ABOVE, FREE_BELOW = 2.0, -0.2
 
 
 class Scan(NamedTuple):
@@ -36,12 +41,19 @@ class OccupancyMap:
     """A fixed-size grid centred on the start; ``lo``/``hi`` bound the observed part (rows, cols)."""
 
     def __init__(
-        self, centre_xy, resolution: float = FrontierParams.resolution, extent: float = FrontierParams.extent
+        self,
+        centre_xy,
+        resolution: float = FrontierParams.resolution,
+        extent: float = FrontierParams.extent,
+        evidence: bool = False,
     ) -> None:
+        """``evidence``: cells accumulate log-odds over frames (for noisy depth) instead of keeping the first
+        obstacle they see."""
         self.res = resolution
         self.n = round(extent / resolution)
         self.origin = np.asarray(centre_xy, float) - extent / 2
         self.grid = np.zeros((self.n, self.n), np.uint8)
+        self.log_odds = np.zeros((self.n, self.n), np.float32) if evidence else None
         self.lo = np.array([self.n, self.n])
         self.hi = np.array([0, 0])
 
@@ -91,14 +103,30 @@ class OccupancyMap:
         direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-9)
         scan = Scan(cam[:2], direction, free_len)
         rc, _ = self.ray_cells(scan)
-        keep = self.grid[rc[:, 0], rc[:, 1]] != OCCUPIED
-        self.grid[rc[keep, 0], rc[keep, 1]] = FREE
         orc = self.cell(pw[obstacle][:, :2])
         orc = orc[self._in_bounds(orc)]
-        self.grid[orc[:, 0], orc[:, 1]] = OCCUPIED
+        if self.log_odds is None:
+            keep = self.grid[rc[:, 0], rc[:, 1]] != OCCUPIED
+            self.grid[rc[keep, 0], rc[keep, 1]] = FREE
+            self.grid[orc[:, 0], orc[:, 1]] = OCCUPIED
+        else:
+            self._add_evidence(rc, orc)
         self._grow_bbox(rc)
         self._grow_bbox(orc)
         return scan
+
+    def _add_evidence(self, free_rc: np.ndarray, hit_rc: np.ndarray) -> None:
+        """A frame's misses and hits (each cell once), then the cells' states from their log-odds."""
+        lo = self.log_odds
+        for rc, step in ((free_rc, MISS), (hit_rc, HIT)):
+            if len(rc):
+                r, c = np.unique(rc, axis=0).T
+                lo[r, c] = np.clip(lo[r, c] + step, -LOG_ODDS_LIMIT, LOG_ODDS_LIMIT)
+        touched = np.concatenate([free_rc, hit_rc]) if len(hit_rc) else free_rc
+        r, c = touched.T
+        value = lo[r, c]
+        state = np.where(value < FREE_BELOW, FREE, UNKNOWN)
+        self.grid[r, c] = np.where(value > OCCUPIED_ABOVE, OCCUPIED, state)
 
     def ray_cells(self, scan: Scan) -> tuple[np.ndarray, np.ndarray]:
         """Grid cells (row, col) along each column's free ray, sampled every ``RAY_STEP`` cell, and the

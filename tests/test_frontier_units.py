@@ -315,3 +315,19 @@ def test_vlfm_runs_from_synthetic_observations_without_the_goal_sensor():
     actions, pose = _drive(pol, (0.0, 0.0, 0.0), None, wall_x=3.0)
     assert actions[-1] == STOP and pol.detections > 0 and pol.episode_stats()["object_seen"]
     assert 2.3 < pose[0] < 3.0 - PARAMS.robot_radius and abs(pose[1]) < 0.3  # before the target
+
+
+def test_evidence_map_clears_a_lone_noisy_hit_and_keeps_a_wall():
+    """With a noisy depth sensor the frontier map weighs evidence over frames: a cell hit once and then
+    seen through becomes free, a cell hit in three frames is an obstacle, a cell hit twice is not yet."""
+    from biovln_ms.agents.frontier_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap
+
+    m = OccupancyMap((0.0, 0.0), 0.05, 4.0, evidence=True)
+    wall, ghost, none = m.cell((1.0, 0.0)), m.cell((0.5, 0.5)), np.zeros((0, 2), int)
+    m._add_evidence(none, np.array([wall, ghost]))  # frame 1: both look like obstacles
+    m._add_evidence(np.array([ghost]), np.array([wall]))  # frame 2: a ray passes through the ghost
+    assert m.grid[tuple(ghost)] != OCCUPIED and m.grid[tuple(wall)] == UNKNOWN  # two hits: not yet
+    m._add_evidence(np.array([ghost]), np.array([wall]))  # frame 3
+    assert m.grid[tuple(wall)] == OCCUPIED
+    m._add_evidence(np.array([ghost]), none)  # a third ray through the ghost
+    assert m.grid[tuple(ghost)] == FREE
