@@ -8,7 +8,7 @@ from biovln_ms.catalog import load_catalog
 from biovln_ms.render.asset_preview import contact_sheet
 
 
-def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
+def run_demo(out_dir: Path, echo=print, lighting: str = "fast") -> dict[str, Path]:
     """Asset contact sheet and catalog table; the held-out scene lab_s150_v0 as spec, SAPIEN view and
     a map with one episode (start, goal, view points, exact shortest path); the oracle run on MS VAL
     episode 0 as an MP4 (egocentric view beside the map) with its metrics; then oracle and frontier
@@ -44,7 +44,7 @@ def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
     episode = EpisodeSampler(spec, nav).episodes(1, seed=0)[0]
     files["spec"] = save_spec(spec, out_dir / f"{spec.name}.json")
     files["map"] = save_map(spec, out_dir / f"{spec.name}_episode.png", episode=episode, nav=nav)
-    files["render"] = render_overview(spec, out_dir / f"{spec.name}_view.png")
+    files["render"] = render_overview(spec, out_dir / f"{spec.name}_view.png", lighting=lighting)
     info = episode["info"]
     lines += [
         "",
@@ -59,7 +59,7 @@ def run_demo(out_dir: Path, echo=print) -> dict[str, Path]:
     from biovln_ms.record import record_episode
 
     files["video"] = out_dir / "ms_val_episode0_oracle.mp4"
-    m = record_episode(files["video"], split="ms_val", episode=0, policy="oracle")
+    m = record_episode(files["video"], split="ms_val", episode=0, policy="oracle", lighting=lighting)
     lines += [
         "",
         "# Oracle on MS VAL episode 0 (BioVLN-OpFace-v0, SAPIEN physics, CPU render)",

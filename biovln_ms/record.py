@@ -16,6 +16,7 @@ def record_episode(
     env_id: str = "BioVLN-OpFace-v0",
     size: tuple[int, int] = (640, 480),
     fps: int = 5,
+    lighting: str = "fast",
 ) -> dict:
     """Record one episode; returns its final metrics."""
     import gymnasium as gym
@@ -32,6 +33,7 @@ def record_episode(
         camera_height=size[1],
         sim_backend="physx_cpu",
         render_backend="cpu",
+        lighting=lighting,
     )
     try:
         from biovln_ms.eval.rollout import rollout

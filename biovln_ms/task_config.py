@@ -59,6 +59,7 @@ class NavTaskConfig:
     agent_obs: bool = True  # ManiSkill's proprioception (base joint qpos/qvel) in state observations
     default_split: str | None = None  # the split used when none is given (None: a generated scene)
     default_obs_mode: str = "state"
+    lighting: str = "fast"  # a preset of biovln_ms.render.lighting.LIGHTING: "fast" or "quality" (shadows)
     noise: NoiseConfig = field(default_factory=NoiseConfig)  # biovln_ms.noise: the paper's is ideal
 
     def with_noise(self, noise: NoiseConfig) -> "NavTaskConfig":

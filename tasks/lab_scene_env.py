@@ -12,6 +12,7 @@ from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
 
 from biovln_ms.registration import register_biovln_env
+from biovln_ms.render.lighting import lighting_preset
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.scene.spec import SceneSpec
@@ -42,6 +43,7 @@ class LabSceneEnv(BaseEnv):
         seed: int = 0,
         ceiling: bool = True,
         render_size: tuple[int, int] = (960, 720),
+        lighting: str = "fast",
         **kwargs,
     ) -> None:
         if kwargs.get("obs_mode") == "pointcloud":
@@ -51,6 +53,8 @@ class LabSceneEnv(BaseEnv):
             )
         self._specs = list(specs) if specs else [generate_scene(template, seed)]
         self._ceiling = ceiling
+        lighting_preset(lighting)  # a one-line error for an unknown preset, before ManiSkill builds anything
+        self._lighting = lighting
         self._render_size = render_size
         # Every other ManiSkill obs mode works; the default, "state", is empty (no robot, no task state).
         kwargs.setdefault("robot_uids", "none")
@@ -68,7 +72,9 @@ class LabSceneEnv(BaseEnv):
         return CameraConfig("overview", overview_pose(spec), w, h, np.deg2rad(55), 0.05, 100)
 
     def _load_scene(self, options: dict):
-        self.scene_builder = LabSceneBuilder(self, self._specs, ceiling=self._ceiling)
+        self.scene_builder = LabSceneBuilder(
+            self, self._specs, ceiling=self._ceiling, lighting=self._lighting
+        )
         self.scene_builder.build(
             list(range(len(self._specs)))[: self.num_envs] if len(self._specs) == self.num_envs else 0
         )

@@ -35,6 +35,7 @@ from biovln_ms.geometry.motion import SweptMotion
 from biovln_ms.scene.rules import floor_polygon, scene_navigation
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, MeasureSet, StepState
 from biovln_ms.noise import actuation_errors, resolve_noise
+from biovln_ms.render.lighting import lighting_preset
 from biovln_ms.sensor_noise import DepthNoise, RGBNoise, frame_keys
 from biovln_ms.sim.footprints import collision_footprints
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
@@ -168,7 +169,7 @@ class BioVLNNavEnv(BaseEnv):
     def _load_scene(self, options: dict):
         scene_ids = list(dict.fromkeys(self._scene_ids))  # one build config per distinct scene
         self.scene_builder = LabSceneBuilder(
-            self, [self.scene_specs[self._scene_ids.index(s)] for s in scene_ids]
+            self, [self.scene_specs[self._scene_ids.index(s)] for s in scene_ids], lighting=self.cfg.lighting
         )
         self.scene_builder.build([scene_ids.index(s) for s in self._scene_ids])
         self._build_segmentation_lookup()
@@ -538,6 +539,7 @@ def _check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> Non
             field="goal_mode",
             fix=f"use one of: {', '.join(GOAL_MODES)}",
         )
+    lighting_preset(cfg.lighting)  # one-line error listing the presets
     for name in (
         "forward_step",
         "turn_deg",

@@ -10,8 +10,11 @@ from PIL import Image
 from biovln_ms.scene.spec import SceneSpec
 
 
-def render_overview(spec: SceneSpec, out: str | Path, size: tuple[int, int] = (960, 720)) -> Path:
-    """Render the scene from above at an angle (ceiling left out) to a PNG."""
+def render_overview(
+    spec: SceneSpec, out: str | Path, size: tuple[int, int] = (960, 720), lighting: str = "fast"
+) -> Path:
+    """Render the scene from above at an angle (ceiling left out) to a PNG, under the lighting preset
+    ``lighting`` (:data:`biovln_ms.render.lighting.LIGHTING`)."""
     import gymnasium as gym
 
     import biovln_ms.tasks.lab_scene_env  # noqa: F401  (registers the env)
@@ -21,6 +24,7 @@ def render_overview(spec: SceneSpec, out: str | Path, size: tuple[int, int] = (9
         specs=[spec],
         ceiling=False,
         render_size=size,
+        lighting=lighting,
         render_mode="rgb_array",
         obs_mode="none",
         sim_backend="physx_cpu",

@@ -34,12 +34,18 @@ class LabSceneBuilder(SceneBuilder):
     builds_lighting = True
 
     def __init__(
-        self, env, specs: Sequence[SpecLike], ceiling: bool = True, robot_init_qpos_noise: float = 0.0
+        self,
+        env,
+        specs: Sequence[SpecLike],
+        ceiling: bool = True,
+        robot_init_qpos_noise: float = 0.0,
+        lighting: str = "fast",
     ) -> None:
         super().__init__(env, robot_init_qpos_noise=robot_init_qpos_noise)
         self.build_configs = [as_spec(s) for s in specs]
         self.init_configs = [None]
         self.ceiling = ceiling
+        self.lighting = lighting  # a preset of biovln_ms.render.lighting.LIGHTING
         self.env_specs: list[SceneSpec] = []
         self.built: dict[int, BuiltScene] = {}
 
@@ -63,7 +69,7 @@ class LabSceneBuilder(SceneBuilder):
             built = add_spec_to_scene(
                 self.scene, spec, ceiling=self.ceiling, scene_idxs=idxs, name_prefix=prefix
             )
-            add_lights(self.scene, spec, scene_idxs=idxs)
+            add_lights(self.scene, spec, scene_idxs=idxs, lighting=self.lighting)
             self.built[bci] = built
             for obj_id, actor in built.objects.items():
                 self.scene_objects[f"{prefix}{obj_id}"] = actor

@@ -103,13 +103,15 @@ def _add_object(scene, o: ObjectSpec, collision: str, scene_idxs, name_prefix: s
     return b.build_static(name=f"{name_prefix}{o.id}")
 
 
-def add_lights(scene, spec: SceneSpec, shadows: bool = False, scene_idxs: list[int] | None = None) -> None:
-    """Ambient light, a key directional light and one point light per room under its ceiling."""
-    kw = {} if scene_idxs is None else {"scene_idxs": scene_idxs}
-    scene.set_ambient_light([0.45, 0.45, 0.45])
-    scene.add_directional_light([0.3, 0.5, -1.0], [0.7, 0.7, 0.68], shadow=shadows, **kw)
-    for r in spec.rooms:
-        if r.kind != "room":
-            continue
-        xy = np.asarray(r.polygon).mean(0)
-        scene.add_point_light([*xy, r.height - 0.3], [2.0, 2.0, 1.9], **kw)
+def add_lights(
+    scene,
+    spec: SceneSpec,
+    shadows: bool = False,
+    scene_idxs: list[int] | None = None,
+    lighting: str = "fast",
+) -> None:
+    """The lighting preset ``lighting`` (:data:`biovln_ms.render.lighting.LIGHTING`) for the spec's rooms:
+    ambient light, a directional key light (shadowed with ``shadows``) and ceiling fixtures."""
+    from biovln_ms.render.lighting import apply_lighting
+
+    apply_lighting(scene, spec, lighting, key_shadow=shadows, scene_idxs=scene_idxs)

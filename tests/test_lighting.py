@@ -1,0 +1,67 @@
+"""Lighting presets (issue 18 item 1): ``fast`` is today's lighting, ``quality`` casts shadows."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import shapely
+
+import biovln_ms  # noqa: F401
+from biovln_ms.render.lighting import LIGHTING, LightingError, fixture_positions, lighting_preset
+from biovln_ms.scene.generator import generate_scene
+from biovln_ms.sim.footprints import collision_footprints
+
+
+def test_presets_and_one_line_error():
+    assert set(LIGHTING) == {"fast", "quality"}
+    fast = LIGHTING["fast"]
+    assert fast.ambient == (0.45, 0.45, 0.45) and not fast.shadows and fast.fixture_spacing is None
+    assert LIGHTING["quality"].shadows
+    with pytest.raises(LightingError) as e:
+        lighting_preset("studio")
+    assert "\n" not in str(e.value) and "fast, quality" in str(e.value)
+
+
+def test_quality_fixtures_are_a_grid_under_the_ceiling():
+    spec = generate_scene("single_room", 0)
+    room = next(r for r in spec.rooms if r.kind == "room")
+    (one,) = fixture_positions(room, LIGHTING["fast"])
+    grid = fixture_positions(room, LIGHTING["quality"])
+    assert len(grid) > 1 and all(abs(z - (room.height - 0.3)) < 1e-9 for *_, z in grid)
+    assert np.allclose(np.mean([p[:2] for p in grid], 0), one[:2], atol=0.5)
+
+
+def test_unknown_preset_is_rejected_by_the_env():
+    with pytest.raises(LightingError, match="use one of: fast, quality"):
+        gym.make("BioVLN-OpFace-v0", lighting="studio")
+
+
+def _floor_shading(lighting: str) -> tuple[float, np.ndarray]:
+    """Mean brightness of the floor under furniture over that of open floor, and the head camera's RGB."""
+    env = gym.make(
+        "BioVLN-OpFace-v0", obs_mode="pointcloud", camera_width=160, camera_height=120, lighting=lighting
+    )
+    try:
+        obs, _ = env.reset(seed=0)
+        spec = env.unwrapped.scene_spec
+        pc = obs["pointcloud"]
+        xyz = pc["xyzw"][0, :, :3].cpu().numpy()
+        rgb = pc["rgb"][0].cpu().numpy()
+    finally:
+        env.close()
+    lum = rgb.astype(float).mean(1)
+    floor = np.abs(xyz[:, 2]) < 0.01
+    footprints = shapely.union_all(collision_footprints(spec))
+    pts = shapely.points(xyz[:, :2])
+    under = floor & shapely.contains(footprints, pts)
+    open_floor = floor & (shapely.distance(footprints, pts) > 0.5)
+    assert under.sum() > 100 and open_floor.sum() > 100  # the start view sees floor under the bench
+    return lum[under].mean() / lum[open_floor].mean(), rgb
+
+
+@pytest.mark.render
+def test_quality_shadows_the_floor_under_furniture():
+    fast, fast_rgb = _floor_shading("fast")
+    quality, quality_rgb = _floor_shading("quality")
+    assert np.abs(fast_rgb.astype(int) - quality_rgb.astype(int)).mean() > 5
+    # without shadows the floor under a bench is lit like open floor; with them it is darker
+    assert quality < fast - 0.04, (fast, quality)
