@@ -184,16 +184,35 @@ def assets_preview(
     typer.echo(f"wrote {out}")
 
 
+def _lighting_option():
+    from biovln_ms.render.lighting import LIGHTING
+
+    return typer.Option(
+        "fast",
+        "--lighting",
+        help=f"Lighting preset: {', '.join(LIGHTING)} (quality: shadowed ceiling lights).",
+    )
+
+
+def _check_lighting(name: str) -> None:
+    """A one-line error for an unknown preset before anything is built."""
+    from biovln_ms.render.lighting import lighting_preset
+
+    lighting_preset(name)
+
+
 @app.command()
 def demo(
     out: Path = typer.Option(Path("outputs/demo"), "-o", "--out", help="Folder for the demo's files."),
+    lighting: str = _lighting_option(),
 ) -> None:
     """Run the end-to-end demo.
 
     Asset sheet, catalog, scene lab_s150_v0 (spec, view, episode map), an oracle episode MP4 and metrics."""
     from biovln_ms.demo import run_demo
 
-    run_demo(out, typer.echo)
+    _check_lighting(lighting)
+    run_demo(out, typer.echo, lighting=lighting)
 
 
 @scene_app.command("templates")
@@ -251,6 +270,7 @@ def scene_generate(
         None, "--render", help="Also write a SAPIEN view from above at an angle."
     ),
     map_png: Optional[Path] = typer.Option(None, "--map", help="Also write the top-down map."),
+    lighting: str = _lighting_option(),
 ) -> None:
     """Generate a scene spec from a seed.
 
@@ -258,6 +278,7 @@ def scene_generate(
     from biovln_ms.scene.generator import generate_scene
     from biovln_ms.scene.spec import save_spec
 
+    _check_lighting(lighting)
     spec = generate_scene(template, seed, required_categories=tuple(require or ()))
     path = save_spec(spec, out or Path(f"{spec.name}.json"))
     typer.echo(
@@ -270,7 +291,7 @@ def scene_generate(
     if render:
         from biovln_ms.render.scene_view import render_overview
 
-        typer.echo(f"wrote {render_overview(spec, render)}")
+        typer.echo(f"wrote {render_overview(spec, render, lighting=lighting)}")
 
 
 @scene_app.command("validate")
@@ -488,6 +509,7 @@ def record(
     dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
     env_id: str = typer.Option("BioVLN-OpFace-v0", "--env", help="Env id (a registered variant)."),
     fps: int = typer.Option(5, help="Frames per second."),
+    lighting: str = _lighting_option(),
 ) -> None:
     """Record one episode as an MP4.
 
@@ -495,9 +517,10 @@ def record(
     from biovln_ms.benchmark import dataset_root
     from biovln_ms.record import record_episode
 
+    _check_lighting(lighting)
     root = dataset_root(dataset)
     k = _record_index(root, split, episode, scene, index)
-    m = record_episode(out, split, k, policy, str(root), env_id, fps=fps)
+    m = record_episode(out, split, k, policy, str(root), env_id, fps=fps, lighting=lighting)
     typer.echo(
         f"wrote {out}: success={m['success']} steps={m['steps']} spl={m['spl']:.3f} "
         f"mcr={m['mcr']:.3f} vrt={m['vrt']:.3f}"
@@ -570,6 +593,9 @@ def eval_cmd(
         None, help="vlfm: 'default' (packaged EfficientNet-Lite0 + MiniLM) or 'clip:/local/dir'."
     ),
     name: Optional[str] = typer.Option(None, help="Results folder name (default: the method)."),
+    noise: str = typer.Option(
+        "ideal", help="Noise preset: ideal (the paper) or realistic; the run is named METHOD+PRESET."
+    ),
 ) -> None:
     from biovln_ms.eval.harness import EvalConfig, evaluate
 
@@ -588,6 +614,7 @@ def eval_cmd(
         record_mode=record_mode,
         method_kwargs=kwargs,
         name=name,
+        noise=noise,
     )
     o = evaluate(cfg, echo=typer.echo)["overall"]
     typer.echo(

@@ -199,3 +199,13 @@ def test_ray_local_instance_runs_and_resumes(dataset, tmp_path):
     assert pool["overall"]["sr"] == s["overall"]["sr"] and pool["overall"]["spl"] == pytest.approx(
         s["overall"]["spl"]
     )
+
+
+def test_noise_preset_names_the_run_and_is_checked_first():
+    from biovln_ms.eval.harness import EvalConfig
+    from biovln_ms.noise import NoiseConfigError
+
+    assert EvalConfig("frontier", "ms_val", "out", noise="realistic").run_name == "frontier+realistic"
+    assert EvalConfig("frontier", "ms_val", "out").run_name == "frontier"
+    with pytest.raises(NoiseConfigError, match="unknown noise preset 'loud'"):
+        EvalConfig("frontier", "ms_val", "out", noise="loud")

@@ -30,6 +30,7 @@ from biovln_ms.eval.methods import method_spec
 from biovln_ms.eval.metrics import METRICS, aggregate_all, record_error
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.io_utils import atomic_write_text, exclusive_lock
+from biovln_ms.noise import resolve_noise
 
 DEFAULT_ENV = "BioVLN-OpFace-v0"
 LOCK_FILE = "eval.lock"  # in the run folder, held by the one process writing there
@@ -58,10 +59,12 @@ class EvalConfig:
     record_dir: str | None = None  # TrajectoryRecorder output (learning from the runs)
     record_mode: str = "full"  # "full" (PNG frames + depth) or "trace" (positions, actions, goals only)
     name: str | None = None  # results folder name (default: the method, plus the variant when not OpFace)
+    noise: str = "ideal"  # a noise preset (biovln_ms.noise.PRESETS)
 
     def __post_init__(self) -> None:
         if self.env_id is None:
             self.env_id = method_spec(self.method).env_id or DEFAULT_ENV
+        resolve_noise(self.noise)  # a one-line error for an unknown preset, before any worker starts
 
     @property
     def run_name(self) -> str:
@@ -72,7 +75,7 @@ class EvalConfig:
             if self.env_id == DEFAULT_ENV
             else "@" + self.env_id.removeprefix("BioVLN-").removesuffix("-v0").lower()
         )
-        return self.method + suffix
+        return self.method + suffix + ("" if self.noise == "ideal" else f"+{self.noise}")
 
     @property
     def run_dir(self) -> Path:
@@ -163,6 +166,7 @@ def _init_worker(cfg: dict) -> None:
         camera_height=h,
         sim_backend="physx_cpu",
         render_backend="cpu",
+        noise=cfg.get("noise", "ideal"),
         **spec.env_kwargs,
     )
     _W.update(
@@ -245,6 +249,7 @@ def _run(index: int) -> dict:
         {
             "method": cfg["method"],
             "env_id": cfg["env_id"],
+            "noise": cfg.get("noise", "ideal"),
             "split": cfg["split"],
             "index": index,
             "scene_id": ep["scene_id"],
