@@ -19,12 +19,14 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
+from statistics import NormalDist
+
 import numpy as np
-from scipy.special import ndtr, ndtri
 
 from biovln_ms.errors import BioVLNError
 
 TRUNCATION = 3.0  # sigmas
+_NORMAL = NormalDist()  # the standard normal (stdlib: the Blender add-on's Python has no scipy)
 
 
 class NoiseConfigError(BioVLNError):
@@ -40,8 +42,9 @@ class TruncatedGaussian:
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """(n, k) samples by inverse CDF (one uniform per value, so the stream is easy to replay)."""
-        lo, hi = ndtr(-TRUNCATION), ndtr(TRUNCATION)
-        z = ndtri(rng.uniform(lo, hi, (n, len(self.mean))))
+        lo, hi = _NORMAL.cdf(-TRUNCATION), _NORMAL.cdf(TRUNCATION)
+        u = rng.uniform(lo, hi, (n, len(self.mean)))
+        z = np.vectorize(_NORMAL.inv_cdf, otypes=[float])(u)
         return np.asarray(self.mean) + np.sqrt(np.asarray(self.variance)) * z
 
 

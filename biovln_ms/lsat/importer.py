@@ -330,6 +330,17 @@ def _marker(node: Node, report: ImportReport, names: NameMap | None) -> _Marker 
     return None
 
 
+def _preorder(scene: GLTFScene) -> list[Node]:
+    """The nodes parents first, children in their listed order (the file's own order when it is already a
+    tree order; Blender's exporter lists children before their parents)."""
+    out, stack = [], [n.index for n in reversed(scene.nodes) if n.parent is None]
+    while stack:
+        node = scene.nodes[stack.pop()]
+        out.append(node)
+        stack.extend(reversed(node.children))
+    return out
+
+
 def _classify(scene: GLTFScene, report: ImportReport, names: NameMap | None = None) -> _Classified:
     """Sort the nodes (the room shell, lights and cameras aside) into markers and objects of a catalog
     category; an object (matched or ambiguous) claims its subtree as its parts, and so does a node the name
@@ -339,7 +350,7 @@ def _classify(scene: GLTFScene, report: ImportReport, names: NameMap | None = No
     markers: list[_Marker] = []
     loose: list[Node] = []
     claimed: set[int] = set()
-    for n in scene.nodes:  # parents come before children (tree order)
+    for n in _preorder(scene):
         if n.parent in claimed:
             claimed.add(n.index)
             continue
