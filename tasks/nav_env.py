@@ -397,7 +397,22 @@ class BioVLNNavEnv(BaseEnv):
             obs["extra"]["semantic_category"] = semantic_category(
                 head["segmentation"], self._segmentation_lookup
             )
+        if not self.cfg.noise.gps_compass and "sensor_param" in obs:
+            self._camera_params_in_base_frame(obs["sensor_param"])
         return obs
+
+    def _camera_params_in_base_frame(self, params: dict) -> None:
+        """Without GPS+compass the cameras' extrinsics are given relative to the robot's base (the mount,
+        as a robot knows it), not the world: world-frame extrinsics would tell the pose."""
+        pose = self._pose()
+        c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+        base2world = np.zeros((len(pose), 4, 4))
+        base2world[:, 0, 0], base2world[:, 0, 1], base2world[:, 1, 0], base2world[:, 1, 1] = c, -s, s, c
+        base2world[:, :2, 3], base2world[:, 2, 2], base2world[:, 3, 3] = pose[:, :2], 1.0, 1.0
+        for cam in params.values():
+            b2w = torch.from_numpy(base2world).to(cam["extrinsic_cv"])
+            cam["extrinsic_cv"] = cam["extrinsic_cv"] @ b2w  # world -> camera, applied to base points
+            cam["cam2world_gl"] = torch.linalg.inv(b2w) @ cam["cam2world_gl"]  # camera -> base
 
     def _image_noise(self) -> tuple[RGBNoise | None, DepthNoise | None]:
         """The noise config's RGB and depth noise models for the head camera (built once, on first use)."""

@@ -201,3 +201,24 @@ def test_image_noise_is_deterministic_and_applied_to_rgbd():
     assert 20 < float(rgb_err.std()) < 30  # sigma 0.1 of 255
     err = (d1.float() - d0.float())[d0 > 0]
     assert 0 < float(err.abs().median()) < 200  # millimetres: a few disparity steps at 1-5 m
+
+
+def test_without_gps_the_camera_extrinsics_are_the_mount_not_the_pose():
+    env = gym.make(
+        "BioVLN-OpFace-v0",
+        split="ms_val",
+        obs_mode="rgbd",
+        camera_width=64,
+        camera_height=64,
+        noise="realistic",
+        **CPU,
+    )
+    obs, _ = env.reset(seed=0)
+    first = {k: obs["sensor_param"]["head"][k].clone() for k in ("extrinsic_cv", "cam2world_gl")}
+    for a in (1, 2, 1, 3):
+        obs, *_ = env.step(a)
+    env.close()
+    for k, v in first.items():  # the robot moved; its camera did not, relative to the base
+        assert torch.allclose(obs["sensor_param"]["head"][k], v, atol=1e-4), k
+    mount = first["cam2world_gl"][0]
+    assert float(mount[2, 3]) == pytest.approx(0.88, abs=1e-3) and float(mount[:2, 3].abs().max()) < 1e-4
