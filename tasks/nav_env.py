@@ -404,7 +404,7 @@ class BioVLNNavEnv(BaseEnv):
     def _camera_params_in_base_frame(self, params: dict) -> None:
         """Without GPS+compass the cameras' extrinsics are given relative to the robot's base (the mount,
         as a robot knows it), not the world: world-frame extrinsics would tell the pose."""
-        pose = self._pose()
+        pose = self._measures["agent_pose"]  # this step's pose, already read from the joints
         c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
         base2world = np.zeros((len(pose), 4, 4))
         base2world[:, 0, 0], base2world[:, 0, 1], base2world[:, 1, 0], base2world[:, 1, 1] = c, -s, s, c
