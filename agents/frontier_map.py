@@ -118,10 +118,11 @@ class OccupancyMap:
     def _add_evidence(self, free_rc: np.ndarray, hit_rc: np.ndarray) -> None:
         """A frame's misses and hits (each cell once), then the cells' states from their log-odds."""
         lo = self.log_odds
+        flat = lo.reshape(-1)
         for rc, step in ((free_rc, MISS), (hit_rc, HIT)):
             if len(rc):
-                r, c = np.unique(rc, axis=0).T
-                lo[r, c] = np.clip(lo[r, c] + step, -LOG_ODDS_LIMIT, LOG_ODDS_LIMIT)
+                cells = np.unique(rc[:, 0] * self.n + rc[:, 1])  # each cell once
+                flat[cells] = np.clip(flat[cells] + step, -LOG_ODDS_LIMIT, LOG_ODDS_LIMIT)
         touched = np.concatenate([free_rc, hit_rc]) if len(hit_rc) else free_rc
         r, c = touched.T
         value = lo[r, c]

@@ -124,10 +124,13 @@ def scan_points(
     pts = pb[hit & near & (pb[..., 2] > floor_z) & (pb[..., 2] < top_z)][:, :2]
     if not len(pts):
         return np.zeros((0, 2))
-    keys, inverse = np.unique(np.floor(pts / cell).astype(np.int64), axis=0, return_inverse=True)
-    sums = np.zeros((len(keys), 2))
-    np.add.at(sums, inverse.reshape(-1), pts)
-    return sums / np.bincount(inverse.reshape(-1), minlength=len(keys))[:, None]
+    k = np.floor(pts / cell).astype(np.int64)
+    k -= k.min(0)
+    # one key per cell, ordered as the cells' (x, y) keys sort
+    _, inverse = np.unique(k[:, 0] * (k[:, 1].max() + 1) + k[:, 1], return_inverse=True)
+    count = np.bincount(inverse)
+    sums = np.stack([np.bincount(inverse, pts[:, i], len(count)) for i in (0, 1)], 1)
+    return sums / count[:, None]
 
 
 class Localiser:
@@ -206,11 +209,14 @@ class Localiser:
         world = self._place(pts, pred[:2], pred[2] + dth)  # (A, N, 2)
         col = np.floor((world[..., 0] - corner[0]) / res).astype(np.int64)
         row = np.floor((world[..., 1] - corner[1]) / res).astype(np.int64)
-        rows = row[:, None, None, :] + shift * steps[None, :, None, None]  # (A, dy, dx, N)
-        cols = col[:, None, None, :] + shift * steps[None, None, :, None]
-        inside = (rows >= 0) & (rows < field.shape[0]) & (cols >= 0) & (cols < field.shape[1])
-        vals = field[np.clip(rows, 0, field.shape[0] - 1), np.clip(cols, 0, field.shape[1] - 1)]
-        score = np.where(inside, vals, 0.0).mean(-1)
+        # the field padded with zeros by 2 m + 1 cells (m the largest shift): a point m cells or more off
+        # the field stays off it under every shift, so it is clamped to just outside, where it reads 0
+        m = shift * nl
+        (h, w), pad = field.shape, 2 * m + 1
+        padded = np.pad(field, pad).ravel()
+        at = (np.clip(row, -m - 1, h + m) + pad) * (w + 2 * pad) + np.clip(col, -m - 1, w + m) + pad
+        moves = shift * (steps[:, None] * (w + 2 * pad) + steps[None, :])  # (dy, dx) as flat offsets
+        score = padded.take(at[:, None, None, :] + moves[None, :, :, None]).mean(-1)  # (A, dy, dx)
         t = steps * shift * res
         a, i, j = self._pick(score, dth[:, None, None], t[None, :, None], t[None, None, :])
         coarse = pred + [t[j], t[i], dth[a]]

@@ -632,6 +632,64 @@ def eval_cmd(
         raise typer.Exit(1)
 
 
+@app.command(
+    "benchmark",
+    help="Run the whole benchmark, then report.\n\n"
+    "Every method on every benchmark split under every noise preset. Resumable (run it again after a "
+    "kill); trains PPO and BC once when no --checkpoints are given; suite.json / suite.md in --out keep "
+    "each run's status and wall time; --report writes the report.",
+)
+def benchmark_cmd(
+    out: Path = typer.Option(Path("benchmark"), "--out", "-o", help="Suite folder (results/, checkpoints/)."),
+    report_dir: Optional[Path] = typer.Option(None, "--report", help="Write the report here at the end."),
+    methods: Optional[str] = typer.Option(
+        None, "--methods", help="Only these methods, comma-separated (default: all but a2c/sac)."
+    ),
+    splits: Optional[str] = typer.Option(
+        None,
+        "--splits",
+        help="Only these splits, comma-separated (default: MS VAL/TEST, Two-Room, LSAT, Hard).",
+    ),
+    noises: Optional[str] = typer.Option(
+        None, "--presets", help="Only these noise presets, comma-separated (default: ideal,realistic)."
+    ),
+    checkpoints: Optional[str] = typer.Option(
+        None,
+        "--checkpoints",
+        help="METHOD=PATH of learned methods, comma-separated (default: the suite trains them).",
+    ),
+    workers: Optional[int] = typer.Option(None, help="Worker processes (default: one per core)."),
+    dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
+) -> None:
+    from biovln_ms.errors import BioVLNError
+    from biovln_ms.eval.suite import SUITE_METHODS, SUITE_NOISE, SUITE_SPLITS, run_suite
+
+    def names(value: str | None, default: tuple[str, ...]) -> list[str]:
+        return [v.strip() for v in value.split(",") if v.strip()] if value else list(default)
+
+    given = {}
+    for item in names(checkpoints, ()):
+        method, sep, path = item.partition("=")
+        if not sep or not path:
+            raise BioVLNError(
+                f"--checkpoint '{item}' is not METHOD=PATH",
+                field="checkpoint",
+                fix="e.g. --checkpoints ppo=runs/ppo/model.zip",
+            )
+        given[method] = path
+    run_suite(
+        out,
+        names(methods, SUITE_METHODS),
+        names(splits, SUITE_SPLITS),
+        names(noises, SUITE_NOISE),
+        workers,
+        str(dataset) if dataset else None,
+        given,
+        report_dir,
+        echo=typer.echo,
+    )
+
+
 @app.command()
 def report(
     results: Path = typer.Argument(Path("results"), help="Results folder of `biovln-ms eval`."),

@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from biovln_ms.noise import NoiseConfig
+from biovln_ms.noise import NoiseConfig, NoiseConfigError
 
 #: Per-step info of every variant (paper §4.2) and the episode-end metrics.
 STEP_MEASURES = (
@@ -29,6 +29,8 @@ END_MEASURES = ("spl", "soft_spl", "mcr", "vrt", "steps", "path_length")
 NAV_SENSORS = ("gps", "compass", "pointgoal_with_gps_compass", "objectgoal")
 #: What GPS+compass gives, and what replaces each without it (None: nothing)
 GPS_COMPASS_SENSORS = {"gps": None, "compass": None, "pointgoal_with_gps_compass": "pointgoal"}
+#: sensors that are the robot's pose and have no pose-free stand-in (the paper's RL state vector)
+POSE_SENSORS = {"rl_state"}
 
 
 @dataclass(frozen=True)
@@ -67,6 +69,13 @@ class NavTaskConfig:
         ``pointgoal`` in the start frame) and the observation loses the base odometry."""
         if noise.gps_compass:
             return replace(self, noise=noise)
+        if POSE_SENSORS & set(self.sensors):
+            raise NoiseConfigError(
+                f"sensor {', '.join(sorted(POSE_SENSORS & set(self.sensors)))} is the robot's pose, and "
+                f"noise '{noise.name}' has no GPS+compass",
+                field="noise.gps_compass",
+                fix="keep the pose: noise={'preset': '" + noise.name + "', 'gps_compass': True}",
+            )
         sensors = tuple(
             dict.fromkeys(
                 GPS_COMPASS_SENSORS.get(s, s) for s in self.sensors if GPS_COMPASS_SENSORS.get(s, s)

@@ -31,6 +31,7 @@ from biovln_ms.eval.metrics import METRICS, aggregate_all, record_error
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.io_utils import atomic_write_text, exclusive_lock
 from biovln_ms.noise import resolve_noise
+from biovln_ms.variants import VARIANTS
 
 DEFAULT_ENV = "BioVLN-OpFace-v0"
 LOCK_FILE = "eval.lock"  # in the run folder, held by the one process writing there
@@ -64,7 +65,9 @@ class EvalConfig:
     def __post_init__(self) -> None:
         if self.env_id is None:
             self.env_id = method_spec(self.method).env_id or DEFAULT_ENV
-        resolve_noise(self.noise)  # a one-line error for an unknown preset, before any worker starts
+        noise = resolve_noise(self.noise)  # one-line errors before any worker starts: an unknown preset,
+        if self.env_id in VARIANTS:  # or a variant whose sensors the preset cannot give
+            VARIANTS[self.env_id].with_noise(noise)
 
     @property
     def run_name(self) -> str:

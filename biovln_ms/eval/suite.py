@@ -1,0 +1,233 @@
+"""The benchmark's whole evaluation from one command (``biovln-ms benchmark``): every method on every
+benchmark split under every noise preset, the learned methods' training when no checkpoint is given, then
+the report.
+
+Each (method, split, preset) is one harness run (:func:`biovln_ms.eval.harness.evaluate`), so a killed
+suite resumes where it stopped: finished episodes are never run again, a finished run costs a file read,
+and a learned method's checkpoint is trained once. ``<out>/suite.json`` keeps every run's status and wall
+time (the time of a resumed run adds up over its sessions); ``<out>/suite.md`` is that as a table.
+
+Runs that cannot be made are skipped with their reason in both files, never silently: LLM-Frontier
+without an endpoint (``BIOVLN_LLM_API_KEY`` unset), and a method whose observation is the robot's pose
+(PPO reads the paper's RL state vector) under a preset without GPS+compass.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from biovln_ms.errors import BioVLNError
+from biovln_ms.eval.harness import EvalConfig, evaluate
+from biovln_ms.eval.methods import METHODS, method_spec
+from biovln_ms.io_utils import atomic_write_text
+from biovln_ms.noise import resolve_noise
+
+#: item 6's splits: the paper's MS VAL / TEST, Two-Room and LSAT, and the Hard track
+SUITE_SPLITS = ("ms_val", "ms_test", "two_room", "lsat_target", "hard_val", "hard_test")
+SUITE_NOISE = ("ideal", "realistic")
+#: geometric methods first (the suite's time budget is theirs), then the slower and the learned ones
+SUITE_METHODS = ("oracle", "zone3_oracle", "frontier", "random", "llm_frontier", "ppo", "vlfm", "bc")
+LEARNED = ("ppo", "bc")
+PPO_TIMESTEPS = 300_000  # benchmarks/rl_learning.py's budget
+BC_EPISODES = 200  # frontier recordings of the train split for BC
+BC_MINUTES = 35.0  # BC's wall-clock budget (the learning guide's measured run)
+BC_IMAGE_SIZE = 128
+
+
+@dataclass(frozen=True)
+class SuiteRun:
+    method: str
+    split: str
+    noise: str
+    skip: str | None = None  # why this run is not made
+
+    @property
+    def key(self) -> str:
+        return f"{self.method}/{self.split}/{self.noise}"
+
+
+def skip_reason(method: str, noise: str) -> str | None:
+    """Why ``method`` cannot run under ``noise`` here (None: it can)."""
+    spec = method_spec(method)
+    if spec.preflight is not None and method not in LEARNED:
+        try:
+            spec.preflight()
+        except BioVLNError as e:
+            return str(e)
+    if not resolve_noise(noise).gps_compass and method in LEARNED and spec.obs_mode == "state":
+        return "its observation (the paper's RL state vector) is the robot's pose; no GPS+compass here"
+    return None
+
+
+def plan(methods: Sequence[str], splits: Sequence[str], noises: Sequence[str]) -> list[SuiteRun]:
+    """Every (method, split, preset), presets outermost after methods: ideal runs of a method first."""
+    for m in methods:
+        method_spec(m)
+    for n in noises:
+        resolve_noise(n)
+    return [SuiteRun(m, s, n, skip_reason(m, n)) for m in methods for n in noises for s in splits]
+
+
+class Suite:
+    """One suite folder: its runs' log (``suite.json``), the learned checkpoints, the harness results."""
+
+    def __init__(self, out: str | Path, workers: int | None = None, dataset: str | None = None, echo=print):
+        self.out = Path(out)
+        self.workers = workers
+        self.dataset = dataset
+        self.echo = echo
+        self.log_path = self.out / "suite.json"
+        self.log = json.loads(self.log_path.read_text()) if self.log_path.exists() else {"runs": {}}
+
+    def _save(self) -> None:
+        atomic_write_text(self.log_path, json.dumps(self.log, indent=1, sort_keys=True) + "\n")
+        atomic_write_text(self.out / "suite.md", "\n".join(self.table()) + "\n")
+
+    def _note(self, key: str, **fields) -> None:
+        entry = self.log["runs"].setdefault(key, {"seconds": 0.0})
+        seconds = fields.pop("seconds", 0.0)
+        entry.update(fields, seconds=round(entry["seconds"] + seconds, 1))
+        self._save()
+
+    # --- learned methods ------------------------------------------------------------------------------
+    def checkpoint(self, method: str, given: dict[str, str], progress: bool) -> str:
+        """The checkpoint of a learned method: ``given``, else the suite's own, trained once here."""
+        if method in given:
+            return given[method]
+        if method == "ppo":
+            return self._train_ppo(progress)
+        return self._train_bc(progress)
+
+    def _train_ppo(self, progress: bool) -> str:
+        from biovln_ms.learning.rl import RLConfig, train_rl
+
+        path = self.out / "checkpoints" / "ppo"
+        if not (path / "model.zip").exists():
+            self.echo(f"training PPO ({PPO_TIMESTEPS} timesteps) -> {path}")
+            t = time.perf_counter()
+            cfg = RLConfig(timesteps=PPO_TIMESTEPS, dataset=self.dataset, eval_split=None)
+            train_rl(cfg, path, echo=self.echo, progress=progress)
+            self._note("train/ppo", status="done", seconds=time.perf_counter() - t)
+        return str(path / "model.zip")
+
+    def _train_bc(self, progress: bool) -> str:
+        from biovln_ms.learning.bc import BCConfig, train_bc
+
+        path = self.out / "checkpoints" / "bc"
+        if not (path / "bc.pt").exists():
+            recordings = path / "recordings"
+            self.echo(f"recording frontier on {BC_EPISODES} train episodes for BC -> {recordings}")
+            t = time.perf_counter()
+            evaluate(
+                EvalConfig(
+                    "frontier",
+                    "train",
+                    str(path / "recording_runs"),
+                    self.dataset,
+                    workers=self.workers,
+                    max_episodes=BC_EPISODES,
+                    record_dir=str(recordings),
+                ),
+                progress=progress,
+                echo=self.echo,
+            )
+            cfg = BCConfig(image_size=BC_IMAGE_SIZE, max_minutes=BC_MINUTES)
+            train_bc([recordings], path, cfg, echo=self.echo, progress=progress)
+            self._note("train/bc", status="done", seconds=time.perf_counter() - t)
+        return str(path / "bc.pt")
+
+    # --- the runs -------------------------------------------------------------------------------------
+    def run(
+        self, runs: list[SuiteRun], checkpoints: dict[str, str] | None = None, progress: bool = True
+    ) -> dict:
+        """Make (or resume) every run; returns the log."""
+        given = dict(checkpoints or {})
+        todo = [r for r in runs if not r.skip]
+        for r in runs:
+            if r.skip:
+                self._note(r.key, status="skipped", reason=r.skip)
+        for i, r in enumerate(todo, 1):
+            self.echo(f"[{i}/{len(todo)}] {r.method} on {r.split}, noise {r.noise}")
+            kwargs = {}
+            if r.method in LEARNED:
+                kwargs["checkpoint"] = self.checkpoint(r.method, given, progress)
+            t = time.perf_counter()
+            summary = evaluate(
+                EvalConfig(
+                    r.method,
+                    r.split,
+                    str(self.out / "results"),
+                    self.dataset,
+                    workers=self.workers,
+                    method_kwargs=kwargs,
+                    noise=r.noise,
+                ),
+                progress=progress,
+                echo=self.echo,
+            )
+            overall = summary["overall"]
+            self._note(
+                r.key,
+                status="done",
+                episodes=overall["episodes"],
+                errors=overall["errors"],
+                sr=overall["sr"],
+                seconds=time.perf_counter() - t,
+            )
+        return self.log
+
+    def table(self) -> list[str]:
+        """The log as a Markdown table, with the total wall time of the geometric methods and of all."""
+        rows = ["| run | status | episodes | SR % | wall time |", "|---|---|---|---|---|"]
+        geometric = total = 0.0
+        for key, e in sorted(self.log["runs"].items(), key=lambda kv: _order(kv[0])):
+            total += e["seconds"]
+            if key.split("/")[0] in ("oracle", "zone3_oracle", "frontier", "random"):
+                geometric += e["seconds"]
+            status = e["status"] if e["status"] != "skipped" else f"skipped: {e['reason']}"
+            sr = f"{e['sr']:.1f}" if e.get("sr") is not None else ""
+            rows.append(
+                f"| {key} | {status} | {e.get('episodes', '')} | {sr} | {e['seconds'] / 60:.1f} min |"
+            )
+        rows += ["", f"Geometric methods: {geometric / 60:.1f} min; everything: {total / 60:.1f} min."]
+        return rows
+
+
+def _order(key: str) -> tuple:
+    method, *rest = key.split("/")
+    if method == "train":
+        return (SUITE_METHODS.index(rest[0]) if rest[0] in SUITE_METHODS else 99, -1, "")
+    split = rest[0] if rest else ""
+    return (
+        SUITE_METHODS.index(method) if method in SUITE_METHODS else len(METHODS),
+        SUITE_SPLITS.index(split) if split in SUITE_SPLITS else 99,
+        key,
+    )
+
+
+def run_suite(
+    out: str | Path,
+    methods: Sequence[str] = SUITE_METHODS,
+    splits: Sequence[str] = SUITE_SPLITS,
+    noises: Sequence[str] = SUITE_NOISE,
+    workers: int | None = None,
+    dataset: str | None = None,
+    checkpoints: dict[str, str] | None = None,
+    report: str | Path | None = None,
+    progress: bool = True,
+    echo: Callable[[str], None] = print,
+) -> dict:
+    """Plan, run (or resume) and, with ``report``, write the report of ``<out>/results``."""
+    suite = Suite(out, workers, dataset, echo)
+    log = suite.run(plan(methods, splits, noises), checkpoints, progress)
+    for line in suite.table():
+        echo(line)
+    if report is not None:
+        from biovln_ms.eval.report import write_report
+
+        write_report(suite.out / "results", Path(report), dataset, echo=echo)
+    return log

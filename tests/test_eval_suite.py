@@ -1,0 +1,77 @@
+"""The one-command evaluation (``biovln-ms benchmark``): plan, skips with reasons, resume, the log."""
+
+import json
+
+import pytest
+
+from biovln_ms.errors import BioVLNError
+from biovln_ms.eval.harness import EvalConfig, load_records
+from biovln_ms.eval.suite import SUITE_METHODS, SUITE_SPLITS, Suite, plan, run_suite
+from biovln_ms.noise import NoiseConfigError
+
+
+def test_plan_covers_every_method_split_and_preset_and_names_each_skip(monkeypatch):
+    monkeypatch.delenv("BIOVLN_LLM_API_KEY", raising=False)
+    monkeypatch.delenv("DEEPSEEK_API_KEY", raising=False)
+    runs = plan(SUITE_METHODS, SUITE_SPLITS, ("ideal", "realistic"))
+    assert len(runs) == len(SUITE_METHODS) * len(SUITE_SPLITS) * 2
+    assert {r.split for r in runs} == {
+        "ms_val",
+        "ms_test",
+        "two_room",
+        "lsat_target",
+        "hard_val",
+        "hard_test",
+    }
+    skipped = {(r.method, r.noise): r.skip for r in runs if r.skip}
+    assert set(skipped) == {("llm_frontier", "ideal"), ("llm_frontier", "realistic"), ("ppo", "realistic")}
+    assert "BIOVLN_LLM_API_KEY" in skipped[("llm_frontier", "ideal")]
+    assert "pose" in skipped[("ppo", "realistic")]
+    # bc reads RGB and the goal sensor, which the realistic preset gives without GPS (pointgoal)
+    assert not any(r.skip for r in runs if r.method == "bc")
+
+
+def test_plan_refuses_unknown_names():
+    with pytest.raises(BioVLNError, match="unknown method 'nope'"):
+        plan(["nope"], ["ms_val"], ["ideal"])
+    with pytest.raises(NoiseConfigError, match="unknown noise preset"):
+        plan(["oracle"], ["ms_val"], ["loud"])
+
+
+def test_a_pose_reading_method_is_refused_without_gps_before_any_worker():
+    with pytest.raises(NoiseConfigError, match="rl_state is the robot's pose"):
+        EvalConfig("ppo", "ms_val", "out", noise="realistic")
+
+
+def test_suite_runs_resumes_and_logs(held_out_dataset, tmp_path, monkeypatch):
+    monkeypatch.delenv("BIOVLN_LLM_API_KEY", raising=False)
+    monkeypatch.delenv("DEEPSEEK_API_KEY", raising=False)
+    ds = held_out_dataset(ms_val=3)
+    lines: list[str] = []
+    args = dict(splits=["ms_val"], noises=["ideal", "realistic"], workers=1, dataset=ds, progress=False)
+    log = run_suite(tmp_path, ["oracle", "random", "llm_frontier"], echo=lines.append, **args)
+    done = {k: v for k, v in log["runs"].items() if v["status"] == "done"}
+    assert set(done) == {f"{m}/ms_val/{n}" for m in ("oracle", "random") for n in ("ideal", "realistic")}
+    assert all(v["episodes"] == 3 and v["errors"] == 0 for v in done.values())
+    assert done["oracle/ms_val/ideal"]["sr"] == 100.0
+    assert log["runs"]["llm_frontier/ms_val/ideal"]["status"] == "skipped"
+    recs = load_records(tmp_path / "results" / "oracle+realistic" / "ms_val" / "episodes.jsonl")
+    assert len(recs) == 3 and all(r["noise"] == "realistic" for r in recs)
+    table = (tmp_path / "suite.md").read_text()
+    assert "| oracle/ms_val/ideal | done | 3 | 100.0 |" in table and "Geometric methods:" in table
+    # a second call resumes: nothing runs again, the records stay, the time adds up
+    before = json.loads((tmp_path / "suite.json").read_text())
+    run_suite(tmp_path, ["oracle"], echo=lines.append, **args)
+    after = Suite(tmp_path).log["runs"]
+    assert len(load_records(tmp_path / "results" / "oracle" / "ms_val" / "episodes.jsonl")) == 3
+    assert after["oracle/ms_val/ideal"]["seconds"] >= before["runs"]["oracle/ms_val/ideal"]["seconds"]
+
+
+def test_cli_checkpoint_option_is_checked(tmp_path):
+    from typer.testing import CliRunner
+
+    from biovln_ms.cli import app
+
+    r = CliRunner().invoke(app, ["benchmark", "-o", str(tmp_path), "--checkpoints", "ppo"])
+    assert r.exit_code != 0
+    assert "METHOD=PATH" in str(r.exception or r.output)
