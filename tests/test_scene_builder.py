@@ -124,3 +124,24 @@ def test_navigable_positions_cover_the_free_space():
         assert shapely.contains_xy(free.buffer(1e-6), pts[:, 0], pts[:, 1]).all()
     finally:
         env.close()
+
+
+@pytest.mark.parametrize("template,seed", [("suite", 400), ("open_plan", 450), ("two_room", 200)])
+def test_walls_stand_outside_the_floor_and_a_doorway_is_as_wide_as_the_free_space_says(template, seed):
+    """A wall box lengthened into a doorway (a concave corner) narrowed the door in the physics, not in the
+    free space: the oracle got stuck at suite doors. Every wall box now lies outside the floor, and the
+    convex corners stay closed (the room's outline is covered)."""
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    from biovln_ms.scene.shell import wall_spans
+
+    spec = generate_scene(template, seed)
+    floor = unary_union([Polygon(r.polygon) for r in spec.rooms])
+    boxes = []
+    for w, (a, b) in zip(spec.walls, wall_spans(spec)):
+        n = np.asarray(w.interior)
+        boxes.append(Polygon([a, b, b - n * w.thickness, a - n * w.thickness]))
+        assert boxes[-1].intersection(floor).area < 1e-9, w.id
+    ring = floor.buffer(0.1, join_style="mitre").difference(floor)
+    assert ring.difference(unary_union(boxes)).area < 1e-6  # closed: no gap at any corner

@@ -33,9 +33,31 @@ def _key(spec: SceneSpec) -> str:
         "rooms": [r.model_dump(mode="json") for r in spec.rooms],
         "walls": [w.model_dump(mode="json") for w in spec.walls],
         "openings": [o.model_dump(mode="json") for o in spec.openings],
-        "v": 1,
+        "v": 2,  # 2: walls stop at concave corners (wall_spans)
     }
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def wall_spans(spec: SceneSpec) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each wall's run along its line, ``(a, b)``: its segment, lengthened by the thickness at an end where
+    the piece that adds lies outside the floor (a convex corner, which it closes). At a concave corner (a
+    door's jamb meeting the corridor wall) the piece would stand on the floor, so the wall stops at its end:
+    every wall box then lies outside the floor, where the free space (``scene.rules``) assumes it."""
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    floor = unary_union([Polygon(r.polygon) for r in spec.rooms])
+    spans = []
+    for w in spec.walls:
+        s, e, n = np.asarray(w.start, float), np.asarray(w.end, float), np.asarray(w.interior, float)
+        d = (e - s) / np.linalg.norm(e - s)
+        ends = []
+        for p, out in ((s, -d), (e, d)):
+            q = p + out * w.thickness
+            piece = Polygon([p, q, q - n * w.thickness, p - n * w.thickness])
+            ends.append(q if piece.intersection(floor).area < 1e-9 else p)
+        spans.append((ends[0], ends[1]))
+    return spans
 
 
 def _kit() -> Kit:
@@ -62,11 +84,9 @@ def shell_scene(spec: SceneSpec, ceiling: bool) -> trimesh.Scene:
     for r in spec.rooms:
         xy = np.asarray(r.polygon)
         k.box_span(f"floor_{r.id}", (*xy.min(0), -FLOOR_DEPTH), (*xy.max(0), 0.0), floor)
-    for w in spec.walls:
+    for w, (a, b) in zip(spec.walls, wall_spans(spec)):
         s, e, n = np.asarray(w.start), np.asarray(w.end), np.asarray(w.interior)
-        d = (e - s) / np.linalg.norm(e - s)
-        # Extend by the thickness at both ends so corners close; the wall stands outside the floor.
-        a, b = s - d * w.thickness, e + d * w.thickness
+        # the wall stands outside the floor; its run closes the convex corners (wall_spans)
         outer_a, outer_b = a - n * w.thickness, b - n * w.thickness
         pts = np.array([a, b, outer_a, outer_b])
         k.box_span(f"{w.id}", (*pts.min(0), 0.0), (*pts.max(0), w.height), wall)

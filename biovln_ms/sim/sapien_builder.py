@@ -15,7 +15,7 @@ import sapien
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.paths import COLLISION_DIR, asset_glb
-from biovln_ms.scene.shell import FLOOR_DEPTH, shell_glbs
+from biovln_ms.scene.shell import FLOOR_DEPTH, shell_glbs, wall_spans
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 
 
@@ -68,11 +68,11 @@ def add_spec_to_scene(
             half_size=[*(hi - lo) / 2, FLOOR_DEPTH / 2],
             material=mat,
         )
-    for w in spec.walls:
-        s, e, n = np.asarray(w.start), np.asarray(w.end), np.asarray(w.interior)
-        length = float(np.linalg.norm(e - s)) + 2 * w.thickness
-        centre = (s + e) / 2 - n * w.thickness / 2
-        yaw = math.atan2(e[1] - s[1], e[0] - s[0])
+    for w, (a, b) in zip(spec.walls, wall_spans(spec)):
+        n = np.asarray(w.interior)
+        length = float(np.linalg.norm(b - a))
+        centre = (a + b) / 2 - n * w.thickness / 2
+        yaw = math.atan2(b[1] - a[1], b[0] - a[0])
         b.add_box_collision(
             sapien.Pose([*centre, w.height / 2], yaw_quat(yaw)),
             half_size=[length / 2, w.thickness / 2, w.height / 2],
