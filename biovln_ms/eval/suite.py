@@ -57,7 +57,7 @@ def skip_reason(method: str, noise: str) -> str | None:
         try:
             spec.preflight()
         except BioVLNError as e:
-            return str(e)
+            return e.message
     if not resolve_noise(noise).gps_compass and method in LEARNED and spec.obs_mode == "state":
         return "its observation (the paper's RL state vector) is the robot's pose; no GPS+compass here"
     return None
