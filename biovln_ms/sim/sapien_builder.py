@@ -68,11 +68,11 @@ def add_spec_to_scene(
             half_size=[*(hi - lo) / 2, FLOOR_DEPTH / 2],
             material=mat,
         )
-    for w, (a, b) in zip(spec.walls, wall_spans(spec)):
+    for w, (start, end) in zip(spec.walls, wall_spans(spec)):
         n = np.asarray(w.interior)
-        length = float(np.linalg.norm(b - a))
-        centre = (a + b) / 2 - n * w.thickness / 2
-        yaw = math.atan2(b[1] - a[1], b[0] - a[0])
+        length = float(np.linalg.norm(end - start))
+        centre = (start + end) / 2 - n * w.thickness / 2
+        yaw = math.atan2(end[1] - start[1], end[0] - start[0])
         b.add_box_collision(
             sapien.Pose([*centre, w.height / 2], yaw_quat(yaw)),
             half_size=[length / 2, w.thickness / 2, w.height / 2],
