@@ -93,7 +93,10 @@ def test_a_partial_run_is_labelled_and_not_compared_with_the_paper():
         ("random", "ms_val"): _records([True] * 40 + [False] * 10),  # all 50: 80 % vs the paper's 22 %
     }
     summ = summarize(runs)
-    assert SPLIT_EPISODES == {"ms_dev": 160, "ms_val": 50, "ms_test": 120, "two_room": 50, "lsat_target": 40}
+    assert SPLIT_EPISODES == {
+        **{"ms_dev": 160, "ms_val": 50, "ms_test": 120, "two_room": 50, "lsat_target": 40},
+        **{"hard_val": 160, "hard_test": 160},
+    }
     oracle, rnd = summ["runs"]["oracle"]["ms_val"], summ["runs"]["random"]["ms_val"]
     assert (oracle["partial"], oracle["split_episodes"]) == (True, 50)
     assert (rnd["partial"], rnd["split_episodes"]) == (False, 50)
@@ -211,3 +214,33 @@ def test_a_figure_is_called_hard_only_for_a_hard_episode():
     assert not any_hard and picked == [easy[2], easy[1]]  # frontier's only; oracle's hard one is not drawn
     errored = dict(hard, error="boom")
     assert hard_episodes({("frontier", "ms_val"): [errored]}, 2) == ([], False)  # no trajectory to draw
+
+
+def test_the_benchmark_table_ranks_every_method_under_each_preset_and_tests_the_noise():
+    from biovln_ms.eval.report import benchmark_table
+
+    n = 40
+    runs = {
+        ("oracle", "hard_val"): _records([True] * n, difficulty="hard"),
+        ("oracle+realistic", "hard_val"): _records([True] * n, difficulty="hard"),
+        ("frontier", "hard_val"): _records([True] * 30 + [False] * 10, difficulty="hard"),
+        ("frontier+realistic", "hard_val"): _records([True] * 10 + [False] * 30, difficulty="hard"),
+    }
+    summ = summarize(runs, {"hard_val": n})
+    pairs = {(t["a"], t["b"]) for t in summ["mcnemar"]}
+    # within a preset, and each method against itself under noise
+    assert pairs == {
+        ("oracle", "frontier"),
+        ("oracle+realistic", "frontier+realistic"),
+        ("oracle+realistic", "oracle"),
+        ("frontier+realistic", "frontier"),
+    }
+    lines = benchmark_table(summ)
+    block = _section(lines, "**Hard VAL**")
+    assert "(full split: 40 episodes)" in block[0]
+    assert _row(block, "| Oracle (privileged) | ideal | 40 | 100.0").count("|") == 9
+    assert _row(block, "| Frontier | realistic | 40 | 25.0 [")
+    assert [r.split(" | ")[1] for r in block[4:]] == ["ideal", "realistic", "ideal", "realistic"]
+    noise = _row(mcnemar_table(summ), "| Frontier (realistic) | Frontier | Hard VAL | 40 |")
+    assert "| 20 | 0 |" in noise and "**yes**" in noise  # n01: realistic fails where ideal succeeds
+    assert SPLIT_EPISODES["hard_val"] == SPLIT_EPISODES["hard_test"] == 160

@@ -9,6 +9,9 @@ SPLIT_LABELS = {
     "ms_test": "MS TEST",
     "two_room": "Two-Room",
     "lsat_target": "LSAT",
+    # ours (the paper has no Hard track)
+    "hard_val": "Hard VAL",
+    "hard_test": "Hard TEST",
 }
 
 # Table 5: paper key -> split -> metric -> value (SR %, SPL, MCR m, VRT %)
