@@ -13,7 +13,7 @@ from biovln_ms.noise import NoiseConfigError
 def test_plan_covers_every_method_split_and_preset_and_names_each_skip(monkeypatch):
     monkeypatch.delenv("BIOVLN_LLM_API_KEY", raising=False)
     monkeypatch.delenv("DEEPSEEK_API_KEY", raising=False)
-    runs = plan(SUITE_METHODS, SUITE_SPLITS, ("ideal", "realistic"))
+    runs = plan(SUITE_METHODS, SUITE_SPLITS, ("ideal", "realistic"), paper_tables=False)
     assert len(runs) == len(SUITE_METHODS) * len(SUITE_SPLITS) * 2
     assert {r.split for r in runs} == {
         "ms_val",
@@ -29,6 +29,19 @@ def test_plan_covers_every_method_split_and_preset_and_names_each_skip(monkeypat
     assert "pose" in skipped[("ppo", "realistic")]
     # bc reads RGB and the goal sensor, which the realistic preset gives without GPS (pointgoal)
     assert not any(r.skip for r in runs if r.method == "bc")
+
+
+def test_plan_adds_the_runs_of_the_papers_tables():
+    runs = plan(["oracle", "frontier"], ["ms_val"], ["ideal"])
+    assert [r.key for r in runs] == [
+        "oracle/ms_val/ideal",
+        "frontier/ms_val/ideal",
+        "oracle/ms_dev/ideal",
+        "frontier/ms_dev/ideal",
+        "frontier@BioVLN-Centroid-v0/ms_dev/ideal",
+        "frontier@BioVLN-Centroid-v0/ms_val/ideal",
+        "frontier@BioVLN-Centroid-v0/ms_test/ideal",
+    ]
 
 
 def test_plan_refuses_unknown_names():
@@ -49,6 +62,7 @@ def test_suite_runs_resumes_and_logs(held_out_dataset, tmp_path, monkeypatch):
     ds = held_out_dataset(ms_val=3)
     lines: list[str] = []
     args = dict(splits=["ms_val"], noises=["ideal", "realistic"], workers=1, dataset=ds, progress=False)
+    args["paper_tables"] = False
     log = run_suite(tmp_path, ["oracle", "random", "llm_frontier"], echo=lines.append, **args)
     done = {k: v for k, v in log["runs"].items() if v["status"] == "done"}
     assert set(done) == {f"{m}/ms_val/{n}" for m in ("oracle", "random") for n in ("ideal", "realistic")}

@@ -1,6 +1,6 @@
 """The benchmark's whole evaluation from one command (``biovln-ms benchmark``): every method on every
-benchmark split under every noise preset, the learned methods' training when no checkpoint is given, then
-the report.
+benchmark split under every noise preset, the runs the paper's table layouts need (MS DEV, the centroid
+ablation), the learned methods' training when no checkpoint is given, then the report.
 
 Each (method, split, preset) is one harness run (:func:`biovln_ms.eval.harness.evaluate`), so a killed
 suite resumes where it stopped: finished episodes are never run again, a finished run costs a file read,
@@ -38,16 +38,23 @@ BC_MINUTES = 35.0  # BC's wall-clock budget (the learning guide's measured run)
 BC_IMAGE_SIZE = 128
 
 
+#: the paper's tables also need MS DEV (Tables 5, 6, 10, 11) and the centroid ablation (Table 9, frontier)
+PAPER_SPLIT = "ms_dev"
+CENTROID = ("frontier", "BioVLN-Centroid-v0", ("ms_dev", "ms_val", "ms_test"))
+
+
 @dataclass(frozen=True)
 class SuiteRun:
     method: str
     split: str
     noise: str
     skip: str | None = None  # why this run is not made
+    env_id: str | None = None  # None: the method's own env
 
     @property
     def key(self) -> str:
-        return f"{self.method}/{self.split}/{self.noise}"
+        env = "" if self.env_id is None else "@" + self.env_id
+        return f"{self.method}{env}/{self.split}/{self.noise}"
 
 
 def skip_reason(method: str, noise: str) -> str | None:
@@ -63,13 +70,22 @@ def skip_reason(method: str, noise: str) -> str | None:
     return None
 
 
-def plan(methods: Sequence[str], splits: Sequence[str], noises: Sequence[str]) -> list[SuiteRun]:
-    """Every (method, split, preset), presets outermost after methods: ideal runs of a method first."""
+def plan(
+    methods: Sequence[str], splits: Sequence[str], noises: Sequence[str], paper_tables: bool = True
+) -> list[SuiteRun]:
+    """Every (method, split, preset), a method's ideal runs first; with ``paper_tables`` also each method
+    on MS DEV (ideal) and the centroid ablation, for the paper's table layouts."""
     for m in methods:
         method_spec(m)
     for n in noises:
         resolve_noise(n)
-    return [SuiteRun(m, s, n, skip_reason(m, n)) for m in methods for n in noises for s in splits]
+    runs = [SuiteRun(m, s, n, skip_reason(m, n)) for m in methods for n in noises for s in splits]
+    if paper_tables:
+        runs += [SuiteRun(m, PAPER_SPLIT, "ideal", skip_reason(m, "ideal")) for m in methods]
+        method, env, paper_splits = CENTROID
+        if method in methods:
+            runs += [SuiteRun(method, s, "ideal", env_id=env) for s in paper_splits]
+    return list(dict.fromkeys(runs))
 
 
 class Suite:
@@ -151,7 +167,8 @@ class Suite:
             if r.skip:
                 self._note(r.key, status="skipped", reason=r.skip)
         for i, r in enumerate(todo, 1):
-            self.echo(f"[{i}/{len(todo)}] {r.method} on {r.split}, noise {r.noise}")
+            env = f" ({r.env_id})" if r.env_id else ""
+            self.echo(f"[{i}/{len(todo)}] {r.method}{env} on {r.split}, noise {r.noise}")
             kwargs = {}
             if r.method in LEARNED:
                 kwargs["checkpoint"] = self.checkpoint(r.method, given, progress)
@@ -162,6 +179,7 @@ class Suite:
                     r.split,
                     str(self.out / "results"),
                     self.dataset,
+                    r.env_id,
                     workers=self.workers,
                     method_kwargs=kwargs,
                     noise=r.noise,
@@ -186,7 +204,7 @@ class Suite:
         geometric = total = 0.0
         for key, e in sorted(self.log["runs"].items(), key=lambda kv: _order(kv[0])):
             total += e["seconds"]
-            if key.split("/")[0] in ("oracle", "zone3_oracle", "frontier", "random"):
+            if key.split("/")[0].split("@")[0] in ("oracle", "zone3_oracle", "frontier", "random"):
                 geometric += e["seconds"]
             status = e["status"] if e["status"] != "skipped" else f"skipped: {e['reason']}"
             sr = f"{e['sr']:.1f}" if e.get("sr") is not None else ""
@@ -199,6 +217,7 @@ class Suite:
 
 def _order(key: str) -> tuple:
     method, *rest = key.split("/")
+    method = method.split("@")[0]
     if method == "train":
         return (SUITE_METHODS.index(rest[0]) if rest[0] in SUITE_METHODS else 99, -1, "")
     split = rest[0] if rest else ""
@@ -220,10 +239,11 @@ def run_suite(
     report: str | Path | None = None,
     progress: bool = True,
     echo: Callable[[str], None] = print,
+    paper_tables: bool = True,
 ) -> dict:
     """Plan, run (or resume) and, with ``report``, write the report of ``<out>/results``."""
     suite = Suite(out, workers, dataset, echo)
-    log = suite.run(plan(methods, splits, noises), checkpoints, progress)
+    log = suite.run(plan(methods, splits, noises, paper_tables), checkpoints, progress)
     for line in suite.table():
         echo(line)
     if report is not None:
