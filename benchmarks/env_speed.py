@@ -5,6 +5,8 @@
 Reports (budgets from the issue in brackets):
 * steps/s at 640x480 RGB-D vs the raw SAPIEN render rate of the same scene and camera (>= 0.8x);
 * state-only steps/s (>= 1,500); 128x128 RGB-D steps/s (>= 300);
+* Fetch (``robot_uids="fetch"``, on its own default dataset) at 640x480 RGB-D and state only, beside the
+  cylinder's rows;
 * reset to a new episode in the same scene (<= 20 ms) and to a new scene (<= 0.5 s);
 * resident memory over ``--resets`` resets alternating scenes (flat).
 
@@ -86,11 +88,13 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(1)
     rows, noise_seconds = [], {}
-    for label, obs_mode, w, h, noise in (
-        ("640x480 RGB-D", "rgbd", 640, 480, "ideal"),
-        ("640x480 RGB-D, noise=realistic", "rgbd", 640, 480, "realistic"),
-        ("128x128 RGB-D", "rgbd", 128, 128, "ideal"),
-        ("state only", "state", 128, 128, "ideal"),
+    for label, obs_mode, w, h, noise, robot in (
+        ("640x480 RGB-D", "rgbd", 640, 480, "ideal", "biovln_base"),
+        ("640x480 RGB-D, noise=realistic", "rgbd", 640, 480, "realistic", "biovln_base"),
+        ("128x128 RGB-D", "rgbd", 128, 128, "ideal", "biovln_base"),
+        ("state only", "state", 128, 128, "ideal", "biovln_base"),
+        ("Fetch, 640x480 RGB-D", "rgbd", 640, 480, "ideal", "fetch"),
+        ("Fetch, state only", "state", 128, 128, "ideal", "fetch"),
     ):
         env = gym.make(
             "BioVLN-OpFace-v0",
@@ -99,6 +103,7 @@ def main() -> None:
             camera_width=w,
             camera_height=h,
             noise=noise,
+            robot_uids=robot,
             **CPU,
         )
         env.reset(seed=0)
@@ -164,6 +169,8 @@ def main() -> None:
         "640x480 RGB-D, noise=realistic": "(see the noise's own work below)",
         "128x128 RGB-D": "≥ 300 steps/s",
         "state only": "≥ 1,500 steps/s",
+        "Fetch, 640x480 RGB-D": "(beside the cylinder's)",
+        "Fetch, state only": "(beside the cylinder's)",
     }
     table = [
         [

@@ -16,6 +16,13 @@ default dataset built from them (a composition of the episode model and the LSAT
   the generator's ``required_categories`` option), ``two_room`` (seed 200, 50 cross-room episodes)
   and ``lsat_target`` (the designer-authored scene ``assets/scenes/lsat_target.glb`` through the LSAT
   import, 40 episodes cycling over its 8 goal categories: 5 each, as Table 6's 20 % steps imply).
+* Protocol splits (issue 17, ours): ``protocol_train`` / ``protocol_val`` / ``protocol_test``, lab protocols
+  as multi-goal episodes (``biovln_ms.protocols.episodes``) in scenes of all four templates, their seeds
+  disjoint from every other split's (see ``PROTOCOL_SPLITS``).
+
+Every split is built for one robot (``biovln_ms.robots``): its scenes are generated, and their layout rules
+checked, for that robot's footprint radius. The default robot's dataset is the benchmark's; another robot's
+default dataset is a sibling folder (``default_dataset_dir``).
 """
 
 from __future__ import annotations
@@ -24,7 +31,11 @@ import os
 from pathlib import Path
 
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset, SplitPlan, write_dataset
+from biovln_ms.protocols.episodes import hosted_protocols
+from biovln_ms.protocols.library import ProtocolLibrary, load_protocols
+from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.generator import generate_scene
+from biovln_ms.scene.spec import SceneSpec
 
 FOUR_CATEGORIES = ("cabinet", "centrifuge", "refrigerator", "waste_bin")
 HELD_OUT = {"ms_dev": ((150, 151, 152, 153), 40), "ms_val": ((154,), 50), "ms_test": ((155, 156), 60)}
@@ -56,36 +67,48 @@ EPISODES_BY_ACTIVE = {2: 35, 3: 30, 4: 40, 5: 40}
 SCENES_PER_BUCKET = 13
 PAPER_MS_DEV_DIFFICULTY = {"easy": 11.9, "medium": 28.1, "hard": 60.0}
 PAPER_TOTALS = {"scenes": 47, "episodes": 1667, "single_room_episodes": 1363, "two_room_episodes": 304}
+#: Protocol splits (ours): per split, the first seed and the scenes per template. From the first seed up, a
+#: split takes the first scenes of each template that host at least PROTOCOL_MIN_HOSTED shipped protocols
+#: (scanning at most PROTOCOL_SEED_SCAN seeds: 600-649, 700-749, 800-849, no seed of another split); single
+#: rooms are generated with FOUR_CATEGORIES (their slots hold only those, which two protocols visit).
+PROTOCOL_SPLITS = {"protocol_train": (600, 3), "protocol_val": (700, 2), "protocol_test": (800, 2)}
+PROTOCOL_TEMPLATES = ("single_room", "two_room", "suite", "open_plan")
+PROTOCOL_EPISODES_PER_SCENE = 20
+PROTOCOL_MIN_HOSTED = 2
+PROTOCOL_SEED_SCAN = 50
 
 
-def lsat_target_scene():
-    """The shipped designer-authored GLB, imported (markers: strategy 1; the rest: strategy 2)."""
+def lsat_target_scene(robot: str = DEFAULT_ROBOT):
+    """The shipped designer-authored GLB, imported for ``robot`` (markers: strategy 1; the rest: 2)."""
     from biovln_ms.lsat.designer_scene import target_glb_path
     from biovln_ms.lsat.importer import import_glb
 
-    return import_glb(target_glb_path(), name="lsat_target")[0]
+    radius = robot_spec(robot, "robot").footprint_radius
+    return import_glb(target_glb_path(), name="lsat_target", robot_radius=radius)[0]
 
 
 def _bucket(n_active: int) -> str:
     return {2: "two", 3: "three"}.get(n_active, "four_five")
 
 
-def paper_splits() -> list[SplitPlan]:
+def paper_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
+    """Every split of the paper's datasets (and the Hard track), its scenes generated for ``robot``."""
+    r = robot_spec(robot, "robot").footprint_radius
     held = {
-        seed: generate_scene("single_room", seed, required_categories=FOUR_CATEGORIES)
+        seed: generate_scene("single_room", seed, required_categories=FOUR_CATEGORIES, robot_radius=r)
         for seeds, _ in HELD_OUT.values()
         for seed in seeds
     }
     buckets: dict[str, list] = {"two": [], "three": [], "four_five": list(held.values())}
     seed = 0
     while any(len(v) < SCENES_PER_BUCKET for v in buckets.values()):
-        spec = generate_scene("single_room", seed)
+        spec = generate_scene("single_room", seed, robot_radius=r)
         b = buckets[_bucket(len(spec.instruments))]
         if len(b) < SCENES_PER_BUCKET:
             b.append(spec)
         seed += 1
     singles = sorted((s for b in buckets.values() for s in b), key=lambda s: s.seed)
-    two_rooms = [generate_scene("two_room", s) for s in TWO_ROOM_SEEDS]
+    two_rooms = [generate_scene("two_room", s, robot_radius=r) for s in TWO_ROOM_SEEDS]
     full = SplitPlan(
         "full",
         [(s, EPISODES_BY_ACTIVE[len(s.instruments)], False) for s in singles]
@@ -119,7 +142,7 @@ def paper_splits() -> list[SplitPlan]:
         out.append(
             SplitPlan(
                 name,
-                [(generate_scene(t, seed), n, False) for t, seed, n in scenes],
+                [(generate_scene(t, seed, robot_radius=r), n, False) for t, seed, n in scenes],
                 description="Hard track: suite / open_plan / single_room held-out seeds, any instance counts",
                 hard_share=HARD_SHARE,
             )
@@ -127,35 +150,82 @@ def paper_splits() -> list[SplitPlan]:
     out.append(
         SplitPlan(
             "lsat_target",
-            [(lsat_target_scene(), LSAT_EPISODES, False)],
+            [(lsat_target_scene(robot), LSAT_EPISODES, False)],
             description="Table 4: designer-authored scene (LSAT import), 40 episodes, 8 categories",
         )
     )
+    return out + protocol_splits(robot)
+
+
+def protocol_scenes(
+    template: str, first_seed: int, count: int, library: ProtocolLibrary, robot: str = DEFAULT_ROBOT
+) -> list[SceneSpec]:
+    """The first ``count`` scenes of ``template`` from ``first_seed`` up that host at least
+    ``PROTOCOL_MIN_HOSTED`` protocols of ``library`` (a scene hosting fewer is skipped: the resample)."""
+    r = robot_spec(robot, "robot").footprint_radius
+    required = FOUR_CATEGORIES if template == "single_room" else ()
+    found = []
+    for seed in range(first_seed, first_seed + PROTOCOL_SEED_SCAN):
+        spec = generate_scene(template, seed, required_categories=required, robot_radius=r)
+        if len(hosted_protocols(spec, library)) >= PROTOCOL_MIN_HOSTED:
+            found.append(spec)
+            if len(found) == count:
+                return found
+    raise DatasetError(
+        f"only {len(found)} of seeds {first_seed}-{first_seed + PROTOCOL_SEED_SCAN - 1} of '{template}' host "
+        f"{PROTOCOL_MIN_HOSTED} protocols, {count} are needed",
+        field="PROTOCOL_SPLITS",
+        fix="lower the scene count or PROTOCOL_MIN_HOSTED, or scan more seeds",
+    )
+
+
+def protocol_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
+    """The protocol splits of the shipped protocols (never the user's: the default dataset is the same
+    everywhere), ``PROTOCOL_EPISODES_PER_SCENE`` episodes per scene."""
+    library = load_protocols(env=False)
+    out = []
+    for name, (first_seed, count) in PROTOCOL_SPLITS.items():
+        scenes = [
+            (spec, PROTOCOL_EPISODES_PER_SCENE, False)
+            for template in PROTOCOL_TEMPLATES
+            for spec in protocol_scenes(template, first_seed, count, library, robot)
+        ]
+        out.append(
+            SplitPlan(
+                name,
+                scenes,
+                description=f"lab protocols, K = 2-5 ordered goals: {count} scenes per template from seed "
+                f"{first_seed}",
+                protocols=library,
+            )
+        )
     return out
 
 
-def default_dataset_dir() -> Path:
-    """``$BIOVLN_DATA_DIR``, else ``~/.cache/biovln_ms/datasets/biovln``."""
+def default_dataset_dir(robot: str = DEFAULT_ROBOT) -> Path:
+    """``$BIOVLN_DATA_DIR``, else ``~/.cache/biovln_ms/datasets/biovln``; another robot's is the sibling
+    ``<that name>-<robot>`` (``biovln-fetch``)."""
     env = os.environ.get("BIOVLN_DATA_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "biovln_ms" / "datasets" / "biovln"
+    root = Path(env) if env else Path.home() / ".cache" / "biovln_ms" / "datasets" / "biovln"
+    return root if robot == DEFAULT_ROBOT else root.with_name(f"{root.name}-{robot_spec(robot, 'robot').uid}")
 
 
-def ensure_default_dataset(echo=print) -> Path:
-    """The default dataset, built on first use and rebuilt when stale (deterministic, ~4 s; nothing
-    is downloaded)."""
-    root = default_dataset_dir()
+def ensure_default_dataset(echo=print, robot: str = DEFAULT_ROBOT) -> Path:
+    """``robot``'s default dataset, built on first use and rebuilt when stale (deterministic, ~4 s;
+    nothing is downloaded)."""
+    root = default_dataset_dir(robot)
     stale = False
     if (root / "manifest.json").exists():
         try:
-            EpisodeDataset(root, verify=False)
+            EpisodeDataset(root, verify=False, robot=robot)
         except DatasetError:
             stale = True
     if stale or not (root / "manifest.json").exists():
         echo(f"[biovln-ms] building the benchmark dataset in {root} ({'stale' if stale else 'first use'})")
-        write_dataset(root, paper_splits(), progress=False)
+        write_dataset(root, paper_splits(robot), progress=False, robot=robot)
     return root
 
 
-def dataset_root(root: str | Path | None) -> Path:
-    """``root``, or the default dataset (built on first use)."""
-    return Path(root) if root is not None else ensure_default_dataset()
+def dataset_root(root: str | Path | None, robot: str = DEFAULT_ROBOT) -> Path:
+    """``root``, or ``robot``'s default dataset (built on first use)."""
+    return Path(root) if root is not None else ensure_default_dataset(robot=robot)

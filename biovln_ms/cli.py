@@ -356,7 +356,7 @@ def _episode_index(
 def _find_episode(root: Path, split: str, episode: Optional[str], scene: Optional[str]) -> tuple[dict, float]:
     from biovln_ms.episodes.dataset import EpisodeDataset
 
-    ds = EpisodeDataset(root)
+    ds = EpisodeDataset(root, robot=None)  # any robot's: the map is drawn for the dataset's radius
     episodes = list(ds.episodes(split))
     return episodes[_episode_index(episodes, split, episode, scene)], ds.agent_radius
 
@@ -379,17 +379,22 @@ def scene_export(
 @dataset_app.command("build")
 def dataset_build(
     out: Path = typer.Option(Path("data/biovln"), "-o", "--out", help="Dataset folder to (re)write."),
+    robot: str = typer.Option(
+        "biovln_base", "--robot", help="Robot the scenes and episodes are made for: biovln_base, fetch."
+    ),
 ) -> None:
     """Build the paper's datasets.
 
-    Every scene and episode, deterministically and atomically."""
+    Every scene and episode, deterministically and atomically, for one robot (its footprint radius)."""
     from biovln_ms.benchmark import paper_splits
     from biovln_ms.episodes.dataset import write_dataset
+    from biovln_ms.robots import robot_spec
 
-    m = write_dataset(out, paper_splits())
+    robot_spec(robot, "--robot")
+    m = write_dataset(out, paper_splits(robot), robot=robot)
     for name, s in m["splits"].items():
         note = f"  (missing: {s['missing']})" if s.get("missing") else ""
-        typer.echo(f"{name:<12} {len(s['scenes']):>3} scenes {s['episodes']:>5} episodes{note}")
+        typer.echo(f"{name:<14} {len(s['scenes']):>3} scenes {s['episodes']:>5} episodes{note}")
     typer.echo(f"wrote {out}")
 
 
@@ -399,15 +404,16 @@ def dataset_stats(
 ) -> None:
     """Summarise a dataset per split.
 
-    Scenes, episodes, categories and difficulty mix per split (the paper's MS DEV mix beside ours)."""
+    Scenes, episodes, categories and difficulty mix per split (the paper's MS DEV mix beside ours); for the
+    protocol splits also K, route lengths and how many instructions needed a spatial relation."""
     from rich.table import Table
 
     from biovln_ms.benchmark import PAPER_MS_DEV_DIFFICULTY, dataset_root
     from biovln_ms.episodes.dataset import EpisodeDataset
 
     root = dataset_root(root)
-    ds = EpisodeDataset(root)
-    table = Table(title=f"{root} (agent radius {ds.agent_radius} m)")
+    ds = EpisodeDataset(root, robot=None)
+    table = Table(title=f"{root} (robot {ds.robot}, agent radius {ds.agent_radius} m)")
     for col in (
         "split",
         "scenes",
@@ -420,6 +426,10 @@ def dataset_stats(
         "paper",
     ):
         table.add_column(col)
+    protocols = Table(title="protocol splits (lab protocols as multi-goal episodes)")
+    for col in ("split", "protocols", "episodes", "mean K", "K = 2 / 3 / 4 / 5", "route m: mean (min-max)"):
+        protocols.add_column(col)
+    protocols.add_column("needing a relation: episodes % (visits %)")
     for name in ds.split_names():
         info = ds.manifest["splits"][name]
         if info.get("missing") and not info["files"]:
@@ -443,7 +453,20 @@ def dataset_stats(
             str(st["start_fallback"]),
             paper,
         )
+        if "protocol" in st:
+            p, route = st["protocol"], st["protocol"]["route_length"]
+            protocols.add_row(
+                name,
+                str(p["protocols"]),
+                str(st["episodes"]),
+                f"{p['mean_k']}",
+                " / ".join(str(p["k"].get(k, 0)) for k in range(2, 6)),
+                f"{route['mean']} ({route['min']}-{route['max']})",
+                f"{p['needs_relation']} ({p['relation_visits']})",
+            )
     Console(width=160).print(table)
+    if protocols.row_count:
+        Console(width=160).print(protocols)
 
 
 @dataset_app.command("show")
@@ -464,7 +487,7 @@ def dataset_show(
 
     root = dataset_root(root)
     ep, radius = _find_episode(root, split, episode, scene)
-    spec = EpisodeDataset(root, verify=False).spec(ep["scene_id"])
+    spec = EpisodeDataset(root, verify=False, robot=None).spec(ep["scene_id"])
     typer.echo(f"wrote {save_map(spec, out, episode=ep, nav=scene_navigation(spec, radius))}")
 
 
@@ -492,7 +515,7 @@ def dataset_export(
             field="FORMAT",
             fix=f"use one of: {', '.join(DATASET_EXPORT_FORMATS)}",
         )
-    files = export_habitat(EpisodeDataset(dataset_root(dataset)), split, out)
+    files = export_habitat(EpisodeDataset(dataset_root(dataset), robot=None), split, out)
     typer.echo(f"wrote {files[-1]}, {files[-2]} and {len(files) - 2} scene GLBs")
 
 

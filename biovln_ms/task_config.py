@@ -31,6 +31,37 @@ NAV_SENSORS = ("gps", "compass", "pointgoal_with_gps_compass", "objectgoal")
 GPS_COMPASS_SENSORS = {"gps": None, "compass": None, "pointgoal_with_gps_compass": "pointgoal"}
 #: sensors that are the robot's pose and have no pose-free stand-in (the paper's RL state vector)
 POSE_SENSORS = {"rl_state"}
+#: Info of the protocol (multi-goal) variants: the current goal and per-goal state, every step
+#: (``biovln_ms.metrics.protocol_measures``, docs/guides/protocols.md) ...
+PROTOCOL_STEP_MEASURES = (
+    "subgoal_index",
+    "num_goals",
+    "subgoal_status",
+    "subgoal_found",
+    "wrong_stop",
+    "subgoal_position",
+    "distance_to_subgoal",
+    "geodesic_distance_to_subgoal",
+    "clearance",
+    "zone2_violation",
+    "collisions",
+    "step_budget",
+    "out_of_budget",
+)
+#: ... and the episode metrics
+PROTOCOL_END_MEASURES = (
+    "protocol_success",
+    "progress",
+    "ppl",
+    "stage_success",
+    "mcr",
+    "vrt",
+    "zone2_steps",
+    "steps",
+    "path_length",
+)
+#: What the protocol variants' observation adds: the instruction as token ids and as UTF-8 text
+INSTRUCTION_SENSORS = ("instruction", "instruction_text")
 
 
 @dataclass(frozen=True)
@@ -63,6 +94,11 @@ class NavTaskConfig:
     default_obs_mode: str = "state"
     lighting: str = "fast"  # a preset of biovln_ms.render.lighting.LIGHTING: "fast" or "quality" (shadows)
     noise: NoiseConfig = field(default_factory=NoiseConfig)  # biovln_ms.noise: the paper's is ideal
+    # protocol (multi-goal) episodes, BioVLN-Protocol-v0 (docs/guides/protocols.md)
+    protocol: bool = False  # episodes are lab protocols: K ordered goals, a STOP at each
+    steps_per_goal: int = 500  # protocol: an episode's step budget is steps_per_goal x K
+    wrong_stop: str = "end"  # protocol: a STOP away from the current goal "end"s the episode, or is a "miss"
+    subgoal_rule: str = "radius"  # protocol: a correct STOP is within r; "strict": in Zone 3, facing the face
 
     def with_noise(self, noise: NoiseConfig) -> "NavTaskConfig":
         """This config under ``noise``: without GPS+compass, its sensors lose them (the goal comes once, as
@@ -82,6 +118,11 @@ class NavTaskConfig:
             )
         )
         return replace(self, noise=noise, sensors=sensors, agent_obs=False)
+
+    def step_budget(self, k: int) -> int:
+        """The step budget of an episode with ``k`` goals: ``steps_per_goal`` x k for protocol episodes, else
+        ``max_episode_steps``."""
+        return self.steps_per_goal * k if self.protocol else self.max_episode_steps
 
     @property
     def camera_vfov(self) -> float:
@@ -119,3 +160,4 @@ class EpisodeInfo:
     object_category: str
     task: TaskSpec
     privileged: Any = None
+    instruction: str | None = None  # a protocol episode's English instruction (None: single-goal episodes)

@@ -6,7 +6,28 @@ ManiSkill, both from this table. A new variant is one entry (or a new measure, s
 
 from __future__ import annotations
 
-from biovln_ms.task_config import NavTaskConfig
+from dataclasses import replace
+
+from biovln_ms.constants import MAX_VISITS
+from biovln_ms.task_config import (
+    INSTRUCTION_SENSORS,
+    NAV_SENSORS,
+    PROTOCOL_END_MEASURES,
+    PROTOCOL_STEP_MEASURES,
+    NavTaskConfig,
+)
+
+# lab protocols (issue 17): K = 2-5 ordered goals, a STOP at each; the step budget is steps_per_goal x K,
+# and the registered step limit (gymnasium's truncation) the largest budget, steps_per_goal x MAX_VISITS
+_PROTOCOL = NavTaskConfig(
+    protocol=True,
+    measures=PROTOCOL_STEP_MEASURES + PROTOCOL_END_MEASURES,
+    reward_measure="protocol_reward",
+    success_measure="protocol_success",
+    fail_measure="protocol_fail",
+    sensors=NAV_SENSORS + INSTRUCTION_SENSORS,
+)
+_PROTOCOL = replace(_PROTOCOL, max_episode_steps=_PROTOCOL.step_budget(MAX_VISITS))
 
 VARIANTS: dict[str, NavTaskConfig] = {
     # the benchmark (paper §3.2): Eq. 1 goals, 0.25 m / 30 deg actions, 500 steps
@@ -28,4 +49,8 @@ VARIANTS: dict[str, NavTaskConfig] = {
         agent_obs=False,
         default_split="train",
     ),
+    # lab protocols: a correct STOP is within the current goal's success radius r
+    "BioVLN-Protocol-v0": _PROTOCOL,
+    # ... and also in its Zone 3, facing its operational face within 30 deg (strict_success's rule)
+    "BioVLN-Protocol-Strict-v0": replace(_PROTOCOL, subgoal_rule="strict"),
 }

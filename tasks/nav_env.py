@@ -26,6 +26,7 @@ from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
 from mani_skill.utils.structs.types import SimConfig
 
+from biovln_ms.agents.robots import NAV_AGENTS
 from biovln_ms.agents.robots.biovln_base import CONTROL_MODES
 from biovln_ms.benchmark import dataset_root
 from biovln_ms.catalog import load_catalog
@@ -34,8 +35,10 @@ from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.motion import SweptMotion
 from biovln_ms.scene.rules import floor_polygon, scene_navigation
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, MeasureSet, StepState
+from biovln_ms.metrics.protocol_measures import check_protocol_options
 from biovln_ms.noise import actuation_errors, resolve_noise
 from biovln_ms.render.lighting import lighting_preset
+from biovln_ms.robots import DEFAULT_ROBOT, ROBOTS, robot_spec
 from biovln_ms.sensor_noise import DepthNoise, RGBNoise, frame_keys
 from biovln_ms.sim.footprints import collision_footprints
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
@@ -68,7 +71,8 @@ class BioVLNNavEnv(BaseEnv):
     or sampled in a scene generated from ``template`` / ``scene_seed``. Task parameters
     (:class:`NavTaskConfig` fields) may be passed as keyword arguments."""
 
-    SUPPORTED_ROBOTS = ["biovln_base"]
+    #: ManiSkill's agent uids of the robots (``robot_uids`` takes the ``biovln_ms.robots.ROBOTS`` ids)
+    SUPPORTED_ROBOTS = [NAV_AGENTS[r].uid for r in ROBOTS]
     SUPPORTED_REWARD_MODES = ("normalized_dense", "dense", "sparse", "none")
     config: NavTaskConfig = VARIANTS["BioVLN-OpFace-v0"]
 
@@ -80,7 +84,7 @@ class BioVLNNavEnv(BaseEnv):
         template: str = "single_room",
         scene_seed: int = 0,
         control_mode: str = "discrete",
-        robot_uids: str = "biovln_base",
+        robot_uids: str = DEFAULT_ROBOT,
         **kwargs,
     ) -> None:
         overrides = {f.name: kwargs.pop(f.name) for f in fields(NavTaskConfig) if f.name in kwargs}
@@ -90,9 +94,12 @@ class BioVLNNavEnv(BaseEnv):
         if not torch.cuda.is_available():  # ManiSkill's default asks for "sapien_cuda" and warns each make
             kwargs.setdefault("render_backend", "cpu")
         _check_arguments(self.cfg, control_mode, kwargs)
+        self.robot_id = robot_spec(robot_uids).uid  # a ROBOTS id; ManiSkill gets its agent's uid
         split = split or self.cfg.default_split
         if split:
-            self.source: EpisodeSource = DatasetEpisodes(split, dataset_root(dataset))
+            self.source: EpisodeSource = DatasetEpisodes(
+                split, dataset_root(dataset, self.robot_id), self.robot_id
+            )
         elif dataset:
             raise EnvConfigError(
                 f"a dataset ({dataset}) was given without a split",
@@ -100,7 +107,8 @@ class BioVLNNavEnv(BaseEnv):
                 fix="pass split=, e.g. split='ms_val'",
             )
         else:
-            self.source = GeneratedEpisodes(template, scene_seed)
+            self.source = self._generated_episodes(template, scene_seed)
+        _check_episode_kind(self.cfg, self.config.protocol, self.source, split)
         self.cursor = EpisodeCursor(self.source, self.cfg.shuffle_episodes)
         self.category_names = load_catalog().goal_categories()
         n = int(kwargs.get("num_envs", 1))
@@ -108,7 +116,11 @@ class BioVLNNavEnv(BaseEnv):
         self._episodes: list[dict] = [self.source.episodes[self.cursor.first]] * n
         self._scene_ids: list[str | None] = [None] * n
         self._set_scenes()
-        super().__init__(*args, robot_uids=robot_uids, control_mode=control_mode, **kwargs)
+        super().__init__(*args, robot_uids=NAV_AGENTS[self.robot_id].uid, control_mode=control_mode, **kwargs)
+
+    def _generated_episodes(self, template: str, scene_seed: int) -> EpisodeSource:
+        """The episodes without a split: sampled in a scene generated from ``template`` / ``scene_seed``."""
+        return GeneratedEpisodes(template, scene_seed, robot=self.robot_id)
 
     # --- configuration -------------------------------------------------------------------------
     @property
@@ -239,7 +251,7 @@ class BioVLNNavEnv(BaseEnv):
             self._ctx.set(i, self._episode_context(i))
             self._objectgoal[i] = 0.0
             self._objectgoal[i, self.category_names.index(ep["object_category"])] = 1.0
-        self.agent.reset(qpos if self.num_envs > 1 else qpos[:1])
+        self.agent.reset_planar(qpos if self.num_envs > 1 else qpos[:1])
         pose = self._pose()
         self._start[idx] = pose[idx]
         self._done[idx] = False
@@ -312,11 +324,7 @@ class BioVLNNavEnv(BaseEnv):
 
     def _put_back(self, rows: list[int], poses: np.ndarray) -> None:
         """Sub-envs ``rows`` stand at ``poses`` (their rows), at rest."""
-        qpos = self.agent.robot.get_qpos().clone()
-        qpos[rows] = torch.from_numpy(poses[rows]).to(qpos.device, qpos.dtype)
-        self.agent.robot.set_qpos(qpos)
-        self.agent.robot.set_qvel(torch.zeros_like(qpos))
-        self.agent.controller.set_drive_targets(qpos)
+        self.agent.controller.put_back(rows, poses)
 
     def _undo_crossings(self, start: np.ndarray, pose: np.ndarray) -> np.ndarray:
         """Sub-envs whose body went through or deep into an obstacle this step go back to where the move
@@ -540,6 +548,29 @@ class BioVLNNavEnv(BaseEnv):
         return EpisodeInfo(ep["scene_id"], ep["episode_id"], ep["object_category"], self.task_spec(), view)
 
 
+def _check_episode_kind(
+    cfg: NavTaskConfig, protocol_env: bool, source: EpisodeSource, split: str | None
+) -> None:
+    """Protocol (multi-goal) episodes run only in the protocol env, and single-goal ones only elsewhere: a
+    protocol episode's goals read as any-instance goals would be a silently wrong task."""
+    if cfg.protocol != protocol_env:
+        raise EnvConfigError(
+            f"protocol={cfg.protocol} does not fit this env",
+            field="protocol",
+            fix="make BioVLN-Protocol-v0 for protocol episodes, or a single-goal variant for the others",
+        )
+    kinds = {"protocol" in ep for ep in source.episodes}
+    if kinds != {cfg.protocol}:
+        where = f"split '{split}'" if split else "the generated episodes"
+        held = "protocol (multi-goal)" if True in kinds else "single-goal"
+        runs = "protocol" if cfg.protocol else "single-goal"
+        raise EnvConfigError(
+            f"{where} holds {held} episodes, this env runs {runs} ones",
+            field="split",
+            fix="use the protocol_* splits with BioVLN-Protocol-v0, the others with the single-goal variants",
+        )
+
+
 def _check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> None:
     """One-line errors for arguments ManiSkill would reject with a traceback, or accept silently."""
     if control_mode not in CONTROL_MODES:
@@ -555,6 +586,7 @@ def _check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> Non
             fix=f"use one of: {', '.join(GOAL_MODES)}",
         )
     lighting_preset(cfg.lighting)  # one-line error listing the presets
+    check_protocol_options(cfg.wrong_stop, cfg.subgoal_rule, cfg.steps_per_goal)
     for name in (
         "forward_step",
         "turn_deg",

@@ -1,6 +1,7 @@
 """Registers every navigation variant of :data:`biovln_ms.variants.VARIANTS` with ManiSkill and gymnasium.
 
-Each id gets a subclass of :class:`~biovln_ms.tasks.nav_env.BioVLNNavEnv` that differs only in its
+Each id gets a subclass of :class:`~biovln_ms.tasks.nav_env.BioVLNNavEnv` (of
+:class:`~biovln_ms.tasks.protocol_env.BioVLNProtocolEnv` for the protocol variants) that differs only in its
 ``config``, named after the id (``BioVLN-OpFace-RL-v0`` -> ``BioVLNOpFaceRLv0``) and importable from
 this module, so spawned worker processes can unpickle it.
 """
@@ -9,20 +10,22 @@ from __future__ import annotations
 
 from biovln_ms.registration import register_biovln_env
 from biovln_ms.tasks.nav_env import BioVLNNavEnv
+from biovln_ms.tasks.protocol_env import BioVLNProtocolEnv
 from biovln_ms.variants import VARIANTS
 
 
 def _register_all() -> None:
     for uid, cfg in VARIANTS.items():
         name = "".join(ch for ch in uid if ch.isalnum())
+        base = BioVLNProtocolEnv if cfg.protocol else BioVLNNavEnv
         cls = type(
             name,
-            (BioVLNNavEnv,),
+            (base,),
             {
                 "config": cfg,
                 "__module__": __name__,
                 "__qualname__": name,
-                "__doc__": f"``{uid}``: {BioVLNNavEnv.__doc__.splitlines()[0]}",
+                "__doc__": f"``{uid}``: {base.__doc__.splitlines()[0]}",
             },
         )
         globals()[name] = cls

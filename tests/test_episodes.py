@@ -300,7 +300,7 @@ def test_a_stale_default_dataset_is_rebuilt(tmp_path, monkeypatch):
     m["episode_generator_version"] = 1
     (root / "manifest.json").write_text(json.dumps(m))
     monkeypatch.setenv("BIOVLN_DATA_DIR", str(root))
-    monkeypatch.setattr(benchmark, "paper_splits", _small_splits)
+    monkeypatch.setattr(benchmark, "paper_splits", lambda robot: _small_splits())
     said: list[str] = []
     assert benchmark.ensure_default_dataset(echo=said.append) == root
     assert "stale" in said[0] and EpisodeDataset(root).manifest["episode_generator_version"] == VERSION

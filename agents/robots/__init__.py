@@ -1,4 +1,10 @@
 """Robots (ManiSkill's "agents"): importing this registers them with ManiSkill. Policies live beside, in
 ``biovln_ms.agents`` modules, and never import a robot."""
 
-from biovln_ms.agents.robots import biovln_base  # noqa: F401
+from mani_skill.agents.base_agent import BaseAgent
+
+from biovln_ms.agents.robots.biovln_base import BioVLNBase
+from biovln_ms.agents.robots.fetch_nav import FetchNav
+
+#: the agent of each robot of ``biovln_ms.robots.ROBOTS`` (the task's ``robot_uids``)
+NAV_AGENTS: dict[str, type[BaseAgent]] = {BioVLNBase.robot_id: BioVLNBase, FetchNav.robot_id: FetchNav}

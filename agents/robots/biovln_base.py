@@ -14,7 +14,9 @@ Control modes (ManiSkill controllers, so ``env.control_mode`` and ``env.step`` a
   angle, STOP when a2 > 0.
 
 Either sets the planar joints' drive targets to the commanded pose and remembers the command
-(:class:`NavCommand`) for the task's measures. The task may move a forward target that lies beyond or deep
+(:class:`NavCommand`) for the task's measures; a robot with more joints (Fetch, ``fetch_nav.py``) lists them
+after the planar ones and the same controller holds them at fixed targets. :class:`NavAgent` is what the
+task asks of any robot's agent. The task may move a forward target that lies beyond or deep
 inside an obstacle (``limit``: no tunnelling at any step size, see ``biovln_ms.geometry.motion``) and hold
 sub-envs whose episode has ended (``frozen``).
 """
@@ -33,13 +35,14 @@ from gymnasium import spaces
 from mani_skill.agents.base_agent import BaseAgent, Keyframe
 from mani_skill.agents.controllers import PDJointPosController, PDJointPosControllerConfig
 from mani_skill.agents.registration import register_agent
+from mani_skill.utils.structs.link import Link
 
 from biovln_ms.errors import BioVLNError
+from biovln_ms.robots import robot_spec
 
 URDF_PATH = Path(__file__).resolve().parent / "assets" / "biovln_base.urdf"
 BASE_JOINTS = ("root_x_joint", "root_y_joint", "root_yaw_joint")
 BODY_HEIGHT = 0.95
-CAMERA_HEIGHT = 0.88
 DRIVE_STIFFNESS = 3e6
 DRIVE_DAMPING = 1e4
 DRIVE_FORCE_LIMIT = 1e5
@@ -68,8 +71,9 @@ class NavCommand:
 
 
 class NavBaseController(PDJointPosController):
-    """Discrete or continuous navigation commands on the planar joints' stiff PD position drive. The command
-    arithmetic is NumPy on the host (a few numbers per sub-env; the drive targets go to the device)."""
+    """Discrete or continuous navigation commands on the planar joints' stiff PD position drive; the
+    config's held joints (after the three planar ones) keep fixed drive targets. The command arithmetic is
+    NumPy on the host (a few numbers per sub-env; the drive targets go to the device)."""
 
     config: "NavBaseControllerConfig"
 
@@ -103,6 +107,10 @@ class NavBaseController(PDJointPosController):
         n = self.scene.num_envs
         pose = self.host_qpos().astype(np.float64)
         self.command = NavCommand(pose, np.zeros(n, dtype=bool), np.zeros(n), np.zeros(n), pose)
+        if self.config.hold:
+            self._hold = torch.tensor(self.config.hold, dtype=torch.float32, device=self.device)
+            held = self._hold[None]  # one row: the sub-envs being reset take it on the GPU
+            self.articulation.set_joint_drive_targets(held, self.joints[3:], self.active_joint_indices[3:])
 
     def _decode(self, action) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(stop, forward metres, turn radians) per sub-env, or an ActionError naming the action."""
@@ -135,26 +143,43 @@ class NavBaseController(PDJointPosController):
 
     def _initialize_joints(self):
         super()._initialize_joints()
-        self._joint_columns = self.active_joint_indices.cpu().numpy()  # the planar joints' qpos columns
+        self._joint_columns = self.active_joint_indices[:3].cpu().numpy()  # the planar joints' qpos columns
 
     def host_qpos(self) -> np.ndarray:
-        """(N, 3) float32 joint positions on the host: ManiSkill's ``qpos``, read straight from SAPIEN's
-        articulation on the CPU backend (no tensor round trip: a tenth of a CPU step)."""
+        """(N, 3) float32 planar joint positions on the host: ManiSkill's ``qpos``, read straight from
+        SAPIEN's articulation on the CPU backend (no tensor round trip: a tenth of a CPU step)."""
         if self.scene.gpu_sim_enabled:
-            return self.qpos.cpu().numpy()
+            return self.qpos[:, :3].cpu().numpy()
         return self.articulation._objs[0].qpos[None, self._joint_columns]
 
+    def _with_hold(self, planar: torch.Tensor) -> torch.Tensor:
+        """(N, 3) planar values followed by the held joints' targets: a row of every controller joint."""
+        if not self.config.hold:
+            return planar
+        return torch.cat([planar, self._hold.expand(len(planar), -1)], 1)
+
     def _set_host_targets(self, target: np.ndarray) -> torch.Tensor:
-        """Drive targets from (N, 3) host values, as float32 like ManiSkill's; SAPIEN's joints are set
+        """Planar drive targets from (N, 3) host values, as float32 like ManiSkill's; SAPIEN's joints are set
         directly on the CPU backend (what ManiSkill's per-joint setters do, without their tensor work)."""
         t32 = target.astype(np.float32)
         out = torch.from_numpy(t32).to(self.device)
         if self.scene.gpu_sim_enabled:
-            self.set_drive_targets(out)
+            self.articulation.set_joint_drive_targets(out, self.joints[:3], self.active_joint_indices[:3])
         else:
-            for i, joint in enumerate(self.joints):
+            for i, joint in enumerate(self.joints[:3]):
                 joint._objs[0].drive_target = t32[0, i : i + 1]
-        return out
+        return self._with_hold(out)
+
+    def put_back(self, rows: list[int], poses: np.ndarray) -> None:
+        """Sub-envs ``rows`` stand at planar ``poses`` (their rows of an (N, 3) array), at rest, with those
+        poses as their planar drive targets."""
+        qpos = self.articulation.get_qpos().clone()
+        cols = self.active_joint_indices[:3]
+        idx = torch.as_tensor(rows, device=qpos.device)
+        qpos[idx[:, None], cols] = torch.from_numpy(poses[rows]).to(qpos.device, qpos.dtype)
+        self.articulation.set_qpos(qpos)
+        self.articulation.set_qvel(torch.zeros_like(qpos))
+        self.articulation.set_joint_drive_targets(qpos[:, cols], self.joints[:3], cols)
 
     def set_action(self, action: torch.Tensor):
         stop, forward, turn = self._decode(action)
@@ -179,7 +204,7 @@ class NavBaseController(PDJointPosController):
         self.command = NavCommand(p, stop, forward, turn, target)  # limit returns a new array
         if self.limit is not None:
             target = self.limit(p, target, moving)
-        self._start_qpos = torch.from_numpy(q.copy()).to(self.device)
+        self._start_qpos = self._with_hold(torch.from_numpy(q.copy()).to(self.device))
         self._target_qpos = self._set_host_targets(target)
 
     def _reseat_yaw(self, pose: np.ndarray, target: np.ndarray) -> bool:
@@ -201,9 +226,13 @@ class NavBaseController(PDJointPosController):
 
 @dataclass
 class NavBaseControllerConfig(PDJointPosControllerConfig):
+    """``joint_names``: the planar x, y, yaw joints, then any joints held still at ``hold`` (an arm's tuck
+    pose, a torso, a head: their drive targets never change)."""
+
     mode: str = "discrete"
     forward_step: float = 0.25
     turn_deg: float = 30.0
+    hold: tuple[float, ...] = ()
     controller_cls = NavBaseController
 
 
@@ -211,9 +240,43 @@ def action_help() -> str:
     return "discrete actions are " + ", ".join(f"{k}={v}" for k, v in ACTIONS.items())
 
 
+class NavAgent:
+    """What the navigation task asks of a robot, mixed into a ManiSkill agent with one
+    :class:`NavBaseController` per control mode: its row in ``biovln_ms.robots.ROBOTS``, its head camera
+    link, planar poses in and out."""
+
+    robot_id: str  # its ROBOTS row
+    camera_link: Link  # the head camera's mount (set in ``_after_init``)
+    #: keyframe ``rest``: every active joint's position at rest (planar ones 0, held ones at their targets)
+    keyframes: dict[str, Keyframe]
+
+    def set_action(self, action):
+        """The controller's, without ManiSkill's NumPy NaN scan of the action (a twentieth of a CPU step): the
+        navigation controllers reject non-finite actions themselves, with a one-line ActionError."""
+        self.controller.set_action(action)
+
+    @property
+    def radius(self) -> float:
+        """The footprint radius (m) the navigation geometry uses."""
+        return robot_spec(self.robot_id).footprint_radius
+
+    def planar_pose(self) -> np.ndarray:
+        """(num_envs, 3) float32 on the host: x, y, yaw from the joint positions."""
+        return self.controller.host_qpos()
+
+    def reset_planar(self, pose: torch.Tensor) -> None:
+        """Stand at planar poses (rows of sub-envs being reset, x / y / yaw), at rest, every held joint at its
+        target (ManiSkill's ``reset`` with the full joint positions)."""
+        rest = self.keyframes["rest"].qpos
+        qpos = torch.as_tensor(rest, dtype=pose.dtype, device=pose.device).repeat(len(pose), 1)
+        qpos[:, self.controller.active_joint_indices[:3].to(pose.device)] = pose
+        self.reset(qpos)
+
+
 @register_agent()
-class BioVLNBase(BaseAgent):
+class BioVLNBase(NavAgent, BaseAgent):
     uid = "biovln_base"
+    robot_id = "biovln_base"
     urdf_path = str(URDF_PATH)
     fix_root_link = True
     disable_self_collisions = True
@@ -241,11 +304,6 @@ class BioVLNBase(BaseAgent):
             for mode in CONTROL_MODES
         }
 
-    def set_action(self, action):
-        """The controller's, without ManiSkill's NumPy NaN scan of the action (a twentieth of a CPU step): the
-        navigation controllers reject non-finite actions themselves, with a one-line ActionError."""
-        self.controller.set_action(action)
-
     def _after_init(self):
         self.base_link = self.robot.links_map["base_link"]
         self.camera_link = self.robot.links_map["camera_link"]
@@ -254,10 +312,6 @@ class BioVLNBase(BaseAgent):
     def radius(self) -> float:
         """The body's radius (m), read from its collision cylinder in the URDF."""
         return urdf_body_radius()
-
-    def planar_pose(self) -> np.ndarray:
-        """(num_envs, 3) float32 on the host: x, y, yaw from the joint positions."""
-        return self.controller.host_qpos()
 
 
 def urdf_body_radius(path: Path = URDF_PATH) -> float:

@@ -2,14 +2,15 @@
 
 Layout of a dataset folder::
 
-    manifest.json                   splits, agent radius, catalog hash, generator versions, file hashes
+    manifest.json                   splits, robot, agent radius, catalog hash, generator versions, file hashes
     scenes/<scene>.json             the scene specs
     <split>/content/<scene>.json.gz {"episodes": [...]} per scene
 
 A build writes into a sibling temporary folder (``.<name>.partial-<pid>``, locked while the build runs)
 and renames it into place at the end, so a killed build never leaves a dataset that loads; the next
 build into the same parent removes what a killed one left. Loading refuses a dataset made for another
-agent radius or catalog (Habitat's NaN-SPL trap), any file whose hash does not match the manifest, any
+robot, agent radius or catalog (Habitat's NaN-SPL trap; a manifest without a ``robot`` field predates it
+and is the default robot's), any file whose hash does not match the manifest, any
 path that leads outside the folder, and anything malformed or over the limits below — always with one
 ``DatasetError`` naming the file and the field.
 """
@@ -30,14 +31,15 @@ import zlib
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
-from typing import Annotated, BinaryIO, Iterator, Literal
+from typing import TYPE_CHECKING, Annotated, BinaryIO, Iterator, Literal
 
 from pydantic import AfterValidator, ConfigDict, Field, TypeAdapter, ValidationError, with_config
 from typing_extensions import NotRequired, TypedDict
 
 from biovln_ms.catalog import load_catalog
-from biovln_ms.constants import ROBOT_RADIUS, SCENE_GENERATOR_VERSION
+from biovln_ms.constants import MAX_VISITS, MIN_VISITS, SCENE_GENERATOR_VERSION
 from biovln_ms.errors import BioVLNError, describe_validation_error
+from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.spec import (
     MAX_COORDINATE,
     MAX_JSON_DEPTH,
@@ -48,7 +50,13 @@ from biovln_ms.scene.spec import (
 )
 from biovln_ms.scene.spec import MAX_FILE_BYTES as MAX_SCENE_FILE_BYTES
 
-DATASET_FORMAT_VERSION = 3  # 2: the lsat_target split and marker goals; 3: the Hard track (any instance)
+if TYPE_CHECKING:
+    from biovln_ms.protocols.episodes import ProtocolSampler
+    from biovln_ms.protocols.library import ProtocolLibrary
+
+#: 2: the lsat_target split and marker goals; 3: the Hard track (any instance); 4: protocol splits (ordered
+#: multi-goal episodes with an instruction; a reader taking their goals for any-instance goals would be wrong)
+DATASET_FORMAT_VERSION = 4
 EPISODE_GENERATOR_VERSION = 2  # 2: no trivial episodes (generator.MIN_START_GEODESIC_MARGIN)
 
 # Limits (docs/guides/datasets.md), checked before parsing. The paper's datasets: a 29 kB
@@ -133,6 +141,7 @@ class _SplitEntry(TypedDict):
 
 @with_config(_STRICT)
 class _Manifest(TypedDict):
+    robot: NotRequired[str]  # absent in manifests written before it: the default robot
     agent_radius: Annotated[float, Field(gt=0, le=MAX_COORDINATE)]
     catalog_sha256: str
     scene_generator_version: int
@@ -176,6 +185,20 @@ class _Info(TypedDict):
 
 
 @with_config(_STRICT)
+class _Protocol(TypedDict):
+    """A protocol episode's (``biovln_ms.protocols.episodes``): its goals are visited in order."""
+
+    id: Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$")]
+    k: Annotated[int, Field(ge=MIN_VISITS, le=MAX_VISITS)]
+    instruction: Annotated[str, Field(min_length=1, max_length=2**16)]
+    purposes: Annotated[list[str], Field(min_length=MIN_VISITS, max_length=MAX_VISITS)]
+    relations: Annotated[list[str | None], Field(min_length=MIN_VISITS, max_length=MAX_VISITS)]
+    needs_relation: _Count
+    legs: Annotated[list[_Distance], Field(min_length=MIN_VISITS, max_length=MAX_VISITS)]
+    route_length: _Distance
+
+
+@with_config(_STRICT)
 class _Episode(TypedDict):
     episode_id: str
     scene_id: str
@@ -185,6 +208,7 @@ class _Episode(TypedDict):
     object_id: str
     goals: Annotated[list[_Goal], Field(min_length=1, max_length=MAX_GOALS)]
     info: _Info
+    protocol: NotRequired[_Protocol]  # a protocol split's episode: K ordered goals
 
 
 _MANIFEST = TypeAdapter(_Manifest)
@@ -273,6 +297,7 @@ class SplitPlan:
     description: str = ""
     view_of: str | None = None  # reuse these scenes' episode files from another split
     hard_share: float | None = None  # the Hard track: any-instance episodes, this share drawn hard
+    protocols: ProtocolLibrary | None = None  # protocol episodes of these protocols (biovln_ms.protocols)
 
 
 # --- building -------------------------------------------------------------------------------------
@@ -337,12 +362,14 @@ def remove_stale_builds(out: str | Path, max_age_s: float = STALE_BUILD_AGE_S) -
 
 
 def write_dataset(
-    out: Path, splits: list[SplitPlan], progress: bool = True, radius: float = ROBOT_RADIUS
+    out: Path, splits: list[SplitPlan], progress: bool = True, robot: str = DEFAULT_ROBOT
 ) -> dict:
-    """Build every split's episodes and write the dataset atomically; returns the manifest.
+    """Build every split's episodes for ``robot`` (a ``biovln_ms.robots.ROBOTS`` id: the scenes must have
+    been generated for its footprint radius) and write the dataset atomically; returns the manifest.
 
     Writes into ``.<name>.partial-<pid>`` beside ``out`` (locked while this build runs) and renames it
     into place; first removes what killed builds left there (``remove_stale_builds``)."""
+    radius = robot_spec(robot, "robot").footprint_radius
     out = Path(out)
     remove_stale_builds(out)
     tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
@@ -351,13 +378,13 @@ def write_dataset(
     (tmp / "scenes").mkdir(parents=True)
     lock = _lock_folder(tmp)
     try:
-        return _build(out, tmp, splits, progress, radius)
+        return _build(out, tmp, splits, progress, robot, radius)
     finally:
         if lock is not None:
             os.close(lock)
 
 
-def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, radius: float) -> dict:
+def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, robot: str, radius: float) -> dict:
     """``write_dataset``'s work: every file into ``tmp``, the manifest last, then the rename to ``out``."""
     from tqdm import tqdm
 
@@ -366,6 +393,7 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, radius
     cat = load_catalog()
     manifest: dict = {
         "format_version": DATASET_FORMAT_VERSION,
+        "robot": robot,
         "agent_radius": radius,
         "catalog_sha256": cat.sha256,
         "scene_generator_version": SCENE_GENERATOR_VERSION,
@@ -393,7 +421,7 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, radius
             if spec.robot_radius != radius:
                 raise DatasetError(
                     f"scene '{spec.name}' was checked for a {spec.robot_radius} m robot, "
-                    f"the dataset is for {radius} m"
+                    f"the dataset is for {robot} ({radius} m)"
                 )
             if spec.name not in manifest["scenes"]:
                 data = spec.to_json().encode()
@@ -406,7 +434,9 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, radius
                 }
                 samplers[spec.name] = EpisodeSampler(spec)
             seed = stable_split_seed(split.name)
-            if split.hard_share is None:
+            if split.protocols is not None:
+                eps = _protocol_sampler(samplers, spec).protocol_episodes(n, seed, split.protocols)
+            elif split.hard_share is None:
                 eps = samplers[spec.name].episodes(n, seed=seed, cross_room=cross)
             else:
                 eps = samplers[spec.name].any_instance_episodes(n, seed=seed, hard_share=split.hard_share)
@@ -432,6 +462,16 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, radius
     return manifest
 
 
+def _protocol_sampler(samplers: dict, spec: SceneSpec) -> ProtocolSampler:
+    """The protocol sampler of ``spec``'s scene, replacing (and reusing the geometry of) its plain one."""
+    from biovln_ms.protocols.episodes import ProtocolSampler
+
+    sampler = samplers[spec.name]
+    if not isinstance(sampler, ProtocolSampler):
+        sampler = samplers[spec.name] = ProtocolSampler(spec, sampler.nav)
+    return sampler
+
+
 def stable_split_seed(name: str) -> int:
     from biovln_ms.episodes.generator import stable_seed
 
@@ -446,14 +486,20 @@ def _show(value: object, limit: int = 60) -> str:
 
 
 class EpisodeDataset:
-    """A validated dataset folder: splits, scene specs and episodes.
+    """A validated dataset folder: splits, scene specs and episodes, for ``robot`` (None: any robot) and its
+    footprint radius (``agent_radius``, when given, replaces the robot's; with ``robot=None`` and no
+    ``agent_radius`` neither is checked).
 
     Every malformed, oversized or mismatching manifest or file, and every manifest path leading outside
     the folder (absolute, ``..``, or a symbolic link), raises one ``DatasetError`` naming the file and
     the field. Episodes are returned exactly as stored."""
 
     def __init__(
-        self, root: str | Path, agent_radius: float | None = ROBOT_RADIUS, verify: bool = True
+        self,
+        root: str | Path,
+        agent_radius: float | None = None,
+        verify: bool = True,
+        robot: str | None = DEFAULT_ROBOT,
     ) -> None:
         self.root = Path(root)
         mpath = self.root / "manifest.json"
@@ -485,6 +531,16 @@ class EpisodeDataset:
             _MANIFEST.validate_python(m)
         except ValidationError as e:
             raise _schema_error(e, str(mpath)) from None
+        if robot is not None and self.robot != robot:
+            raise DatasetError(
+                f"built for robot '{_oneline(self.robot)}', not '{robot}' in use: its free space, geodesics "
+                f"and starts are for another footprint (SPL would be wrong)",
+                source=str(mpath),
+                field="robot",
+                fix=f"rebuild it for this robot: biovln-ms dataset build --robot {robot} --out DIR",
+            )
+        if agent_radius is None and robot is not None:
+            agent_radius = robot_spec(robot).footprint_radius
         if agent_radius is not None and abs(m["agent_radius"] - agent_radius) > 1e-9:
             raise DatasetError(
                 f"built for a {m.get('agent_radius')} m agent, not the {agent_radius} m agent in use: its "
@@ -636,6 +692,11 @@ class EpisodeDataset:
     def agent_radius(self) -> float:
         return self.manifest["agent_radius"]
 
+    @property
+    def robot(self) -> str:
+        """The robot the dataset was built for (a manifest without the field predates it: the default)."""
+        return self.manifest.get("robot", DEFAULT_ROBOT)
+
     def split_names(self) -> list[str]:
         return list(self.manifest["splits"])
 
@@ -725,6 +786,16 @@ class EpisodeDataset:
                     field=f"episodes[{i}].object_category",
                     fix=_REBUILD,
                 )
+            p = ep.get("protocol")
+            if p is not None:
+                counts = {len(ep["goals"]), len(p["purposes"]), len(p["relations"]), len(p["legs"])}
+                if counts != {p["k"]}:
+                    raise DatasetError(
+                        f"k is {p['k']}, but goals, purposes, relations and legs hold {sorted(counts)}",
+                        source=src,
+                        field=f"episodes[{i}].protocol.k",
+                        fix=_REBUILD,
+                    )
         return eps
 
     def stats(self, split: str) -> dict:
@@ -737,4 +808,24 @@ class EpisodeDataset:
             "categories": sorted({e["object_category"] for e in eps}),
             "difficulty": {k: round(100 * diff.get(k, 0) / n, 1) for k in ("easy", "medium", "hard")},
             "start_fallback": sum(e["info"]["start_clearance_fallback"] for e in eps),
+            **({"protocol": _protocol_stats(eps)} if eps and "protocol" in eps[0] else {}),
         }
+
+
+def _protocol_stats(eps: list[dict]) -> dict:
+    """K, route lengths and spatial relations of a protocol split's episodes."""
+    ps = [e["protocol"] for e in eps]
+    routes = [p["route_length"] for p in ps]
+    visits = sum(p["k"] for p in ps)
+    return {
+        "protocols": len({p["id"] for p in ps}),
+        "k": dict(sorted(Counter(p["k"] for p in ps).items())),
+        "mean_k": round(visits / len(ps), 2),
+        "route_length": {
+            "mean": round(sum(routes) / len(routes), 2),
+            "min": round(min(routes), 2),
+            "max": round(max(routes), 2),
+        },
+        "needs_relation": round(100 * sum(p["needs_relation"] > 0 for p in ps) / len(ps), 1),
+        "relation_visits": round(100 * sum(p["needs_relation"] for p in ps) / visits, 1),
+    }

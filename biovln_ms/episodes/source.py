@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from biovln_ms.constants import ROBOT_RADIUS
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.spec import SceneSpec
 
 
@@ -86,9 +86,11 @@ class EpisodeCursor:
 
 
 class DatasetEpisodes(EpisodeSource):
-    def __init__(self, split: str, root: str | Path, agent_radius: float = ROBOT_RADIUS) -> None:
+    """A split of a dataset built for ``robot`` (another robot's is refused)."""
+
+    def __init__(self, split: str, root: str | Path, robot: str = DEFAULT_ROBOT) -> None:
         root = Path(root)
-        self.dataset = EpisodeDataset(root, agent_radius=agent_radius)
+        self.dataset = EpisodeDataset(root, robot=robot)
         self.split = split
         self.episodes = list(self.dataset.episodes(split))
         if not self.episodes:
@@ -99,7 +101,8 @@ class DatasetEpisodes(EpisodeSource):
 
 
 class GeneratedEpisodes(EpisodeSource):
-    """One scene generated from ``template``/``scene_seed``; ``n`` episodes sampled in it."""
+    """One scene generated from ``template``/``scene_seed`` for ``robot``'s footprint; ``n`` episodes sampled
+    in it."""
 
     def __init__(
         self,
@@ -107,11 +110,17 @@ class GeneratedEpisodes(EpisodeSource):
         scene_seed: int = 0,
         n: int = 100,
         required_categories: tuple[str, ...] = (),
+        robot: str = DEFAULT_ROBOT,
     ) -> None:
         from biovln_ms.episodes.generator import EpisodeSampler
         from biovln_ms.scene.generator import generate_scene
 
-        self._spec = generate_scene(template, scene_seed, required_categories=required_categories)
+        self._spec = generate_scene(
+            template,
+            scene_seed,
+            required_categories=required_categories,
+            robot_radius=robot_spec(robot).footprint_radius,
+        )
         self.episodes = EpisodeSampler(self._spec).episodes(n, seed=scene_seed)
 
     def spec(self, scene_id: str) -> SceneSpec:

@@ -27,12 +27,11 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from rapidfuzz import process as fuzz_process
 
+from biovln_ms.constants import MAX_VISITS, MIN_VISITS
 from biovln_ms.errors import BioVLNError, describe_validation_error
 
 PROTOCOL_DIR = Path(__file__).resolve().parent / "data"
 ENV_VAR = "BIOVLN_PROTOCOL_PATH"
-#: The number of visits (K) a protocol may have: the range ``BioVLN-Protocol-v0`` episodes use.
-MIN_VISITS, MAX_VISITS = 2, 5
 MAX_LINE = 160
 SCHEMA_DOC = "docs/guides/protocols.md"
 _FIX = " FIX: "  # validators append the fix to their message after this marker
