@@ -23,9 +23,10 @@ from biovln_ms.catalog import Catalog, load_catalog
 from biovln_ms.errors import AssetError
 from biovln_ms.io_utils import atomic_write_bytes
 
-GENERATOR_VERSION = 1
-#: Generated bounds must match the catalog dimensions this closely (issue: within 1 cm).
-BOUNDS_TOLERANCE = 0.01
+#: 2: physically based looks (issue 18 item 2): new textures, UVs and materials on the same meshes
+GENERATOR_VERSION = 2
+#: Generated bounds must match the catalog dimensions this closely: exactly, up to rounding.
+BOUNDS_TOLERANCE = 1e-9
 COACD_PARAMS = dict(threshold=0.08, max_convex_hull=12, preprocess_resolution=40, resolution=1000, seed=0)
 
 

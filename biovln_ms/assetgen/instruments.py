@@ -3,30 +3,74 @@
 Every builder keeps all parts inside the asset's bounding box and lets the body touch all six
 sides, so the generated GLB's bounds equal the catalog dimensions (Table 2). The operational face
 (canonical -Y) carries the door, handle, display or keypad, so front and back can be told apart.
+
+The looks (issue 18 item 2): powder-coated and brushed-steel surfaces with normal maps, doors and
+panels with their own non-tiling face textures (stickers, glazing with what is behind it, gaskets,
+wear around the handles), readable labels, model plates, warning signs and glowing displays.
+The meshes are those of the first generator: only textures, UVs and materials changed, so the coacd
+collision caches and every layout computed from the assets still hold.
+
+:data:`LIVE_DECALS` are the decals drawn per instance (asset tag, setpoints, dates): the builders draw
+them for :data:`~biovln_ms.assetgen.variation.SHIPPED`, the simulator again for each instance's variant.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Callable
+
+from PIL import Image
 
 from biovln_ms.assetgen import textures as tx
 from biovln_ms.assetgen.parts import Kit, Material
+from biovln_ms.assetgen.variation import SHIPPED, Variant
 
 WHITE = (0.90, 0.91, 0.90)
 STEEL = (0.72, 0.74, 0.76)
 DARK = (0.16, 0.17, 0.19)
 BLACK = (0.06, 0.06, 0.07)
+OPAQUE = (1.0, 1.0, 1.0, 1.0)  # base colour factor of textured materials (the texture is the colour)
 
 
-def paint(
+# --- materials ------------------------------------------------------------------------------------
+def coat(
     k: Kit, key: str, color: tuple[float, float, float], amount: float = 10.0, tile: float = 0.25
 ) -> Material:
+    """The first generator's powder coat (room-shell pieces keep their look)."""
     return k.material(key, texture=tx.powder_coat(color, k.seed(key), amount=amount), tile=tile)
 
 
-def metal(k: Kit, key: str = "steel", color: tuple[float, float, float] = STEEL) -> Material:
+def paint(
+    k: Kit, key: str, color: tuple[float, float, float], tile: float = 0.5, roughness: float = 0.55, **kw
+) -> Material:
+    """Tiling powder coat with orange peel (one normal map shared by the asset's painted parts)."""
     return k.material(
-        key, texture=tx.brushed_metal(color, k.seed(key)), tile=0.15, metallic=0.8, roughness=0.35
+        key,
+        color=OPAQUE,
+        texture=tx.paint(color, k.seed(key), **kw),
+        normal=tx.peel_normal(k.seed("peel")),
+        tile=tile,
+        roughness=roughness,
+    )
+
+
+def metal(k: Kit, key: str = "steel", color: tuple[float, float, float] = STEEL) -> Material:
+    s = tx.brushed(color, k.seed(key))
+    return k.material(
+        key, color=OPAQUE, texture=s.albedo, normal=s.normal, tile=0.3, metallic=0.85, roughness=0.35
+    )
+
+
+def plastic(
+    k: Kit, key: str, color: tuple[float, float, float], tile: float = 0.3, roughness: float = 0.4
+) -> Material:
+    return k.material(
+        key,
+        color=OPAQUE,
+        texture=tx.plastic(color, k.seed(key)),
+        normal=tx.peel_normal(k.seed("peel")),
+        tile=tile,
+        roughness=roughness,
     )
 
 
@@ -34,8 +78,45 @@ def plain(k: Kit, key: str, color: tuple[float, float, float], roughness: float 
     return k.material(key, color=(*color, 1.0), texture=None, roughness=roughness)
 
 
+def face(k: Kit, key: str, panel: tx.Panel, roughness: float = 0.5, metallic: float = 0.0) -> Material:
+    """A door or panel with its own picture of its -Y face (not tiled; the other faces continue its edges)."""
+    return k.material(
+        f"art_{key}",
+        color=OPAQUE,
+        texture=panel.image(),
+        tile=None,
+        face=True,
+        roughness=roughness,
+        metallic=metallic,
+    )
+
+
+def glazing(k: Kit, key: str, behind: Image.Image, opacity: float = 0.8) -> Material:
+    """A see-through glass pane (RGBA texture, glTF alphaMode BLEND) with reflections, showing ``behind``."""
+    return k.material(
+        key,
+        color=OPAQUE,
+        texture=tx.behind_glass(behind, k.seed(key), (0.70, 0.82, 0.86), 0.3, opacity),
+        tile=None,
+        roughness=0.05,
+        metallic=0.1,
+    )
+
+
+def live(
+    k: Kit,
+    name: str,
+    center: tuple[float, float, float],
+    width: float,
+    height: float,
+    facing: str = "-Y",
+) -> None:
+    """A decal of :data:`LIVE_DECALS` as the shipped asset shows it."""
+    k.decal(name, LIVE_DECALS[k.name][name](SHIPPED), center, width, height, facing)
+
+
 def feet(k: Kit, height: float, inset: float, radius: float = 0.022) -> None:
-    mat = plain(k, "rubber", BLACK, roughness=0.9)
+    mat = plastic(k, "rubber", (0.08, 0.08, 0.09), tile=0.1, roughness=0.9)
     for sx in (-1, 1):
         for sy in (-1, 1):
             k.cylinder(
@@ -48,10 +129,206 @@ def feet(k: Kit, height: float, inset: float, radius: float = 0.022) -> None:
             )
 
 
+def window(seed: int, w_px: int, h_px: int, rows: int, back=(0.85, 0.87, 0.88)) -> Image.Image:
+    """A glazed door's view: shelves with bottles behind tinted, reflecting glass."""
+    return tx.behind_glass(tx.shelves(seed, w_px, h_px, rows, back), seed + 1)
+
+
+# --- live decals (drawn per instance) -------------------------------------------------------------
+def fridge_display(v: Variant) -> tx.Surface:
+    t = v.pick((3.5, 4.0, 4.0, 4.5, 5.0), "setpoint")
+    return tx.display(
+        [f"+{t:.1f} °C", f"SET +{v.pick((4.0, 4.0, 5.0), 'set'):.1f}   ALARM OK"],
+        v.rng("display").integers(1 << 30),
+        glow=(0.4, 0.8, 1.0),
+        height=128,
+        bars=6,
+    )
+
+
+def fridge_label(v: Variant) -> Image.Image:
+    return tx.label(
+        ["LAB REFRIGERATOR LR-500", "+2 TO +8 °C  SAMPLES ONLY", f"ASSET {v.tag}  SERVICED {v.date('svc')}"],
+        WHITE,
+        (0.1, 0.2, 0.5),
+        v.rng("label").integers(1 << 30),
+        width=320,
+        height=160,
+        stripe=(0.1, 0.3, 0.8),
+        code=v.tag,
+        age=v.wear,
+    )
+
+
+def incubator_display(v: Variant, chamber: str) -> tx.Surface:
+    t = v.pick((37.0, 37.0, 36.5, 37.5), "temp", chamber)
+    co2 = v.pick((5.0, 5.0, 5.0, 7.5, 2.0), "co2", chamber)
+    rh = v.pick((93, 95, 95, 96), "rh", chamber)
+    return tx.display(
+        [f"{t:.1f} °C", f"CO2 {co2:.1f}%   RH {rh}%", f"DOOR CLOSED  {chamber.upper()}"],
+        v.rng("display", chamber).integers(1 << 30),
+        glow=(1.0, 0.55, 0.2),
+        height=112,
+        bars=5,
+    )
+
+
+def incubator_label(v: Variant) -> Image.Image:
+    return tx.label(
+        ["CO2 INCUBATOR CI-170", "37 °C  5% CO2  95% RH", f"{v.tag}  DECON {v.date('decon')}"],
+        WHITE,
+        (0.5, 0.1, 0.1),
+        v.rng("label").integers(1 << 30),
+        width=320,
+        height=128,
+        stripe=(0.85, 0.2, 0.15),
+        code=v.tag,
+        age=v.wear,
+    )
+
+
+def centrifuge_display(v: Variant) -> tx.Surface:
+    rpm = v.pick((3000, 4000, 4500, 4700), "rpm")
+    minutes = v.pick((5, 10, 15, 20), "time")
+    temp = v.pick((4, 4, 20), "temp")
+    return tx.display(
+        [f"{rpm} rpm", f"{int(rpm * rpm * 1.118e-5 * 18.0)} x g  {minutes:02d}:00  {temp} °C"],
+        v.rng("display").integers(1 << 30),
+        glow=(0.3, 1.0, 0.4),
+        height=112,
+    )
+
+
+def centrifuge_label(v: Variant) -> Image.Image:
+    return tx.label(
+        ["CENTRIFUGE 5400R", "MAX 4700 rpm  4 x 750 mL", f"{v.tag}  ROTOR CHECK {v.date('rotor')}"],
+        WHITE,
+        (0.15, 0.2, 0.45),
+        v.rng("label").integers(1 << 30),
+        width=320,
+        height=112,
+        code=v.tag,
+        age=v.wear,
+    )
+
+
+def mini_display(v: Variant) -> tx.Surface:
+    rpm = v.pick((6000, 10000, 12000, 13400), "rpm")
+    return tx.display(
+        [f"{rpm} rpm", f"{int(rpm * rpm * 1.118e-5 * 6.0)} x g  {v.pick((1, 2, 5), 'time')} min"],
+        v.rng("display").integers(1 << 30),
+        glow=(0.4, 0.9, 1.0),
+        height=112,
+    )
+
+
+def mini_label(v: Variant) -> Image.Image:
+    return tx.label(
+        ["MINI CENTRIFUGE MC-12", f"{v.tag}  12 x 1.5/2.0 mL"],
+        WHITE,
+        (0.3, 0.3, 0.35),
+        v.rng("label").integers(1 << 30),
+        width=320,
+        height=64,
+        age=v.wear,
+    )
+
+
+def pipette_label(v: Variant) -> Image.Image:
+    return tx.label(
+        ["P200", f"CAL {v.date('cal')[2:]}"],
+        WHITE,
+        DARK,
+        v.rng("label").integers(1 << 30),
+        width=96,
+        height=96,
+        stripe=(0.95, 0.8, 0.2),
+        age=v.wear,
+    )
+
+
+def cabinet_label(v: Variant) -> Image.Image:
+    shelf = v.pick(("SOLVENTS", "BUFFERS", "REAGENTS", "STAINS"), "contents")
+    return tx.label(
+        ["CHEMICAL STORAGE", f"{shelf} - {v.pick(('GROUP A', 'GROUP B', 'CORE'), 'group')}", v.tag],
+        (0.95, 0.95, 0.9),
+        (0.6, 0.1, 0.05),
+        v.rng("label").integers(1 << 30),
+        width=256,
+        height=128,
+        stripe=(0.9, 0.5, 0.1),
+        code=v.tag,
+        age=v.wear,
+    )
+
+
+def bin_label(v: Variant) -> Image.Image:
+    return tx.label(
+        ["BIOHAZARDOUS WASTE", f"AUTOCLAVE  ROOM {v.pick(('101', '102', '114', '2.07'), 'room')}"],
+        (0.95, 0.78, 0.10),
+        (0.7, 0.05, 0.05),
+        v.rng("label").integers(1 << 30),
+        width=224,
+        height=96,
+        age=v.wear,
+    )
+
+
+def bsc_display(v: Variant) -> tx.Surface:
+    inflow = v.pick((0.45, 0.48, 0.50, 0.52), "inflow")
+    down = v.pick((0.30, 0.33, 0.35), "down")
+    return tx.display(
+        ["AIRFLOW OK", f"INFLOW {inflow:.2f} m/s  DOWN {down:.2f} m/s", "UV OFF   LIGHT ON   FAN 1"],
+        v.rng("display").integers(1 << 30),
+        glow=(0.3, 1.0, 0.5),
+        width=384,
+        height=112,
+        bars=8,
+    )
+
+
+def bsc_label(v: Variant) -> Image.Image:
+    return tx.label(
+        ["BIOSAFETY CABINET", "CLASS II  TYPE A2", f"CERTIFIED {v.date('cert')}  {v.tag}"],
+        WHITE,
+        (0.1, 0.3, 0.2),
+        v.rng("label").integers(1 << 30),
+        width=384,
+        height=112,
+        stripe=(0.1, 0.6, 0.3),
+        code=v.tag,
+        age=v.wear,
+    )
+
+
+def bench_label(v: Variant) -> Image.Image:
+    return tx.label(
+        [f"BENCH {v.pick('ABCDEF', 'bench')}  NO FOOD OR DRINK", v.tag],
+        WHITE,
+        (0.1, 0.1, 0.4),
+        v.rng("label").integers(1 << 30),
+        width=320,
+        height=64,
+        age=v.wear,
+    )
+
+
+def table_label(v: Variant) -> Image.Image:
+    return tx.label(
+        [f"REAGENT SHELF {v.pick('123456', 'shelf')}  LABEL ALL BOTTLES"],
+        WHITE,
+        (0.1, 0.3, 0.1),
+        v.rng("label").integers(1 << 30),
+        width=384,
+        height=48,
+        age=v.wear,
+    )
+
+
+# --- instruments ----------------------------------------------------------------------------------
 def refrigerator(k: Kit) -> None:
     W = k.W
     body = paint(k, "body", WHITE)
-    door = paint(k, "door", (0.93, 0.94, 0.95), amount=6)
     feet(k, 0.04, 0.06)
     z0 = k.bottom + 0.04
     k.box_span("body", (-W / 2, k.front + 0.04, z0), (W / 2, k.back - 0.03, k.top), body)
@@ -67,19 +344,41 @@ def refrigerator(k: Kit) -> None:
     k.box_span(
         "coil_rail_r", (W / 2 - 0.09, k.back - 0.03, z0 + 0.15), (W / 2 - 0.06, k.back, z0 + 1.45), coil
     )
-    # Two doors: freezer above, fridge below.
+    # Two doors: freezer above (stickers), fridge below (glazed, shelves of samples behind).
     split = k.top - 0.55
+    dw = W - 0.02
+    hi_freezer, hi_fridge = k.top - 0.01 - (split + 0.01), split - 0.01 - (z0 + 0.09)
+    door_color = (0.93, 0.94, 0.95)
+    freezer = tx.Panel.painted(dw, hi_freezer, door_color, k.seed("freezer"))
+    freezer.shade(dw / 2, 0.01, dw, 0.02, 0.7, 1.5)  # the gasket's shadow under the door
+    freezer.paste(tx.prohibition(), 0.12, 0.30, 0.11, 0.143)
+    freezer.paste(tx.warning("cold", k.seed("cold")), 0.62, 0.42, 0.08, 0.08)
+    freezer.paste(
+        tx.label(["-20 °C BOX 3", "DO NOT DEFROST"], (0.98, 0.92, 0.45), DARK, k.seed("note"), 160, 96),
+        0.58,
+        0.22,
+        0.15,
+        0.09,
+    )
+    freezer.weather(k.seed("freezer_wear"), 0.4, handle=(dw / 2 + W / 2 - 0.085, 0.27))
+    fridge = tx.Panel.painted(dw, hi_fridge, door_color, k.seed("fridge"))
+    gw, gh = 0.66, 0.58
+    w_px, h_px = tx.Panel.size_px(gw, gh)
+    fridge.shade(0.38, 0.42, gw + 0.05, gh + 0.05, 0.55, 3.0)  # gasket around the glazing
+    fridge.paste(window(k.seed("shelves"), w_px, h_px, 4), 0.38, 0.42, gw, gh)
+    fridge.paste(tx.warning("biohazard", k.seed("bio")), 0.08, 0.80, 0.07, 0.07)
+    fridge.weather(k.seed("fridge_wear"), 0.45, handle=(dw / 2 + W / 2 - 0.085, 0.785))
     k.box_span(
         "door_freezer",
         (-W / 2 + 0.01, k.front + 0.015, split + 0.01),
         (W / 2 - 0.01, k.front + 0.04, k.top - 0.01),
-        door,
+        face(k, "freezer", freezer, roughness=0.35),
     )
     k.box_span(
         "door_fridge",
         (-W / 2 + 0.01, k.front + 0.015, z0 + 0.09),
         (W / 2 - 0.01, k.front + 0.04, split - 0.01),
-        door,
+        face(k, "fridge", fridge, roughness=0.25),
     )
     steel = metal(k)
     for nm, lo, hi in (("freezer", split + 0.08, k.top - 0.08), ("fridge", split - 0.55, split - 0.08)):
@@ -91,39 +390,21 @@ def refrigerator(k: Kit) -> None:
                 (W / 2 - 0.075, k.front + 0.015, z + 0.01),
                 steel,
             )
-    hinge = plain(k, "hinge", (0.5, 0.5, 0.52), roughness=0.3)
+    hinge = metal(k, "hinge", (0.5, 0.5, 0.52))
     for z in (k.top - 0.03, split + 0.02, split - 0.03, z0 + 0.1):
         k.cylinder(f"hinge_{z:.2f}", 0.012, 0.04, (-W / 2 + 0.02, k.front + 0.02, z), hinge, sections=12)
-    k.decal(
-        "display",
-        tx.display("+4.0 C", k.seed("display"), glow=(0.4, 0.8, 1.0)),
-        (-0.1, k.front + 0.0145, split + 0.38),
-        0.22,
-        0.08,
-    )
+    live(k, "display", (-0.1, k.front + 0.0145, split + 0.38), 0.22, 0.08)
     k.decal(
         "keypad",
-        tx.keypad(k.seed("keypad"), rows=1, cols=4, height=40),
+        tx.keypad(k.seed("keypad"), rows=1, cols=4, height=40, keys=("+", "-", "SET", "ALM")),
         (-0.1, k.front + 0.0145, split + 0.30),
         0.22,
         0.06,
     )
-    k.decal(
-        "label",
-        tx.label(
-            ["REFRIGERATOR", "2-8 C  LAB USE"],
-            WHITE,
-            (0.1, 0.2, 0.5),
-            k.seed("label"),
-            stripe=(0.1, 0.3, 0.8),
-        ),
-        (-0.15, k.front + 0.0145, split - 0.25),
-        0.3,
-        0.15,
-    )
+    live(k, "label", (-0.15, k.front + 0.0145, split - 0.25), 0.3, 0.15)
     k.decal(
         "vent",
-        tx.grille((0.5, 0.52, 0.55), k.seed("vent"), slots=6),
+        tx.grille((0.5, 0.52, 0.55), k.seed("vent"), width=384, height=48, slots=6),
         (0, k.front + 0.039, z0 + 0.045),
         W - 0.1,
         0.07,
@@ -133,7 +414,6 @@ def refrigerator(k: Kit) -> None:
 def incubator(k: Kit) -> None:
     W = k.W
     body = paint(k, "body", (0.88, 0.89, 0.87))
-    door = paint(k, "door", (0.80, 0.82, 0.84), amount=7)
     frame = metal(k, "frame", (0.45, 0.47, 0.50))
     stand_h = 0.35
     for sx in (-1, 1):
@@ -157,7 +437,7 @@ def incubator(k: Kit) -> None:
                 0.025,
                 0.05,
                 (sx * (W / 2 - 0.025), sy * (k.D / 2 - 0.025), k.bottom + 0.025),
-                plain(k, "castor", BLACK, 0.9),
+                plastic(k, "castor", (0.08, 0.08, 0.09), tile=0.1, roughness=0.9),
                 axis="x",
                 sections=12,
             )
@@ -169,6 +449,7 @@ def incubator(k: Kit) -> None:
     )
     chamber_h = (k.H - stand_h) / 2
     steel = metal(k)
+    dw, dh = W - 0.03, chamber_h - 0.17
     for i, nm in enumerate(("lower", "upper")):
         z_lo = k.bottom + stand_h + i * chamber_h
         z_hi = z_lo + chamber_h
@@ -178,28 +459,39 @@ def incubator(k: Kit) -> None:
             (W / 2, k.back - 0.001, z_hi - (0.005 if i == 0 else 0.0)),
             body,
         )
+        door = tx.Panel.metal(dw, dh, (0.80, 0.82, 0.84), k.seed("door", nm))
+        door.shade(dw / 2, dh / 2, dw - 0.03, dh - 0.03, 1.04, 4.0)  # raised centre panel
+        if i == 0:
+            door.paste(tx.warning("biohazard", k.seed("bio")), 0.08, dh - 0.08, 0.08, 0.08)
+        else:
+            door.paste(tx.warning("hot", k.seed("hot")), 0.08, dh - 0.08, 0.07, 0.07)
+            door.paste(
+                tx.model_plate(
+                    ["CI-170  CO2 INCUBATOR", "230 V~ 50 Hz 6.5 A", "SN 22-0417-B", "IP20  MAX 55 °C"],
+                    k.seed("plate"),
+                ),
+                0.2,
+                0.12,
+                0.16,
+                0.08,
+            )
+        door.weather(k.seed("door_wear", nm), 0.4, handle=(dw / 2 + W / 2 - 0.09, 0.32))
         k.box_span(
             f"door_{nm}",
             (-W / 2 + 0.015, k.front + 0.02, z_lo + 0.02),
             (W / 2 - 0.015, k.front + 0.05, z_hi - 0.15),
-            door,
+            face(k, f"door_{nm}", door, roughness=0.4, metallic=0.3),
         )
         k.box_span(
             f"panel_{nm}",
             (-W / 2 + 0.015, k.front + 0.03, z_hi - 0.14),
             (W / 2 - 0.015, k.front + 0.05, z_hi - 0.02),
-            plain(k, "panel", (0.25, 0.27, 0.30)),
+            plastic(k, "panel", (0.25, 0.27, 0.30), tile=0.2),
         )
-        k.decal(
-            f"display_{nm}",
-            tx.display(f"37.0C {5 + i}.0%", k.seed("display", nm), glow=(1.0, 0.55, 0.2)),
-            (-0.15, k.front + 0.0295, z_hi - 0.08),
-            0.3,
-            0.09,
-        )
+        live(k, f"display_{nm}", (-0.15, k.front + 0.0295, z_hi - 0.08), 0.3, 0.09)
         k.decal(
             f"keypad_{nm}",
-            tx.keypad(k.seed("keypad", nm), rows=2, cols=3),
+            tx.keypad(k.seed("keypad", nm), rows=2, cols=3, keys=("+", "-", "CO2", "MENU", "SET", "OK")),
             (0.2, k.front + 0.0295, z_hi - 0.08),
             0.16,
             0.1,
@@ -216,33 +508,21 @@ def incubator(k: Kit) -> None:
                 0.013,
                 0.05,
                 (-W / 2 + 0.025, k.front + 0.035, z),
-                plain(k, "hinge", (0.5, 0.5, 0.52), 0.3),
+                metal(k, "hinge", (0.5, 0.5, 0.52)),
                 sections=12,
             )
+        # The inner glass door's window: culture flasks on the chamber's shelves.
         k.decal(
             f"window_{nm}",
-            tx.label(
-                ["CHAMBER " + ("B" if i else "A"), "CO2 5%  RH 95%"],
-                (0.75, 0.85, 0.9),
-                DARK,
-                k.seed("window", nm),
-            ),
+            window(k.seed("window", nm), 256, 128, 2, back=(0.78, 0.80, 0.80)),
             (0, k.front + 0.0195, z_lo + 0.30),
             0.45,
             0.22,
         )
-    k.decal(
-        "label",
-        tx.label(
-            ["CO2 INCUBATOR", "37 C"], WHITE, (0.5, 0.1, 0.1), k.seed("label"), stripe=(0.85, 0.2, 0.15)
-        ),
-        (0, k.front + 0.0195, k.bottom + stand_h + chamber_h - 0.30),
-        0.36,
-        0.14,
-    )
+    live(k, "label", (0, k.front + 0.0195, k.bottom + stand_h + chamber_h - 0.30), 0.36, 0.14)
     k.decal(
         "rear_vent",
-        tx.grille((0.6, 0.6, 0.62), k.seed("rear_vent"), slots=12),
+        tx.grille((0.6, 0.6, 0.62), k.seed("rear_vent"), width=256, height=128, slots=12),
         (0, k.back, k.top - 0.4),
         W - 0.2,
         0.4,
@@ -257,26 +537,29 @@ def centrifuge(k: Kit) -> None:
     z0 = k.bottom + 0.02
     z_lid = k.bottom + 0.45
     k.box_span("body", (-W / 2, k.front + 0.06, z0), (W / 2, k.back, z_lid), body)
-    console = paint(k, "console", (0.20, 0.30, 0.55), amount=8)
+    cw, ch = W - 0.02, 0.26
+    console = tx.Panel.painted(cw, ch, (0.20, 0.30, 0.55), k.seed("console"), mottle=0.05)
+    console.shade(cw / 2, 0.20, 0.32, 0.09, 0.6, 2.0).shade(cw / 2, 0.09, 0.34, 0.14, 0.7, 2.0)
+    console.paste(tx.warning("rotor", k.seed("rotor")), 0.025, 0.235, 0.035, 0.035)
+    console.paste(tx.warning("general", k.seed("general")), cw - 0.025, 0.235, 0.035, 0.035)
+    console.weather(k.seed("console_wear"), 0.35, handle=(cw / 2, 0.1))
+    console.cut(cw / 2, 0.20, 0.3, 0.07).cut(cw / 2, 0.09, 0.32, 0.12)  # the display and keypad decals
     k.box_span(
-        "console", (-W / 2 + 0.01, k.front, z0 + 0.02), (W / 2 - 0.01, k.front + 0.06, z0 + 0.28), console
+        "console",
+        (-W / 2 + 0.01, k.front, z0 + 0.02),
+        (W / 2 - 0.01, k.front + 0.06, z0 + 0.28),
+        face(k, "console", console, roughness=0.45),
     )
+    live(k, "display", (0, k.front, z0 + 0.22), 0.3, 0.07)
     k.decal(
-        "display",
-        tx.display("4500 rpm", k.seed("display"), glow=(0.3, 1.0, 0.4)),
-        (0, k.front, z0 + 0.22),
-        0.3,
-        0.07,
+        "keypad",
+        tx.keypad(k.seed("keypad"), rows=2, cols=5, width=192, keys=(*"12345678", "START", "STOP")),
+        (0, k.front, z0 + 0.11),
+        0.32,
+        0.12,
     )
-    k.decal("keypad", tx.keypad(k.seed("keypad"), rows=2, cols=5), (0, k.front, z0 + 0.11), 0.32, 0.12)
-    k.decal(
-        "label",
-        tx.label(["CENTRIFUGE", "MAX 4700 x g"], WHITE, (0.15, 0.2, 0.45), k.seed("label")),
-        (0, k.front + 0.0595, z0 + 0.36),
-        0.3,
-        0.1,
-    )
-    lid = paint(k, "lid", (0.30, 0.45, 0.80), amount=8)
+    live(k, "label", (0, k.front + 0.0595, z0 + 0.36), 0.3, 0.1)
+    lid = paint(k, "lid", (0.30, 0.45, 0.80), tile=0.25, roughness=0.3)
     ry = (k.D - 0.06) / 2
     k.cylinder(
         "lid",
@@ -287,9 +570,14 @@ def centrifuge(k: Kit) -> None:
         sections=48,
         scale_xy=(W / 2, ry),
     )
+    rotor = tx.Panel.metal(0.16, 0.16, (0.55, 0.57, 0.6), k.seed("rotor_face"))
+    for a in range(4):  # four swing buckets seen through the lid window
+        x = 0.08 + 0.05 * [1, 0, -1, 0][a]
+        y = 0.08 + 0.05 * [0, 1, 0, -1][a]
+        rotor.shade(x, y, 0.035, 0.035, 0.35, 1.5)
     k.decal(
         "rotor_window",
-        tx.label(["ROTOR", "LOCKED"], (0.7, 0.8, 0.95), DARK, k.seed("window"), width=128, height=128),
+        tx.behind_glass(rotor.image(), k.seed("window")),
         (0, k.front + 0.06 + ry, k.top),
         0.16,
         0.16,
@@ -299,11 +587,11 @@ def centrifuge(k: Kit) -> None:
         "lid_handle",
         (-0.08, k.front + 0.035, z_lid),
         (0.08, k.front + 0.06, z_lid + 0.03),
-        plain(k, "handle", DARK),
+        plastic(k, "handle", DARK, tile=0.1),
     )
     k.decal(
         "rear_vent",
-        tx.grille((0.6, 0.6, 0.62), k.seed("rear_vent"), slots=8),
+        tx.grille((0.6, 0.6, 0.62), k.seed("rear_vent"), width=192, height=128, slots=8),
         (0, k.back, z0 + 0.2),
         W - 0.1,
         0.25,
@@ -313,41 +601,34 @@ def centrifuge(k: Kit) -> None:
 
 def mini_centrifuge(k: Kit) -> None:
     W = k.W
-    body = paint(k, "body", (0.94, 0.94, 0.92), amount=7)
+    body = plastic(k, "body", (0.94, 0.94, 0.92), tile=0.25)
     feet(k, 0.015, 0.05, radius=0.02)
     z0 = k.bottom + 0.015
     z_lid = k.bottom + 0.25
     k.box_span("body", (-W / 2, k.front + 0.08, z0), (W / 2, k.back, z_lid), body)
-    console = paint(k, "console", (0.35, 0.36, 0.40), amount=8)
-    k.box_span("console", (-W / 2 + 0.02, k.front, z0), (W / 2 - 0.02, k.front + 0.08, z0 + 0.16), console)
-    k.decal(
-        "display",
-        tx.display("13000 rpm", k.seed("display"), glow=(0.4, 0.9, 1.0)),
-        (-0.08, k.front, z0 + 0.11),
-        0.26,
-        0.07,
+    cw, ch = W - 0.04, 0.16
+    console = tx.Panel.painted(cw, ch, (0.35, 0.36, 0.40), k.seed("console"), mottle=0.05)
+    console.shade(cw / 2 - 0.08, 0.11, 0.28, 0.09, 0.6, 2.0)
+    console.paste(tx.warning("rotor", k.seed("rotor")), cw - 0.03, 0.04, 0.035, 0.035)
+    console.weather(k.seed("console_wear"), 0.35, handle=(cw / 2 + 0.14, 0.11))
+    for x, z, w, h in ((-0.08, 0.11, 0.26, 0.07), (0.14, 0.11, 0.16, 0.05), (0.0, 0.04, 0.34, 0.06)):
+        console.cut(cw / 2 + x, z, w, h)  # the display, keypad and label decals
+    k.box_span(
+        "console",
+        (-W / 2 + 0.02, k.front, z0),
+        (W / 2 - 0.02, k.front + 0.08, z0 + 0.16),
+        face(k, "console", console, roughness=0.45),
     )
+    live(k, "display", (-0.08, k.front, z0 + 0.11), 0.26, 0.07)
     k.decal(
         "keypad",
-        tx.keypad(k.seed("keypad"), rows=1, cols=4, height=48),
+        tx.keypad(k.seed("keypad"), rows=1, cols=4, height=48, keys=("+", "-", "START", "STOP")),
         (0.14, k.front, z0 + 0.11),
         0.16,
         0.05,
     )
-    k.decal(
-        "label",
-        tx.label(["MINI CENTRIFUGE"], WHITE, (0.3, 0.3, 0.35), k.seed("label"), height=64),
-        (0, k.front, z0 + 0.04),
-        0.34,
-        0.06,
-    )
-    lid = k.material(
-        "lid",
-        color=(0.45, 0.65, 0.95, 1.0),
-        texture=tx.powder_coat((0.45, 0.65, 0.95), k.seed("lid"), amount=5),
-        tile=0.2,
-        roughness=0.15,
-    )
+    live(k, "label", (0, k.front, z0 + 0.04), 0.34, 0.06)
+    lid = plastic(k, "lid", (0.45, 0.65, 0.95), tile=0.2, roughness=0.15)
     ry = (k.D - 0.08) / 2
     k.cylinder(
         "lid",
@@ -363,16 +644,19 @@ def mini_centrifuge(k: Kit) -> None:
         0.12,
         0.01,
         (0, k.front + 0.08 + ry, k.top - 0.005),
-        plain(k, "rotor", (0.75, 0.75, 0.78), 0.3),
+        metal(k, "rotor", (0.75, 0.75, 0.78)),
         sections=32,
     )
     k.box_span(
-        "hinge", (-0.12, k.back - 0.03, z_lid - 0.02), (0.12, k.back, z_lid + 0.03), plain(k, "hinge", DARK)
+        "hinge",
+        (-0.12, k.back - 0.03, z_lid - 0.02),
+        (0.12, k.back, z_lid + 0.03),
+        plastic(k, "hinge", DARK, tile=0.1),
     )
 
 
 def pipette(k: Kit) -> None:
-    base = paint(k, "base", (0.30, 0.32, 0.36), amount=8)
+    base = paint(k, "base", (0.30, 0.32, 0.36), tile=0.1, mottle=0.06)
     k.box_span("base", (-k.W / 2, k.front, k.bottom), (k.W / 2, k.back, k.bottom + 0.015), base)
     k.box_span(
         "column", (-k.W / 2 + 0.005, k.back - 0.03, k.bottom + 0.015), (k.W / 2 - 0.005, k.back, k.top), base
@@ -381,53 +665,63 @@ def pipette(k: Kit) -> None:
         "arm",
         (-k.W / 2 + 0.008, k.front + 0.04, k.top - 0.025),
         (k.W / 2 - 0.008, k.back - 0.03, k.top - 0.005),
-        paint(k, "arm", (0.85, 0.3, 0.2), amount=8),
+        paint(k, "arm", (0.85, 0.3, 0.2), tile=0.1, mottle=0.06),
     )
     y_p = k.front + 0.06
-    body = paint(k, "pipette", (0.88, 0.88, 0.86), amount=6, tile=0.05)
+    body = plastic(k, "pipette", (0.88, 0.88, 0.86), tile=0.05)
     k.cylinder("pipette_body", 0.016, 0.13, (0, y_p, k.top - 0.11), body, sections=20)
     k.cylinder(
-        "plunger", 0.008, 0.04, (0, y_p, k.top - 0.025), plain(k, "plunger", (0.15, 0.35, 0.9)), sections=16
+        "plunger",
+        0.008,
+        0.04,
+        (0, y_p, k.top - 0.025),
+        plastic(k, "plunger", (0.95, 0.80, 0.15), tile=0.03),
+        sections=16,
     )
     k.cylinder("shaft", 0.007, 0.06, (0, y_p, k.top - 0.205), body, sections=16)
     k.cylinder(
-        "tip", 0.004, 0.035, (0, y_p, k.top - 0.2525), plain(k, "tip", (0.95, 0.85, 0.2), 0.3), sections=12
+        "tip",
+        0.004,
+        0.035,
+        (0, y_p, k.top - 0.2525),
+        k.material("tip", color=(0.95, 0.85, 0.2, 1.0), texture=None, roughness=0.3),
+        sections=12,
     )
-    k.decal(
-        "volume",
-        tx.display("200 uL", k.seed("volume"), glow=(0.1, 0.1, 0.1), height=64),
-        (0, y_p - 0.0165, k.top - 0.09),
-        0.03,
-        0.015,
-    )
-    k.decal(
-        "label",
-        tx.label(["P200"], WHITE, DARK, k.seed("label"), width=64, height=64),
-        (0, k.back - 0.0305, k.bottom + 0.12),
-        0.028,
-        0.028,
-    )
+    k.decal("volume", tx.counter("200"), (0, y_p - 0.0165, k.top - 0.09), 0.03, 0.015)
+    live(k, "label", (0, k.back - 0.0305, k.bottom + 0.12), 0.028, 0.028)
 
 
 def cabinet(k: Kit) -> None:
     W = k.W
-    body = paint(k, "body", (0.62, 0.64, 0.60))
-    door = paint(k, "door", (0.70, 0.72, 0.68), amount=7)
+    body = paint(k, "body", (0.80, 0.81, 0.78))
     k.box_span(
         "plinth",
         (-W / 2 + 0.02, k.front + 0.06, k.bottom),
         (W / 2 - 0.02, k.back - 0.02, k.bottom + 0.08),
-        plain(k, "plinth", BLACK, 0.9),
+        plastic(k, "plinth", (0.08, 0.08, 0.09), roughness=0.9),
     )
     k.box_span("body", (-W / 2, k.front + 0.03, k.bottom + 0.08), (W / 2, k.back, k.top), body)
     steel = metal(k)
+    dw, dh = W / 2 - 0.013, k.H - 0.12
     for side in (-1, 1):
         x_lo, x_hi = (-W / 2 + 0.01, -0.003) if side < 0 else (0.003, W / 2 - 0.01)
+        door = tx.Panel.painted(dw, dh, (0.84, 0.85, 0.82), k.seed("door", str(side)))
+        gx = dw / 2 + (-0.015 if side < 0 else 0.015)  # glazing clear of the handles at the centre seam
+        w_px, h_px = tx.Panel.size_px(0.19, 0.62)
+        door.shade(gx, 0.83, 0.21, 0.64, 0.6, 2.0)
+        door.paste(
+            window(k.seed("shelves", str(side)), w_px, h_px, 3, back=(0.9, 0.9, 0.86)), gx, 0.83, 0.19, 0.62
+        )
+        door.paste(
+            tx.ghs("flame" if side < 0 else "exclamation", k.seed("ghs", str(side))), gx, 0.3, 0.12, 0.12
+        )
+        handle_x = dw - 0.015 if side < 0 else 0.015
+        door.weather(k.seed("door_wear", str(side)), 0.4, handle=(handle_x, 0.885))
         k.box_span(
             f"door_{side}",
             (x_lo, k.front + 0.01, k.bottom + 0.10),
             (x_hi, k.front + 0.03, k.top - 0.02),
-            door,
+            face(k, f"door_{side}", door, roughness=0.45),
         )
         k.box_span(
             f"handle_{side}",
@@ -441,33 +735,27 @@ def cabinet(k: Kit) -> None:
                 0.01,
                 0.05,
                 (side * (W / 2 - 0.012), k.front + 0.02, z),
-                plain(k, "hinge", (0.4, 0.4, 0.42), 0.3),
+                metal(k, "hinge", (0.4, 0.4, 0.42)),
                 sections=12,
             )
         k.decal(
             f"louvre_{side}",
-            tx.grille((0.55, 0.57, 0.53), k.seed("louvre", str(side)), slots=8),
+            tx.grille((0.78, 0.79, 0.76), k.seed("louvre", str(side)), width=128, height=144, slots=8),
             ((x_lo + x_hi) / 2, k.front + 0.0095, k.top - 0.25),
             0.18,
             0.2,
         )
     k.box_span("lock", (-0.015, k.front + 0.005, 0.2), (0.015, k.front + 0.01, 0.24), steel)
-    k.decal(
-        "label",
-        tx.label(
-            ["CHEMICAL", "STORAGE"],
-            (0.95, 0.95, 0.9),
-            (0.6, 0.1, 0.05),
-            k.seed("label"),
-            stripe=(0.9, 0.5, 0.1),
-        ),
-        (-0.14, k.front + 0.0095, 0.45),
-        0.2,
-        0.1,
-    )
+    live(k, "label", (-0.14, k.front + 0.0095, 0.45), 0.2, 0.1)
     k.decal(
         "hazard",
-        tx.label(["FLAMMABLE", "KEEP CLOSED"], (0.95, 0.8, 0.1), BLACK, k.seed("hazard")),
+        tx.label(
+            ["FLAMMABLE", "KEEP CLOSED", "NO IGNITION SOURCES"],
+            (0.95, 0.8, 0.1),
+            BLACK,
+            k.seed("hazard"),
+            stripe=(0.8, 0.1, 0.05),
+        ),
         (0.14, k.front + 0.0095, 0.45),
         0.2,
         0.1,
@@ -478,13 +766,23 @@ def waste_bin(k: Kit) -> None:
     W = k.W
     ry = (k.D - 0.05) / 2
     yc = k.front + 0.05 + ry
-    body = paint(k, "body", (0.95, 0.78, 0.10), amount=9, tile=0.15)
+    # The body's picture wraps half way round (mirrored on the other half): moulded ribs, trefoils on
+    # the sides, scuffs and grime.
+    half, bh = math.pi * (W / 2 - 0.005 + ry - 0.005) / 2, k.H - 0.07
+    wrap = tx.Panel.painted(
+        half, bh, (0.95, 0.78, 0.10), k.seed("body"), density=640, mottle=0.06, chroma=3.5
+    )
+    for z, f in ((bh - 0.03, 1.12), (bh - 0.05, 0.85), (0.06, 1.1), (0.04, 0.86)):
+        wrap.shade(half / 2, z, half, 0.012, f, 1.5)
+    wrap.paste(tx.warning("biohazard", k.seed("trefoil")), half * 0.3, bh * 0.55, 0.09, 0.09)
+    wrap.weather(k.seed("body_wear"), 0.6, handle=(half * 0.9, bh - 0.05))
+    body = face(k, "body", wrap, roughness=0.45)
     k.cylinder(
         "base_ring",
         1.0,
         0.03,
         (0, yc, k.bottom + 0.015),
-        plain(k, "ring", BLACK, 0.9),
+        plastic(k, "ring", (0.08, 0.08, 0.09), tile=0.1, roughness=0.9),
         sections=40,
         scale_xy=(W / 2 - 0.01, ry - 0.01),
     )
@@ -502,27 +800,31 @@ def waste_bin(k: Kit) -> None:
         1.0,
         0.04,
         (0, yc, k.top - 0.02),
-        paint(k, "lid", (0.12, 0.12, 0.13), amount=6),
+        plastic(k, "lid", (0.17, 0.17, 0.18), tile=0.15, roughness=0.3),
         sections=40,
         scale_xy=(W / 2, ry),
+        top_uv=True,
     )
     k.box_span("pedal", (-0.07, k.front, k.bottom), (0.07, k.front + 0.06, k.bottom + 0.03), metal(k))
     k.box_span(
-        "hinge", (-0.06, k.back - 0.015, k.top - 0.06), (0.06, k.back, k.top - 0.03), plain(k, "hinge", DARK)
+        "hinge",
+        (-0.06, k.back - 0.015, k.top - 0.06),
+        (0.06, k.back, k.top - 0.03),
+        plastic(k, "hinge", DARK, tile=0.1),
     )
-    k.decal("biohazard", tx.biohazard(k.seed("biohazard")), (0, yc - ry + 0.004, 0.02), 0.15, 0.15)
     k.decal(
-        "label",
-        tx.label(["BIOHAZARD", "WASTE"], (0.98, 0.98, 0.95), (0.7, 0.05, 0.05), k.seed("label"), height=96),
-        (0, yc - ry + 0.012, k.bottom + 0.12),
-        0.14,
-        0.06,
+        "biohazard",
+        tx.biohazard(160, 160),
+        (0, yc - ry + 0.004, 0.02),
+        0.15,
+        0.15,
     )
+    live(k, "label", (0, yc - ry + 0.012, k.bottom + 0.12), 0.14, 0.06)
 
 
 def biosafety_cabinet(k: Kit) -> None:
     W = k.W
-    body = paint(k, "body", (0.93, 0.92, 0.86), amount=8)
+    body = paint(k, "body", (0.93, 0.92, 0.86))
     frame = metal(k, "frame", (0.55, 0.57, 0.60))
     stand = 0.70
     for sx in (-1, 1):
@@ -539,7 +841,25 @@ def biosafety_cabinet(k: Kit) -> None:
         frame,
     )
     z1 = k.bottom + stand
-    k.box_span("body_back", (-W / 2 + 0.08, k.front + 0.22, z1), (W / 2 - 0.08, k.back, k.top - 0.45), body)
+    bw, bh = W - 0.16, k.top - 0.45 - z1
+    back = tx.Panel.metal(bw, bh, (0.82, 0.83, 0.84), k.seed("back"))
+    back.paste(
+        tx.perforated((0.80, 0.81, 0.82), k.seed("perforation"), 384, 96, pitch=7),
+        bw / 2,
+        0.2,
+        bw - 0.04,
+        0.25,
+    )
+    back.shade(bw / 2, bh - 0.05, bw, 0.1, 1.15, 6.0)  # the interior light's glow under the filter
+    back.weather(k.seed("back_wear"), 0.3)
+    # What the sash shows: the back wall above the sash's lower edge.
+    seen = back.arr[: int(round(back.arr.shape[0] * (1 - 0.32 / bh)))]
+    k.box_span(
+        "body_back",
+        (-W / 2 + 0.08, k.front + 0.22, z1),
+        (W / 2 - 0.08, k.back, k.top - 0.45),
+        face(k, "interior", back, roughness=0.35, metallic=0.5),
+    )
     for side in (-1, 1):
         k.box_span(
             f"side_{side}",
@@ -552,7 +872,7 @@ def biosafety_cabinet(k: Kit) -> None:
     )
     k.decal(
         "front_grille",
-        tx.grille((0.6, 0.62, 0.65), k.seed("front_grille"), slots=5),
+        tx.grille((0.6, 0.62, 0.65), k.seed("front_grille"), width=512, height=32, slots=5),
         (0, k.front + 0.0495, z1 + 0.08),
         W - 0.2,
         0.06,
@@ -561,58 +881,41 @@ def biosafety_cabinet(k: Kit) -> None:
         "armrest",
         (-W / 2 + 0.08, k.front, z1 + 0.09),
         (W / 2 - 0.08, k.front + 0.05, z1 + 0.12),
-        plain(k, "armrest", (0.2, 0.2, 0.22)),
-    )
-    glass = k.material(
-        "glass",
-        color=(0.55, 0.75, 0.85, 1.0),
-        texture=tx.powder_coat((0.55, 0.72, 0.82), k.seed("glass"), amount=4),
-        tile=0.5,
-        roughness=0.05,
-        metallic=0.1,
+        plastic(k, "armrest", (0.2, 0.2, 0.22), tile=0.2),
     )
     k.box_span(
         "sash",
         (-W / 2 + 0.08, k.front + 0.06, z1 + 0.32),
         (W / 2 - 0.08, k.front + 0.08, k.top - 0.45),
-        glass,
+        glazing(k, "glass", tx.to_image(seen)),
     )
     k.box_span("sash_handle", (-0.3, k.front + 0.04, z1 + 0.31), (0.3, k.front + 0.06, z1 + 0.34), metal(k))
     k.box_span("filter_housing", (-W / 2, k.front + 0.02, k.top - 0.45), (W / 2, k.back, k.top), body)
-    k.decal(
-        "control_panel",
-        tx.display("AIRFLOW OK 0.45m/s", k.seed("display"), glow=(0.3, 1.0, 0.5), width=384),
-        (-0.25, k.front + 0.0195, k.top - 0.2),
-        0.5,
-        0.12,
-    )
+    live(k, "control_panel", (-0.25, k.front + 0.0195, k.top - 0.2), 0.5, 0.12)
     k.decal(
         "keypad",
-        tx.keypad(k.seed("keypad"), rows=2, cols=6, width=192),
+        tx.keypad(
+            k.seed("keypad"),
+            rows=2,
+            cols=6,
+            width=192,
+            keys=("LIGHT", "UV", "FAN", "+", "-", "MENU", "ALARM", "SOCKET", "SASH", "OK", "START", "STOP"),
+        ),
         (0.3, k.front + 0.0195, k.top - 0.2),
         0.3,
         0.1,
     )
+    live(k, "label", (-0.25, k.front + 0.0195, k.top - 0.36), 0.5, 0.14)
     k.decal(
-        "label",
-        tx.label(
-            ["BIOSAFETY CABINET", "CLASS II  A2"],
-            WHITE,
-            (0.1, 0.3, 0.2),
-            k.seed("label"),
-            stripe=(0.1, 0.6, 0.3),
-            width=384,
-        ),
-        (-0.25, k.front + 0.0195, k.top - 0.36),
-        0.5,
-        0.14,
-    )
-    k.decal(
-        "biohazard", tx.biohazard(k.seed("biohazard")), (0.45, k.front + 0.0195, k.top - 0.36), 0.12, 0.12
+        "biohazard",
+        tx.biohazard(128, 128),
+        (0.45, k.front + 0.0195, k.top - 0.36),
+        0.12,
+        0.12,
     )
     k.decal(
         "top_vent",
-        tx.grille((0.8, 0.8, 0.78), k.seed("top_vent"), slots=14),
+        tx.grille((0.8, 0.8, 0.78), k.seed("top_vent"), width=256, height=160, slots=14),
         (0, 0.0, k.top),
         W - 0.2,
         k.D - 0.2,
@@ -622,16 +925,22 @@ def biosafety_cabinet(k: Kit) -> None:
 
 def lab_bench(k: Kit) -> None:
     top = k.material(
-        "worktop", texture=tx.speckled_epoxy((0.09, 0.10, 0.11), k.seed("worktop")), tile=0.3, roughness=0.3
+        "worktop",
+        color=OPAQUE,
+        texture=tx.epoxy((0.09, 0.10, 0.11), k.seed("worktop")),
+        tile=0.5,
+        roughness=0.3,
     )
-    carcass = paint(k, "carcass", (0.80, 0.80, 0.77), amount=8)
-    drawer = k.material("drawer", texture=tx.wood_grain((0.72, 0.60, 0.44), k.seed("drawer")), tile=0.4)
+    carcass = paint(k, "carcass", (0.80, 0.80, 0.77))
+    drawer = k.material(
+        "drawer", color=OPAQUE, texture=tx.wood((0.72, 0.60, 0.44), k.seed("drawer")), tile=0.6, roughness=0.5
+    )
     k.box_span("worktop", (-k.W / 2, k.front, k.top - 0.04), (k.W / 2, k.back, k.top), top)
     k.box_span(
         "kick",
         (-k.W / 2 + 0.05, k.front + 0.08, k.bottom),
         (k.W / 2 - 0.05, k.back - 0.08, k.bottom + 0.1),
-        plain(k, "kick", BLACK, 0.9),
+        plastic(k, "kick", (0.08, 0.08, 0.09), roughness=0.9),
     )
     k.box_span(
         "carcass",
@@ -666,13 +975,7 @@ def lab_bench(k: Kit) -> None:
                         sections=10,
                     )
                 z += h
-    k.decal(
-        "label",
-        tx.label(["BENCH A", "NO FOOD OR DRINK"], WHITE, (0.1, 0.1, 0.4), k.seed("label")),
-        (0, k.front + 0.0195, k.top - 0.12),
-        0.4,
-        0.08,
-    )
+    live(k, "label", (0, k.front + 0.0195, k.top - 0.12), 0.4, 0.08)
     k.decal(
         "services",
         tx.label(
@@ -691,7 +994,11 @@ def lab_bench(k: Kit) -> None:
 
 def lab_table(k: Kit) -> None:
     top = k.material(
-        "worktop", texture=tx.speckled_epoxy((0.55, 0.57, 0.58), k.seed("worktop")), tile=0.3, roughness=0.35
+        "worktop",
+        color=OPAQUE,
+        texture=tx.epoxy((0.55, 0.57, 0.58), k.seed("worktop")),
+        tile=0.5,
+        roughness=0.35,
     )
     frame = metal(k, "frame", (0.60, 0.62, 0.65))
     surface = k.bottom + 0.78
@@ -712,7 +1019,7 @@ def lab_table(k: Kit) -> None:
         (k.W / 2 - 0.05, k.back - 0.03, k.bottom + 0.19),
         frame,
     )
-    drawer = paint(k, "drawer", (0.78, 0.80, 0.82), amount=7)
+    drawer = paint(k, "drawer", (0.78, 0.80, 0.82))
     for i, x in enumerate((-0.5, 0.5)):
         k.box_span(
             f"drawer_{i}",
@@ -726,7 +1033,7 @@ def lab_table(k: Kit) -> None:
             (x + 0.08, k.front + 0.03, surface - 0.09),
             metal(k),
         )
-    shelf = paint(k, "shelf", (0.85, 0.86, 0.84), amount=7)
+    shelf = paint(k, "shelf", (0.85, 0.86, 0.84))
     for sx in (-1, 1):
         k.box_span(
             f"upright_{sx}",
@@ -757,21 +1064,15 @@ def lab_table(k: Kit) -> None:
             0.035,
             h,
             (x, k.back - 0.13, surface + h / 2),
-            plain(k, f"bottle_{i % len(colors)}", c, 0.2),
+            paint(k, f"bottle_{i % len(colors)}", c, tile=0.3, roughness=0.2, grain=2.0),
             sections=16,
         )
-    k.decal(
-        "label",
-        tx.label(["REAGENT SHELF", "LABEL ALL BOTTLES"], WHITE, (0.1, 0.3, 0.1), k.seed("label")),
-        (0, k.back - 0.2505, k.top - 0.06),
-        0.4,
-        0.05,
-    )
+    live(k, "label", (0, k.back - 0.2505, k.top - 0.06), 0.4, 0.05)
 
 
-# --- room shell ---------------------------------------------------------------------------------
+# --- room shell -----------------------------------------------------------------------------------
 def wall_panel(k: Kit) -> None:
-    wall = paint(k, "wall", (0.86, 0.87, 0.84), amount=5, tile=0.5)
+    wall = coat(k, "wall", (0.86, 0.87, 0.84), amount=5, tile=0.5)
     k.box_span("wall", (-k.W / 2, k.front, k.bottom), (k.W / 2, k.back, k.top), wall)
 
 
@@ -790,7 +1091,7 @@ def ceiling_tile(k: Kit) -> None:
 
 
 def door_frame(k: Kit) -> None:
-    frame = paint(k, "frame", (0.45, 0.50, 0.58), amount=8)
+    frame = coat(k, "frame", (0.45, 0.50, 0.58), amount=8)
     k.box_span("jamb_l", (-k.W / 2, k.front, k.bottom), (-k.W / 2 + 0.08, k.back, k.top), frame)
     k.box_span("jamb_r", (k.W / 2 - 0.08, k.front, k.bottom), (k.W / 2, k.back, k.top), frame)
     k.box_span("header", (-k.W / 2, k.front, k.top - 0.1), (k.W / 2, k.back, k.top), frame)
@@ -820,4 +1121,22 @@ BUILDERS: dict[str, Callable[[Kit], None]] = {
         ceiling_tile,
         door_frame,
     )
+}
+
+#: per category, the decals drawn per instance (by decal name): variant -> picture
+LIVE_DECALS: dict[str, dict[str, Callable[[Variant], Image.Image | tx.Surface]]] = {
+    "refrigerator": {"display": fridge_display, "label": fridge_label},
+    "incubator": {
+        "display_lower": lambda v: incubator_display(v, "lower"),
+        "display_upper": lambda v: incubator_display(v, "upper"),
+        "label": incubator_label,
+    },
+    "centrifuge": {"display": centrifuge_display, "label": centrifuge_label},
+    "mini_centrifuge": {"display": mini_display, "label": mini_label},
+    "pipette": {"label": pipette_label},
+    "cabinet": {"label": cabinet_label},
+    "waste_bin": {"label": bin_label},
+    "biosafety_cabinet": {"control_panel": bsc_display, "label": bsc_label},
+    "lab_bench": {"label": bench_label},
+    "lab_table": {"label": table_label},
 }

@@ -34,7 +34,11 @@ _BOX_FACES = [
 
 @dataclass
 class Material:
-    """A PBR material; ``texture`` tiles every ``tile`` metres (or stretches once when tile is None)."""
+    """A PBR material; ``texture`` tiles every ``tile`` metres (or stretches once when tile is None).
+    With ``face`` the texture is a picture of a box's -Y face and the other faces continue its edges.
+    An RGBA texture makes it see-through (glTF alphaMode BLEND), or, when its alpha is only 0 or 255,
+    cut out (MASK: holes where decals sit in the same plane). ``normal`` and ``emission`` are the
+    normal and emission maps."""
 
     name: str
     color: tuple[float, float, float, float] = (0.8, 0.8, 0.8, 1.0)
@@ -42,16 +46,28 @@ class Material:
     tile: float | None = 0.25
     metallic: float = 0.0
     roughness: float = 0.6
+    normal: Image.Image | None = None
+    emission: Image.Image | None = None
+    face: bool = False
     _pbr: PBRMaterial | None = field(default=None, repr=False)
 
     def pbr(self) -> PBRMaterial:
         if self._pbr is None:
+            extra: dict = {}
+            if self.normal is not None:
+                extra["normalTexture"] = self.normal
+            if self.emission is not None:
+                extra.update(emissiveTexture=self.emission, emissiveFactor=[1.0, 1.0, 1.0])
+            if self.texture is not None and self.texture.mode == "RGBA":
+                alpha = set(np.unique(np.asarray(self.texture)[..., 3]).tolist())
+                extra["alphaMode"] = "MASK" if alpha <= {0, 255} else "BLEND"
             self._pbr = PBRMaterial(
                 name=self.name,
                 baseColorFactor=[int(round(255 * c)) for c in self.color],
                 baseColorTexture=self.texture,
                 metallicFactor=self.metallic,
                 roughnessFactor=self.roughness,
+                **extra,
             )
         return self._pbr
 
@@ -80,6 +96,28 @@ def _uv_box(extents: np.ndarray, tile: float | None) -> tuple[np.ndarray, np.nda
         sv = extents[va] / tile if tile else 1.0
         uvs.extend([[0.0, 0.0], [su, 0.0], [su, sv], [0.0, sv]])
     return np.array(verts), np.array(faces), np.array(uvs)
+
+
+def _uv_face(verts: np.ndarray, extents: np.ndarray) -> np.ndarray:
+    """UVs of a ``_uv_box`` whose texture pictures its -Y face: every vertex at its (x, z) on that face,
+    the other faces clamped a little inside the picture (so the sides repeat its edge pixels, clear of
+    any cut-out)."""
+    uv = (verts[:, [0, 2]] + extents[[0, 2]] / 2) / extents[[0, 2]]
+    out = np.clip(uv, 0.004, 0.996)
+    k = 4 * _BOX_FACES.index((1, -1, 0, 2))
+    out[k : k + 4] = uv[k : k + 4]
+    return out
+
+
+def _uv_cylinder(verts: np.ndarray, height: float, tile: float | None) -> np.ndarray:
+    """UVs of a Z-axis cylinder without new vertices: u is the arc length from the -Y side (mirrored
+    on the +X and -X halves, so there is no seam), v the height."""
+    theta = np.abs(np.arctan2(verts[:, 0], -verts[:, 1]))
+    radius = float(np.hypot(verts[:, 0], verts[:, 1]).max())
+    z = verts[:, 2] + height / 2
+    if tile:
+        return np.stack([theta * radius / tile, z / tile], axis=1)
+    return np.stack([theta / np.pi, z / height], axis=1)
 
 
 def _mesh_with(
@@ -130,6 +168,8 @@ class Kit:
     ) -> None:
         ext = np.asarray(size, float)
         v, f, uv = _uv_box(ext, mat.tile if mat.texture is not None else 1.0)
+        if mat.face:
+            uv = _uv_face(v, ext)
         self.parts.append(
             (name, _mesh_with(mat, v + np.asarray(center, float), f, uv if mat.texture is not None else None))
         )
@@ -150,27 +190,46 @@ class Kit:
         axis: str = "z",
         sections: int = 32,
         scale_xy: tuple[float, float] = (1.0, 1.0),
+        top_uv: bool = False,
     ) -> None:
+        """A cylinder; its texture wraps round it, or with ``top_uv`` is projected from above (a lid seen
+        from above: the cap gets an even texture, the rim its edge pixels as moulded ribs)."""
         m = trimesh.creation.cylinder(radius=radius, height=height, sections=sections)
         m.apply_scale([scale_xy[0], scale_xy[1], 1.0])
+        uv = None
+        if mat.texture is not None:
+            uv = (
+                m.vertices[:, :2] / (mat.tile or 1.0)
+                if top_uv
+                else _uv_cylinder(m.vertices, height, mat.tile)
+            )
         if axis == "x":
             m.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2, [0, 1, 0]))
         elif axis == "y":
             m.apply_transform(trimesh.transformations.rotation_matrix(math.pi / 2, [1, 0, 0]))
         m.apply_translation(center)
-        self.parts.append((name, _mesh_with(mat, m.vertices, m.faces, None)))
+        self.parts.append((name, _mesh_with(mat, m.vertices, m.faces, uv)))
 
     def decal(
         self,
         name: str,
-        image: Image.Image,
+        image: Image.Image | tx.Surface,
         center: tuple[float, float, float],
         width: float,
         height: float,
         facing: str = "-Y",
     ) -> None:
         """A flat textured quad (label, display, keypad) on a surface facing ``facing``."""
-        mat = self.material(f"decal_{name}", texture=image, tile=None, roughness=0.4)
+        s = image if isinstance(image, tx.Surface) else tx.Surface(image)
+        mat = self.material(
+            f"decal_{name}",
+            color=(1.0, 1.0, 1.0, 1.0),
+            texture=s.albedo,
+            normal=s.normal,
+            emission=s.emission,
+            tile=None,
+            roughness=0.25 if s.emission is not None else 0.45,
+        )
         hw, hh = width / 2, height / 2
         c = np.asarray(center, float)
         if facing == "-Y":

@@ -1,22 +1,25 @@
 """Build a scene spec into a SAPIEN or ManiSkill scene (thin layer over the pure-geometry spec).
 
 Each instrument and piece of furniture becomes a static actor named by its id, with its own
-segmentation id; walls and the floor are box colliders, instruments use their catalog collision
-(a box, or the cached coacd convex hulls).
+segmentation id and its own look (:mod:`biovln_ms.sim.instance_looks`); walls and the floor are box
+colliders, instruments use their catalog collision (a box, or the cached coacd convex hulls).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import sapien
 
+from biovln_ms.assetgen.variation import variant_for
 from biovln_ms.catalog import load_catalog
-from biovln_ms.paths import COLLISION_DIR, asset_glb
+from biovln_ms.paths import ASSET_DIR, COLLISION_DIR
 from biovln_ms.scene.shell import FLOOR_DEPTH, shell_glbs, wall_spans
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
+from biovln_ms.sim.instance_looks import apply_variant
 
 
 def frictionless():
@@ -52,8 +55,11 @@ def add_spec_to_scene(
     ceiling: bool = True,
     scene_idxs: list[int] | None = None,
     name_prefix: str = "",
+    asset_dir: Path = ASSET_DIR,
+    variants: bool = True,
 ) -> BuiltScene:
-    """Add the spec's shell, furniture and instruments to ``scene`` (sapien.Scene or ManiSkillScene)."""
+    """Add the spec's shell, furniture and instruments to ``scene`` (sapien.Scene or ManiSkillScene).
+    Objects look as the GLBs in ``asset_dir`` show them, each in its own variant (``variants``)."""
     cat = load_catalog()
     built = BuiltScene()
     shell_path, ceiling_path = shell_glbs(spec)
@@ -85,14 +91,19 @@ def add_spec_to_scene(
         b.add_visual_from_file(str(ceiling_path))
         b.initial_pose = sapien.Pose()
         built.shell.append(b.build_static(name=f"{name_prefix}ceiling"))
+    uploads: dict = {}  # textures shared by this scene's variants
     for o in spec.objects():
-        built.objects[o.id] = _add_object(scene, o, cat.get(o.category).collision, scene_idxs, name_prefix)
+        glb = Path(asset_dir) / f"{o.category}.glb"
+        actor = _add_object(scene, o, glb, cat.get(o.category).collision, scene_idxs, name_prefix)
+        if variants:
+            apply_variant(actor, o.category, glb, variant_for(spec.name, spec.seed, o.id), uploads)
+        built.objects[o.id] = actor
     return built
 
 
-def _add_object(scene, o: ObjectSpec, collision: str, scene_idxs, name_prefix: str):
+def _add_object(scene, o: ObjectSpec, glb: Path, collision: str, scene_idxs, name_prefix: str):
     b = _builder(scene, scene_idxs)
-    b.add_visual_from_file(str(asset_glb(o.category)))
+    b.add_visual_from_file(str(glb))
     if collision == "coacd":
         b.add_multiple_convex_collisions_from_file(
             str(COLLISION_DIR / f"{o.category}.obj"), material=frictionless()

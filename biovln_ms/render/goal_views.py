@@ -1,0 +1,89 @@
+"""What the robot's head camera sees of a goal object from its Zone-3 goal (issue 18 item 2).
+
+A plain SAPIEN scene of a whole spec, lit by a preset of :mod:`biovln_ms.render.lighting`, seen by a
+camera like the env's head camera (ManiSkill's "minimal" shader with 8-bit colour, 0.88 m high and
+level, the task's field of view). :func:`distinct_colours` counts the distinct RGB values on one
+object's pixels, the paper's measure of surface diversity (Table 8).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from biovln_ms.paths import ASSET_DIR
+from biovln_ms.scene.spec import ObjectSpec, SceneSpec
+
+#: height of the head camera (agents/robots/biovln_base.py)
+HEAD_HEIGHT = 0.88
+
+
+def goal_views(obj: ObjectSpec, offsets_deg: tuple[float, ...] = (0.0, -15.0, 15.0)) -> list[np.ndarray]:
+    """Head-camera eyes around ``obj``: its Eq. 1 goal turned by each offset about the object's centre
+    (0 is the goal itself; ±15° stay within the success radius of every catalog asset)."""
+    c = np.asarray(obj.position[:2], float)
+    g = np.asarray(obj.goal, float)
+    out = []
+    for deg in offsets_deg:
+        a = math.radians(deg)
+        rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+        out.append(np.array([*(c + rot @ (g - c)), HEAD_HEIGHT]))
+    return out
+
+
+def distinct_colours(rgb: np.ndarray, mask: np.ndarray) -> int:
+    """Number of distinct RGB triples of ``rgb`` (H, W, 3 uint8) inside ``mask`` (H, W bool)."""
+    px = rgb[mask].astype(np.uint32)
+    if px.size == 0:
+        return 0
+    return int(np.unique((px[:, 0] << 16) | (px[:, 1] << 8) | px[:, 2]).size)
+
+
+class GoalViewRenderer:
+    """One SAPIEN scene of ``spec`` under ``lighting`` and one head-like camera moved between views."""
+
+    def __init__(
+        self,
+        spec: SceneSpec,
+        lighting: str = "quality",
+        width: int = 640,
+        height: int = 480,
+        hfov_deg: float = 79.0,
+        asset_dir: Path = ASSET_DIR,
+        variants: bool = True,
+    ) -> None:
+        import sapien
+
+        from biovln_ms.render.sapien_utils import BACKPORTS_FIX
+        from biovln_ms.errors import RenderError
+        from biovln_ms.sim.sapien_builder import add_lights, add_spec_to_scene
+
+        # The env's head camera: ManiSkill's "minimal" shader pack and its 8-bit picture formats.
+        sapien.render.set_camera_shader_dir("minimal")
+        sapien.render.set_picture_format("Color", "r8g8b8a8unorm")
+        sapien.render.set_picture_format("ColorRaw", "r8g8b8a8unorm")
+        sapien.render.set_picture_format("PositionSegmentation", "r16g16b16a16sint")
+        try:
+            self.scene = sapien.Scene()
+        except RuntimeError as e:
+            raise RenderError(f"SAPIEN cannot create a render device ({e})", fix=BACKPORTS_FIX) from None
+        self.spec = spec
+        self.built = add_spec_to_scene(self.scene, spec, asset_dir=asset_dir, variants=variants)
+        add_lights(self.scene, spec, lighting=lighting)
+        vfov = 2 * math.atan(math.tan(math.radians(hfov_deg) / 2) * height / width)
+        self.camera = self.scene.add_camera("head", width, height, vfov, 0.05, 20.0)
+
+    def render(self, obj: ObjectSpec, eye: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """RGB (H, W, 3 uint8) from ``eye`` looking at ``obj``'s centre, and the mask of ``obj``'s pixels."""
+        from biovln_ms.render.sapien_utils import look_at_pose
+
+        self.camera.entity.set_pose(look_at_pose(eye, obj.position))
+        self.scene.update_render()
+        self.camera.take_picture()
+        rgb = np.asarray(self.camera.get_picture("Color"))[..., :3]
+        if rgb.dtype != np.uint8:
+            rgb = (np.clip(rgb, 0, 1) * 255).round().astype(np.uint8)
+        seg = np.asarray(self.camera.get_picture("PositionSegmentation"))[..., 3]
+        return rgb, seg == self.built.objects[obj.id].per_scene_id
