@@ -27,6 +27,7 @@ from biovln_ms.errors import BioVLNError
 
 TRUNCATION = 3.0  # sigmas
 _NORMAL = NormalDist()  # the standard normal (stdlib: the Blender add-on's Python has no scipy)
+_UNIFORM_LO, _UNIFORM_HI = _NORMAL.cdf(-TRUNCATION), _NORMAL.cdf(TRUNCATION)  # the truncation in u
 
 
 class NoiseConfigError(BioVLNError):
@@ -42,9 +43,8 @@ class TruncatedGaussian:
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """(n, k) samples by inverse CDF (one uniform per value, so the stream is easy to replay)."""
-        lo, hi = _NORMAL.cdf(-TRUNCATION), _NORMAL.cdf(TRUNCATION)
-        u = rng.uniform(lo, hi, (n, len(self.mean)))
-        z = np.vectorize(_NORMAL.inv_cdf, otypes=[float])(u)
+        u = rng.uniform(_UNIFORM_LO, _UNIFORM_HI, (n, len(self.mean)))
+        z = np.array([[_NORMAL.inv_cdf(x) for x in row] for row in u.tolist()])
         return np.asarray(self.mean) + np.sqrt(np.asarray(self.variance)) * z
 
 
