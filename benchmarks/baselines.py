@@ -1,75 +1,73 @@
-"""The whole MS DEV + VAL + TEST evaluation of oracle, random, frontier and zone3_oracle (budget 30 min),
-with steps/s per method and, for reference, the raw SAPIEN 640x480 RGB-D render rate of the same
-machine measured in the same run.
+"""The whole benchmark's wall time on this machine (issue 15 item 8: the geometric methods' part within
+60 min): ``biovln-ms benchmark``'s runs, each with its episodes, SR and wall time, and the totals.
 
-    python benchmarks/baselines.py [--out /tmp/biovln_baselines] [--workers 2]
+    python benchmarks/baselines.py [--out /tmp/biovln_bench] [--workers 2] [--all]
+    python benchmarks/baselines.py --from /tmp/biovln_bench     # the table of a suite that already ran
 
-The table goes to ``docs/data/benchmarks/baselines.json`` (``--data-out``), which the docs' benchmarks
-page renders.
+Without ``--all`` only the geometric methods (oracle, 3-zone oracle, frontier, random) run; with it, every
+method of the suite (VLFM, PPO and BC too, training included). A suite folder that exists is resumed, and
+its log keeps the time of every session. The table goes to ``docs/data/benchmarks/baselines.json``
+(``--data-out``), which the docs' benchmarks page renders.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import tempfile
-import time
 from pathlib import Path
 
-from biovln_ms.eval.harness import EvalConfig, evaluate, load_records
+from biovln_ms.eval.suite import GEOMETRIC, SUITE_METHODS, Suite, run_suite
 from biovln_ms.measured import docs_data_dir, write_table
-
-METHODS = ("oracle", "random", "zone3_oracle", "frontier")
-SPLITS = ("ms_dev", "ms_val", "ms_test")
+from biovln_ms.render.sapien_utils import vulkan_device_label
 
 
-def raw_render_rate() -> float:
-    import gymnasium as gym
-
-    import biovln_ms  # noqa: F401
-    from biovln_ms.render.sapien_utils import raw_camera_rate as rate
-
-    env = gym.make(
-        "BioVLN-OpFace-v0", split="ms_val", obs_mode="rgbd", sim_backend="physx_cpu", render_backend="cpu"
-    )
-    env.reset(seed=0)
-    r = rate(env, 40)
-    env.close()
-    return r
+def table_rows(log: dict) -> tuple[list[list], list[str]]:
+    """The suite log's runs as table rows, and the notes with the totals."""
+    rows, totals = [], {"geometric": 0.0, "all": 0.0}
+    for key, e in sorted(log["runs"].items(), key=lambda kv: Suite.order(kv[0])):
+        totals["all"] += e["seconds"]
+        if Suite.geometric(key):
+            totals["geometric"] += e["seconds"]
+        method, split, preset = (key.split("/") + ["", ""])[:3]  # train/ppo: a training stage
+        if e["status"] == "skipped":
+            rows.append([method, split, preset, None, None, f"skipped: {e['reason']}"])
+        else:
+            sr = None if e.get("sr") is None else f"{e['sr']:.1f}"
+            rows.append([method, split, preset, e.get("episodes"), sr, f"{e['seconds'] / 60:.1f} min"])
+    notes = [
+        f"Geometric methods (oracle, 3-zone oracle, frontier, random): {totals['geometric'] / 60:.0f} min "
+        f"(budget 60 min); every run listed: {totals['all'] / 60:.0f} min.",
+    ]
+    return rows, notes
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--out", type=Path, default=None, help="suite folder (default: a new temporary one)")
+    ap.add_argument("--from", dest="from_dir", type=Path, default=None, help="only tabulate this suite")
     ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--all", action="store_true", help="every method, not only the geometric ones")
+    ap.add_argument("--note", action="append", default=[], help="a line under the table (e.g. the load)")
     ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "baselines.json")
     args = ap.parse_args()
-    out = args.out or Path(tempfile.mkdtemp()) / "results"
-    t_all = time.perf_counter()
-    rows = []
-    for m in METHODS:
-        for s in SPLITS:
-            t = time.perf_counter()
-            summ = evaluate(EvalConfig(m, s, str(out), workers=args.workers), progress=False)
-            dt = time.perf_counter() - t
-            steps = sum(r.get("steps", 0) for r in load_records(Path(out) / m / s / "episodes.jsonl"))
-            rows.append((m, s, summ["overall"]["episodes"], summ["overall"]["sr"], dt, steps / dt))
-    total = time.perf_counter() - t_all
-    print(f"{'method':<13} {'split':<8} {'eps':>4} {'SR %':>6} {'time s':>7} {'steps/s (all workers)':>22}")
-    for m, s, n, sr, dt, sps in rows:
-        print(f"{m:<13} {s:<8} {n:>4} {sr:6.1f} {dt:7.1f} {sps:22.1f}")
-    print(f"total {total / 60:.1f} min (budget 30 min) -> {out}")
-    raw = raw_render_rate()
-    print(f"raw SAPIEN 640x480 RGB-D frames/s (one process, for reference): {raw:.1f}")
+    if args.from_dir:
+        log = json.loads((args.from_dir / "suite.json").read_text())
+    else:
+        out = args.out or Path(tempfile.mkdtemp()) / "suite"
+        methods = SUITE_METHODS if args.all else GEOMETRIC
+        log = run_suite(out, methods, workers=args.workers, paper_tables=args.all)
+    rows, notes = table_rows(log)
     write_table(
         args.data_out,
-        "MS DEV + VAL + TEST with four baselines",
-        ["method", "split", "episodes", "SR %", "time", "steps/s (all workers)"],
-        [[m, s, n, f"{sr:.1f}", f"{dt:.0f} s", f"{sps:.0f}"] for m, s, n, sr, dt, sps in rows],
-        notes=[
-            f"Total {total / 60:.1f} min (budget 30 min) with {args.workers or 'one worker per core'} "
-            f"workers; raw SAPIEN 640×480 RGB-D in one process: {raw:.0f} frames/s."
-        ],
+        "The whole benchmark (`biovln-ms benchmark`): every run and its wall time",
+        ["method", "split", "noise", "episodes", "SR %", "wall time"],
+        rows,
+        notes=notes + args.note,
+        render_device=vulkan_device_label(),
     )
+    for line in notes:
+        print(line)
 
 
 if __name__ == "__main__":
