@@ -35,8 +35,8 @@ def test_plan_adds_the_runs_of_the_papers_tables():
     runs = plan(["oracle", "frontier"], ["ms_val"], ["ideal"])
     assert [r.key for r in runs] == [
         "oracle/ms_val/ideal",
-        "frontier/ms_val/ideal",
         "oracle/ms_dev/ideal",
+        "frontier/ms_val/ideal",
         "frontier/ms_dev/ideal",
         "frontier@BioVLN-Centroid-v0/ms_dev/ideal",
         "frontier@BioVLN-Centroid-v0/ms_val/ideal",
