@@ -43,7 +43,7 @@ from biovln_ms.agents.frontier_planner import (
     nearest_candidate,
     nearest_reachable,
 )
-from biovln_ms.agents.localisation import Localiser, camera_mount, extrinsic_at, scan_points
+from biovln_ms.agents.localisation import Localiser, blocked_ahead, camera_mount, extrinsic_at, scan_points
 from biovln_ms.agents.policy import STOP, EpisodeInfo, Policy, TaskSpec
 
 __all__ = [
@@ -115,6 +115,7 @@ class FrontierPolicy(Policy):
         # without GPS+compass: the pose in the episode frame, estimated (biovln_ms.agents.localisation)
         self.localiser = None if self.task.noise.gps_compass else Localiser()
         self.mount: np.ndarray | None = None  # the head camera on the base (height and tilt)
+        self._blocked = False  # the last frame showed a FORWARD blocked (localisation.blocked_ahead)
         self.pose_estimates: list[np.ndarray] = []
 
     def act(self, obs, info: dict) -> int:
@@ -127,18 +128,20 @@ class FrontierPolicy(Policy):
 
     def _localise(self, obs) -> np.ndarray:
         """The pose without odometry: the start at the first step, then the previous command's dead
-        reckoning corrected by matching this frame's depth scan to the map built so far."""
+        reckoning (a FORWARD the previous frame showed blocked is expected not to move) corrected by
+        matching this frame's depth scan to the map built so far."""
+        p = self.params
+        depth, intrinsic = head_depth(obs)
         if self.map is None:
             self.mount = camera_mount(to_numpy(obs["sensor_param"]["head"]["extrinsic_cv"][0]))
-            return self.localiser.reset()
-        last = self.control.last_action
-        self.localiser.predict(STOP if last is None else last, self.task)
-        if self.params.scan_match:
-            p = self.params
-            points = scan_points(
-                *head_depth(obs), self.mount, p.pixel_stride, p.depth_clip, p.floor_z, p.top_z
-            )
-            self.localiser.correct(points, self.map)
+            self.localiser.reset()
+        points = scan_points(depth, intrinsic, self.mount, p.pixel_stride, p.depth_clip, p.floor_z, p.top_z)
+        if self.map is not None:
+            last = self.control.last_action
+            self.localiser.predict(STOP if last is None else last, self.task, self._blocked)
+            if p.scan_match:
+                self.localiser.correct(points, self.map)
+        self._blocked = blocked_ahead(points, depth, intrinsic, self.task)
         return self.localiser.pose.copy()
 
     def _frame(self, obs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

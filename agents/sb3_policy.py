@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.agents.policy import EpisodeInfo, Policy
+from biovln_ms.catalog import PAPER_GOAL_CATEGORIES, load_catalog
 from biovln_ms.errors import BioVLNError
 
 
@@ -39,10 +40,17 @@ class SB3Policy(Policy):
         x = obs.cpu().numpy()[0] if hasattr(obs, "cpu") else np.asarray(obs)[0]
         expected = self.model.observation_space.shape
         if x.shape != expected:
+            fix = "evaluate on the env it was trained on (--env BioVLN-OpFace-RL-v0)"
+            paper = len(PAPER_GOAL_CATEGORIES)
+            if x.size - int(np.prod(expected)) == len(load_catalog().goal_categories()) - paper:
+                fix = (
+                    f"it was trained when the objectgoal one-hot held {paper} categories (the catalog has "
+                    f"added some since): retrain it, biovln-ms train {self.name} --timesteps N --out DIR"
+                )
             raise BioVLNError(
                 f"the model expects observations of shape {expected}, this env gives {x.shape}",
                 field="env",
-                fix="evaluate on the env it was trained on (--env BioVLN-OpFace-RL-v0)",
+                fix=fix,
             )
         action, _ = self.model.predict(x, deterministic=self.deterministic)
         return int(action) if np.ndim(action) == 0 else np.asarray(action, np.float32)

@@ -28,6 +28,7 @@ from biovln_ms.measured import docs_data_dir, write_table
 from biovln_ms.render.goal_views import GoalViewRenderer, distinct_colours, goal_views
 from biovln_ms.render.sapien_utils import vulkan_device_label
 from biovln_ms.scene.generator import generate_scene
+from biovln_ms.scene.templates import get_template
 from biovln_ms.task_config import NavTaskConfig
 
 TEMPLATE, SEED = "two_room", 0
@@ -66,7 +67,8 @@ def main(argv: list[str] | None = None) -> None:
     )
     args = ap.parse_args(argv)
     cfg = NavTaskConfig()
-    categories = load_catalog().goal_categories()
+    offered = get_template(TEMPLATE).categories()  # the template's categories, in catalog order
+    categories = [c for c in load_catalog().goal_categories() if c in offered]
     spec = generate_scene(
         TEMPLATE, SEED, required_categories=[c for c in categories if c not in ("lab_bench", "lab_table")]
     )

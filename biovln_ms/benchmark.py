@@ -11,6 +11,7 @@ default dataset built from them (a composition of the episode model and the LSAT
 * Hard track (ours; the paper has none): ``hard_val`` / ``hard_test``, 160 episodes each over held-out
   seeds of ``suite``, ``open_plan`` and ``single_room`` (see ``HARD_SPLITS``); the goal is a category and
   any instance counts (ObjectNav's rule), half of each scene's episodes drawn for a geodesic over 6 m.
+  ``hard_dressed_test`` (issue 18): ``hard_test``'s scenes with the generator's lab dressing.
 * Benchmark splits (Table 4, pairwise disjoint): ``ms_dev`` seeds 150-153 x 40, ``ms_val`` 154 x 50,
   ``ms_test`` 155-156 x 60 (all holding cabinet, centrifuge, refrigerator and waste bin, Table 12:
   the generator's ``required_categories`` option), ``two_room`` (seed 200, 50 cross-room episodes)
@@ -19,6 +20,10 @@ default dataset built from them (a composition of the episode model and the LSAT
 * Protocol splits (issue 17, ours): ``protocol_train`` / ``protocol_val`` / ``protocol_test``, lab protocols
   as multi-goal episodes (``biovln_ms.protocols.episodes``) in scenes of all four templates, their seeds
   disjoint from every other split's (see ``PROTOCOL_SPLITS``).
+* Molecular-biology splits (issue 18, ours): ``molbio_val`` / ``molbio_test``, scenes of the
+  ``molecular_biology`` template, the only one offering the catalog's seven new categories, on seeds no other
+  split uses (see ``MOLBIO_SPLITS``); any instance of the category counts. The paper's splits never hold
+  the new categories.
 
 Every split is built for one robot (``biovln_ms.robots``): its scenes are generated, and their layout rules
 checked, for that robot's footprint radius. The default robot's dataset is the benchmark's; another robot's
@@ -61,6 +66,9 @@ HARD_SPLITS = {
     ),
 }
 HARD_SHARE = 0.5  # of each scene's episodes drawn for a geodesic over 6 m
+#: the Hard track with lab dressing (ours, issue 18): a split's scenes, same templates, seeds and instrument
+#: layouts, with the generator's lab dressing (``<scene>_dressed``): the two differ only in the clutter
+HARD_DRESSED = {"hard_dressed_test": "hard_test"}
 TWO_ROOM_BENCH = (200, 50)
 LSAT_EPISODES = 40
 EPISODES_BY_ACTIVE = {2: 35, 3: 30, 4: 40, 5: 40}
@@ -76,6 +84,15 @@ PROTOCOL_TEMPLATES = ("single_room", "two_room", "suite", "open_plan")
 PROTOCOL_EPISODES_PER_SCENE = 20
 PROTOCOL_MIN_HOSTED = 2
 PROTOCOL_SEED_SCAN = 50
+#: Molecular-biology splits (ours): per split, the first seed and the number of scenes (seeds 900-903 and
+#: 950-955). Scene i of a split is generated holding MOLBIO_WALL[i % 3] and MOLBIO_TABLE[i % 4]
+#: (``required_categories``), so each split holds all seven new categories; the rest of the layout is the
+#: seed's. Episodes name a category and any instance counts (as on the Hard track); no hard share.
+MOLBIO_TEMPLATE = "molecular_biology"
+MOLBIO_WALL = ("fume_hood", "ultra_low_freezer", "autoclave")
+MOLBIO_TABLE = ("thermal_cycler", "microscope", "water_bath", "shaker")
+MOLBIO_SPLITS = {"molbio_val": (900, 4), "molbio_test": (950, 6)}
+MOLBIO_EPISODES = 30
 
 
 def lsat_target_scene(robot: str = DEFAULT_ROBOT):
@@ -147,6 +164,18 @@ def paper_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
                 hard_share=HARD_SHARE,
             )
         )
+    for name, base in HARD_DRESSED.items():
+        out.append(
+            SplitPlan(
+                name,
+                [
+                    (generate_scene(t, seed, robot_radius=r, dressing=True), n, False)
+                    for t, seed, n in HARD_SPLITS[base]
+                ],
+                description=f"Hard track: the scenes of {base} with lab dressing, any instance counts",
+                hard_share=HARD_SHARE,
+            )
+        )
     out.append(
         SplitPlan(
             "lsat_target",
@@ -154,7 +183,7 @@ def paper_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
             description="Table 4: designer-authored scene (LSAT import), 40 episodes, 8 categories",
         )
     )
-    return out + protocol_splits(robot)
+    return out + protocol_splits(robot) + molbio_splits(robot)
 
 
 def protocol_scenes(
@@ -197,6 +226,39 @@ def protocol_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
                 description=f"lab protocols, K = 2-5 ordered goals: {count} scenes per template from seed "
                 f"{first_seed}",
                 protocols=library,
+            )
+        )
+    return out
+
+
+def molbio_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
+    """The molecular-biology splits (``MOLBIO_SPLITS``), their scenes generated for ``robot``."""
+    r = robot_spec(robot, "robot").footprint_radius
+    out = []
+    for name, (first_seed, count) in MOLBIO_SPLITS.items():
+        scenes = [
+            (
+                generate_scene(
+                    MOLBIO_TEMPLATE,
+                    first_seed + i,
+                    required_categories=(
+                        MOLBIO_WALL[i % len(MOLBIO_WALL)],
+                        MOLBIO_TABLE[i % len(MOLBIO_TABLE)],
+                    ),
+                    robot_radius=r,
+                ),
+                MOLBIO_EPISODES,
+                False,
+            )
+            for i in range(count)
+        ]
+        out.append(
+            SplitPlan(
+                name,
+                scenes,
+                description=f"molecular-biology lab, new categories: seeds {first_seed}-"
+                f"{first_seed + count - 1}, {MOLBIO_EPISODES} per scene, any instance counts",
+                hard_share=0.0,
             )
         )
     return out

@@ -29,6 +29,7 @@ from biovln_ms.paths import CATALOG_PATH
 
 Face = Literal["+X", "-X", "+Y", "-Y"]
 Placement = Literal["wall", "table_top", "floor", "furniture"]
+Mount = Literal["wall", "table_top", "floor"]
 
 #: Model-space unit vectors of the four operational-face labels.
 FACE_VECTORS: dict[str, tuple[float, float]] = {
@@ -37,6 +38,22 @@ FACE_VECTORS: dict[str, tuple[float, float]] = {
     "+Y": (0.0, 1.0),
     "-Y": (0.0, -1.0),
 }
+#: The paper's ten goal categories, in catalog order: first in ``Catalog.goal_categories()`` and so at
+#: indices 0-9 of the ``objectgoal`` one-hot and the semantic sensor, as before the catalog grew; categories
+#: added since (issue 18) follow them, so the one-hot grows at its end (a policy trained on the 10-long
+#: one-hot is refused with a one-line error, never fed a shifted one).
+PAPER_GOAL_CATEGORIES = (
+    "refrigerator",
+    "incubator",
+    "centrifuge",
+    "mini_centrifuge",
+    "pipette",
+    "cabinet",
+    "waste_bin",
+    "biosafety_cabinet",
+    "lab_bench",
+    "lab_table",
+)
 #: Tolerance between a printed d_half and half the printed dimension along the face axis
 #: (the paper's d_half values come from Blender vertex analysis and differ by up to 7 mm).
 D_HALF_TOLERANCE = 0.01
@@ -55,6 +72,16 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
+class InteractionPoint(_Strict):
+    """Where a manipulator acts on a goal category (issue 16 item 3): a point in the asset's model space
+    (metres, origin at the bbox centre, as ``dimensions``), inside its bounds on its operational face's
+    side."""
+
+    label: str = Field(min_length=1)  # what is there: "door handle", "sash opening"
+    point: tuple[float, float, float]
+    rationale: str = Field(min_length=1)  # one line: why this point
+
+
 class AssetSpec(_Strict):
     """One catalog asset: dimensions in model space (x, y, z metres), origin at the bbox centre."""
 
@@ -71,6 +98,11 @@ class AssetSpec(_Strict):
     support_height: float | None = Field(default=None, gt=0)
     synonyms: tuple[str, ...] = ()  # other names designers give it: lower-case words, no digits
     rationale: str = ""
+    interaction: InteractionPoint | None = None  # goal categories: where a manipulator acts on it
+    mount: Mount | None = None  # lab dressing only: how the generator places it (its front is model -Y)
+    mount_height: float = Field(
+        default=0.0, ge=0.0, le=3.0
+    )  # lab dressing on a wall: its bottom above the floor
     _zone2_clearance: float | None = PrivateAttr(default=None)  # set by the CatalogFile holding the asset
 
     @field_validator("dimensions")
@@ -102,6 +134,8 @@ class AssetSpec(_Strict):
                 )
             if self.goal_category:
                 raise ValueError("goal_category: an asset without an operational face cannot be a goal")
+            if self.interaction is not None:
+                raise ValueError("interaction: an asset without an operational face has no interaction point")
             return self
         for key in ("d_half", "approach_distance", "success_radius"):
             if getattr(self, key) is None:
@@ -113,6 +147,17 @@ class AssetSpec(_Strict):
                 f"d_half: {self.d_half} is not half the {self.face[1]} dimension ({half:.3f}) within "
                 f"{D_HALF_TOLERANCE} m"
             )
+        if self.interaction is not None:
+            p = np.asarray(self.interaction.point, float)
+            if not np.all(np.isfinite(p)) or np.any(np.abs(p) > np.asarray(self.dimensions) / 2 + 1e-9):
+                raise ValueError(
+                    f"interaction: point {list(self.interaction.point)} lies outside the asset's bounds "
+                    f"(+-{[round(d / 2, 4) for d in self.dimensions]})"
+                )
+            if float(p[:2] @ self.face_vector) <= 0.0:
+                raise ValueError(
+                    f"interaction: point {list(self.interaction.point)} is not on the {self.face} side"
+                )
         return self
 
     @property
@@ -157,10 +202,25 @@ class CatalogFile(_Strict):
     room_inner: RoomInner
     assets: list[AssetSpec]
     room_shell: list[RoomShellPiece] = []
+    dressing: list[AssetSpec] = []  # non-goal objects the generator adds on request (issue 18 item 3)
+
+    @model_validator(mode="after")
+    def _dressing(self) -> CatalogFile:
+        for i, a in enumerate(self.assets):
+            if a.mount is not None or a.mount_height:
+                raise ValueError(f"assets[{i}].mount: only lab dressing (the 'dressing' list) is mounted")
+        for i, a in enumerate(self.dressing):
+            if a.mount is None or a.goal_category or a.face is not None or a.placement != "furniture":
+                raise ValueError(
+                    f"dressing[{i}]: lab dressing needs a mount, placement 'furniture', no face and no goal"
+                )
+            if a.mount != "wall" and a.mount_height:
+                raise ValueError(f"dressing[{i}].mount_height: only wall dressing hangs above the floor")
+        return self
 
     @model_validator(mode="after")
     def _unique(self) -> CatalogFile:
-        names = [a.name for a in self.assets] + [p.name for p in self.room_shell]
+        names = [a.name for a in [*self.assets, *self.dressing]] + [p.name for p in self.room_shell]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValueError(f"assets: duplicate names {dup}")
@@ -182,7 +242,7 @@ class CatalogFile(_Strict):
     @model_validator(mode="after")
     def _stamp_clearance(self) -> CatalogFile:
         """Each asset carries this catalog's epsilon_c (Eq. 2) into the geometry built from it."""
-        for a in self.assets:
+        for a in [*self.assets, *self.dressing]:
             a._zone2_clearance = self.zone2_clearance
         return self
 
@@ -195,6 +255,7 @@ class Catalog:
         self.source = source
         self.sha256 = hashlib.sha256(raw_bytes).hexdigest()
         self._assets = {a.name: a for a in data.assets}
+        self._dressing = {a.name: a for a in data.dressing}
         self._phrases = {p: a.name for a in data.assets for p in a.phrases}
 
     @property
@@ -211,10 +272,16 @@ class Catalog:
         return list(self.data.room_shell)
 
     def names(self) -> list[str]:
+        """The assets' names (lab dressing excluded: see ``dressing``)."""
         return list(self._assets)
 
     def assets(self) -> list[AssetSpec]:
         return list(self._assets.values())
+
+    def dressing(self) -> list[AssetSpec]:
+        """The lab dressing: non-goal objects only the generator places (on request), never named by an
+        LSAT import or a protocol; ``get`` finds them too."""
+        return list(self._dressing.values())
 
     def phrases(self) -> dict[tuple[str, ...], str]:
         """Word sequence (``name_tokens``) -> the asset it names: names, display names and synonyms."""
@@ -224,14 +291,16 @@ class Catalog:
         return [a.name for a in self._assets.values() if a.goal_category]
 
     def __contains__(self, name: object) -> bool:
+        """An asset's name (lab dressing excluded, as from ``names``)."""
         return name in self._assets
 
     def get(self, name: str) -> AssetSpec:
-        """The asset called ``name``; an unknown name raises CatalogError listing the known ones."""
+        """The asset (or lab dressing) called ``name``; an unknown name raises CatalogError listing the
+        known ones."""
         try:
-            return self._assets[name]
-        except KeyError:
-            known = sorted(self._assets)
+            return self._assets[name] if name in self._assets else self._dressing[name]
+        except (KeyError, TypeError):
+            known = sorted([*self._assets, *self._dressing])
             guess = fuzz_process.extractOne(str(name), known)
             hint = f" Did you mean '{guess[0]}'?" if guess and guess[1] >= 70 else ""
             raise CatalogError(

@@ -271,6 +271,9 @@ def scene_generate(
     ),
     map_png: Optional[Path] = typer.Option(None, "--map", help="Also write the top-down map."),
     lighting: str = _lighting_option(),
+    dressing: bool = typer.Option(
+        False, "--dressing", help="Add lab dressing: shelves, a sink, an eyewash, posters, stools, a trolley."
+    ),
 ) -> None:
     """Generate a scene spec from a seed.
 
@@ -279,10 +282,12 @@ def scene_generate(
     from biovln_ms.scene.spec import save_spec
 
     _check_lighting(lighting)
-    spec = generate_scene(template, seed, required_categories=tuple(require or ()))
+    spec = generate_scene(template, seed, required_categories=tuple(require or ()), dressing=dressing)
     path = save_spec(spec, out or Path(f"{spec.name}.json"))
+    dressed = f"; {len(spec.dressing)} pieces of lab dressing" if spec.dressing else ""
     typer.echo(
         f"wrote {path}: {len(spec.instruments)} instruments ({', '.join(o.id for o in spec.instruments)})"
+        + dressed
     )
     if map_png:
         from biovln_ms.scene.topdown import save_map
@@ -615,14 +620,28 @@ def eval_cmd(
     scorer: Optional[str] = typer.Option(
         None, help="vlfm: 'default' (packaged EfficientNet-Lite0 + MiniLM) or 'clip:/local/dir'."
     ),
+    parser: Optional[str] = typer.Option(
+        None, help="protocol_language: 'rule' (default, offline) or 'llm' (an LLM reads the instruction)."
+    ),
     name: Optional[str] = typer.Option(None, help="Results folder name (default: the method)."),
     noise: str = typer.Option(
         "ideal", help="Noise preset: ideal (the paper) or realistic; the run is named METHOD+PRESET."
+    ),
+    robot: str = typer.Option(
+        "biovln_base",
+        "--robot",
+        help="Robot: biovln_base or fetch (its own default dataset; the run is named METHOD-fetch).",
+    ),
+    export_handoff: Optional[Path] = typer.Option(
+        None,
+        "--export-handoff",
+        help="Write each successful episode's hand-off JSON here (final base pose, joints, scene).",
     ),
 ) -> None:
     from biovln_ms.eval.harness import EvalConfig, evaluate
 
     given = {"checkpoint": str(checkpoint) if checkpoint else None, "detector": detector, "scorer": scorer}
+    given["parser"] = parser
     kwargs = {k: v for k, v in given.items() if v is not None}
     cfg = EvalConfig(
         method,
@@ -638,13 +657,20 @@ def eval_cmd(
         method_kwargs=kwargs,
         name=name,
         noise=noise,
+        robot=robot,
+        handoff_dir=str(export_handoff) if export_handoff else None,
     )
     o = evaluate(cfg, echo=typer.echo)["overall"]
+    path = "progress {progress:.3f}, PPL {ppl:.3f}" if "progress" in o else "SPL {spl:.3f}, DTG {dtg:.2f} m"
     typer.echo(
-        f"{cfg.run_name} on {split}: {o['episodes']} episodes, SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, "
-        f"DTG {o['dtg']:.2f} m, MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}%, errors: {o['errors']} "
-        f"-> {cfg.run_dir}"
+        f"{cfg.run_name} on {split}: {o['episodes']} episodes, SR {o['sr']:.1f}%, {path.format(**o)}, "
+        f"MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}%, errors: {o['errors']} -> {cfg.run_dir}"
     )
+    if o.get("reach_successes") is not None:  # Fetch: the reach check at STOP
+        typer.echo(
+            f"reach SR {o['reach_sr']:.1f}% (the gripper reaches the interaction point); reachable: "
+            f"{o['reachable_of_successes']:.1f}% of the successes"
+        )
     if o["errors"]:  # counted as failures; the exit status says the numbers include them
         typer.echo(
             f"error: {o['errors']} of {o['episodes']} episodes failed to run (counted as failures, "
@@ -685,7 +711,7 @@ def benchmark_cmd(
     dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
 ) -> None:
     from biovln_ms.errors import BioVLNError
-    from biovln_ms.eval.suite import SUITE_METHODS, SUITE_NOISE, SUITE_SPLITS, run_suite
+    from biovln_ms.eval.suite import PROTOCOL_METHODS, SUITE_METHODS, SUITE_NOISE, SUITE_SPLITS, run_suite
 
     def names(value: str | None, default: tuple[str, ...]) -> list[str]:
         return [v.strip() for v in value.split(",") if v.strip()] if value else list(default)
@@ -702,7 +728,7 @@ def benchmark_cmd(
         given[method] = path
     run_suite(
         out,
-        names(methods, SUITE_METHODS),
+        names(methods, SUITE_METHODS + PROTOCOL_METHODS),
         names(splits, SUITE_SPLITS),
         names(noises, SUITE_NOISE),
         workers,

@@ -65,14 +65,21 @@ def _catalog(_: str | None) -> str:
         return "–" if v is None else str(v)
 
     rows = [
-        "| asset | dimensions (m) | placement | face | d_half (m) | δ (m) | r (m) | goal category |",
-        "|---|---|---|---|---|---|---|---|",
+        "| asset | dimensions (m) | placement | face | d_half (m) | δ (m) | r (m) | goal category | "
+        "interaction point (model frame, m) |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for a in load_catalog().assets():
         dims = " × ".join(f"{d:.2f}" for d in a.dimensions)
+        point = (
+            "–"
+            if a.interaction is None
+            else f"{a.interaction.label} ({', '.join(map(str, a.interaction.point))})"
+        )
         rows.append(
             f"| `{a.name}` | {dims} | {a.placement} | {show(a.face)} | {show(a.d_half)} | "
-            f"{show(a.approach_distance)} | {show(a.success_radius)} | {'yes' if a.goal_category else 'no'} |"
+            f"{show(a.approach_distance)} | {show(a.success_radius)} | {'yes' if a.goal_category else 'no'} "
+            f"| {point} |"
         )
     return "\n".join(rows)
 

@@ -42,6 +42,7 @@ from biovln_ms.robots import DEFAULT_ROBOT, ROBOTS, robot_spec
 from biovln_ms.sensor_noise import DepthNoise, RGBNoise, frame_keys
 from biovln_ms.sim.footprints import collision_footprints
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
+from biovln_ms.sim.reach import REACH_MEASURES, FetchArm, ReachResult, reach_goals
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
 from biovln_ms.tasks.privileged import PrivilegedView
 from biovln_ms.tasks.sensors import SENSORS, SensorInputs, semantic_category
@@ -116,6 +117,7 @@ class BioVLNNavEnv(BaseEnv):
         self._episodes: list[dict] = [self.source.episodes[self.cursor.first]] * n
         self._scene_ids: list[str | None] = [None] * n
         self._set_scenes()
+        self._arm: FetchArm | None = None  # Fetch's arm model for the reach check, made at the first STOP
         super().__init__(*args, robot_uids=NAV_AGENTS[self.robot_id].uid, control_mode=control_mode, **kwargs)
 
     def _generated_episodes(self, template: str, scene_seed: int) -> EpisodeSource:
@@ -193,11 +195,16 @@ class BioVLNNavEnv(BaseEnv):
         self._ctx = BatchContext(self.num_envs)
         c = self.cfg
         # what info reports, and what the task needs besides (reward, success, fail, the sensors' clearance)
-        self._info_names = tuple(dict.fromkeys(c.measures + ("stopped", "agent_pose", "goal_position")))
+        reach = REACH_MEASURES if self.robot_id == "fetch" and not c.protocol else ()  # only Fetch has an arm
+        self._info_names = tuple(
+            dict.fromkeys(c.measures + ("stopped", "agent_pose", "goal_position") + reach)
+        )
         needed = (c.reward_measure, c.success_measure, c.fail_measure, "clearance")
         self._measures = MeasureSet(
             tuple(dict.fromkeys(self._info_names + needed)), self.num_envs, self.device, c
         )
+        if reach:
+            self._measures.measures["reachable"].solver = self._reach
         # the task's per-sub-env bookkeeping is on the host, like the measures (biovln_ms.metrics.measures)
         self._start = np.zeros((self.num_envs, 3))
         self._objectgoal = np.zeros((self.num_envs, len(self.category_names)), np.float32)
@@ -286,6 +293,22 @@ class BioVLNNavEnv(BaseEnv):
             hfov=self.cfg.hfov,
             other_goals=tuple(others),
         )
+
+    def _reach(self, i: int, pose: np.ndarray) -> tuple[ReachResult, int]:
+        """Whether Fetch's gripper reaches an interaction point of sub-env ``i``'s goals from planar ``pose``,
+        and which goal (``biovln_ms.sim.reach``; the arm model is made from this env's articulation once)."""
+        if self._arm is None:
+            self._arm = FetchArm(self.agent.robot._objs[0])
+        ids = [g["object_id"] for g in self._episodes[i]["goals"]]
+        return reach_goals(self._arm, self.scene_specs[i], ids, pose)
+
+    def reach_configuration(self, i: int = 0) -> np.ndarray | None:
+        """Sub-env ``i``'s reaching joint positions (every active joint) found at its STOP, or None (not
+        reachable, no STOP yet, or a robot without an arm)."""
+        if "reachable" not in self._measures.measures:
+            return None
+        q = self._measures.measures["reachable"].qpos[i]
+        return None if np.isnan(q).any() else q.copy()
 
     def _pose(self) -> np.ndarray:
         """(N, 3) float64 planar poses from the base joints (host)."""

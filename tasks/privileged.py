@@ -3,7 +3,9 @@
 Only methods registered as privileged (the oracle and the 3-Zone oracle) receive it: the goal the task
 scores against, its success radius, the target's and all instruments' zones, exact geodesics on the
 scene's navigation geometry, and the robot's true planar pose. Every accessor returns a copy or an
-immutable object, so an oracle can read the episode but cannot change it.
+immutable object, so an oracle can read the episode but cannot change it. In a protocol episode
+(``BioVLN-Protocol-v0``) the goal, success radius and target are the current sub-goal's, following
+``info["subgoal_index"]``; in every other episode they are its first goal's.
 """
 
 from __future__ import annotations
@@ -20,17 +22,28 @@ from biovln_ms.metrics.measures import EpisodeContext
 class PrivilegedView:
     """One sub-env's episode as an oracle may see it."""
 
-    __slots__ = ("_ctx", "_nav", "_pose", "_goal_mode")
+    __slots__ = ("_ctx", "_nav", "_pose", "_goal_mode", "_current")
 
     def __init__(
-        self, ctx: EpisodeContext, nav: NavGeometry, pose: Callable[[], np.ndarray], goal_mode: str
+        self,
+        ctx: EpisodeContext,
+        nav: NavGeometry,
+        pose: Callable[[], np.ndarray],
+        goal_mode: str,
+        current: Callable[[], int] | None = None,
     ) -> None:
+        """``current``: the index, into ``ctx.goals``, of the goal asked for now (None: the first goal)."""
         self._ctx, self._nav, self._pose, self._goal_mode = ctx, nav, pose, goal_mode
+        self._current = current
+
+    def _now(self) -> tuple[np.ndarray, float, PlacedInstrument]:
+        """(goal, success radius, target) of the goal asked for now."""
+        return self._ctx.goals[0 if self._current is None else int(self._current())]
 
     @property
     def goal(self) -> np.ndarray:
         """The goal the task scores against (Eq. 1, or the centroid projection in the centroid variant)."""
-        return np.array(self._ctx.goal, float)
+        return np.array(self._now()[0], float)
 
     @property
     def goal_mode(self) -> str:
@@ -38,12 +51,12 @@ class PrivilegedView:
 
     @property
     def success_radius(self) -> float:
-        return float(self._ctx.success_radius)
+        return float(self._now()[1])
 
     @property
     def target(self) -> PlacedInstrument:
         """The target instrument (a frozen dataclass: Zone 1/2/3 polygons, face, centroid goal)."""
-        return self._ctx.target
+        return self._now()[2]
 
     @property
     def instruments(self) -> tuple[PlacedInstrument, ...]:

@@ -4,10 +4,11 @@ The robot, actions, physics, sensors and safety measures are :class:`~biovln_ms.
 What differs: an episode's goals are visited in order, each an Eq. 1 goal with its success radius r; a STOP
 (MultiON's FOUND) at the current goal moves on to the next, a STOP elsewhere ends the episode or misses the
 goal (``wrong_stop``); the step budget is ``steps_per_goal`` x K. The rule and the metrics are measures
-(:mod:`biovln_ms.metrics.protocol_measures`). The observation's goal sensors follow the current goal
-(``pointgoal_with_gps_compass``, ``objectgoal``), and it carries the episode's English instruction:
-``instruction`` (token ids of the versioned vocabulary, :mod:`biovln_ms.protocols.vocabulary`, padded to
-its fixed length) and ``instruction_text`` (its UTF-8 bytes, padded with NUL; ``decode_text`` reads them).
+(:mod:`biovln_ms.metrics.protocol_measures`). The observation's goal sensors (``pointgoal_with_gps_compass``,
+``pointgoal``, ``objectgoal``) and an oracle's privileged view follow the current goal; the observation also
+carries the episode's English instruction: ``instruction`` (token ids of the versioned vocabulary,
+:mod:`biovln_ms.protocols.vocabulary`, padded to its fixed length) and ``instruction_text`` (its UTF-8
+bytes, padded with NUL; ``decode_text`` reads them).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from biovln_ms.protocols.episodes import GeneratedProtocolEpisodes
 from biovln_ms.protocols.vocabulary import load_vocabulary
 from biovln_ms.task_config import EpisodeInfo
 from biovln_ms.tasks.nav_env import BioVLNNavEnv
+from biovln_ms.tasks.privileged import PrivilegedView
 from biovln_ms.tasks.sensors import SENSORS, SensorInputs, register_sensor
 from biovln_ms.variants import VARIANTS
 
@@ -112,7 +114,17 @@ class BioVLNProtocolEnv(BioVLNNavEnv):
         return {name: torch.from_numpy(SENSORS[name](x)).to(self.device) for name in self.cfg.sensors}
 
     def episode_info(self, i: int = 0, privileged: bool = False) -> EpisodeInfo:
-        """The single-goal env's (the first goal's category; an oracle's view is of the first goal) with the
-        episode's instruction."""
+        """The single-goal env's (the first goal's category) with the episode's instruction; an oracle's
+        view follows the current sub-goal (``info["subgoal_index"]``, the last goal once all are done)."""
         info = super().episode_info(i, privileged)
+        if privileged:
+            k = len(self._ctx.episode(i).goals)
+            view = PrivilegedView(
+                self._ctx.episode(i),
+                self.navs[i],
+                lambda: self._pose()[i],
+                self.cfg.goal_mode,
+                lambda: min(int(self._measures["subgoal_index"][i]), k - 1),
+            )
+            info = replace(info, privileged=view)
         return replace(info, instruction=self._episodes[i]["protocol"]["instruction"])

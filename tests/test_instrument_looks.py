@@ -29,6 +29,23 @@ FIRST_GENERATOR_MESHES = {
     "floor_tile": "bf46764bc858e788",
     "ceiling_tile": "bf46764bc858e788",
     "door_frame": "9c99cdb24ca2c78c",
+    # the molecular-biology instruments (issue 18 item 4), pinned at their first generation
+    "fume_hood": "215432c02b502584",
+    "ultra_low_freezer": "be2de1ebfced241f",
+    "autoclave": "67b5d18b8ffa57d2",
+    "thermal_cycler": "599b0739d151341f",
+    "microscope": "ad3bffd6b91b72d0",
+    "water_bath": "f8a32d64db081c96",
+    "shaker": "12b64f7881e173ee",
+    # the lab dressing (issue 18 item 3), pinned at its first generation
+    "shelving_unit": "f67a0ba74436daa3",
+    "lab_sink": "f74e282b134caeb4",
+    "eyewash_station": "69cdf900020d5701",
+    "fire_extinguisher": "9566ed9ed3722608",
+    "safety_poster": "615b487c2e2a751a",
+    "lab_stool": "8fbe3506e6b15cd9",
+    "lab_trolley": "29b6101eb6a06fee",
+    "glassware_rack": "24d16d98b839748d",
 }
 PLANS = plans(load_catalog())
 
@@ -60,7 +77,14 @@ def test_instruments_have_physically_based_materials(catalog):
         if a.name not in ("pipette", "lab_bench", "lab_table"):
             assert faces, f"{a.name}: no door or panel with its own picture"
     displays = {c for c, decals in LIVE_DECALS.items() for d in decals if "display" in d or "panel" in d}
-    assert displays == {"refrigerator", "incubator", "centrifuge", "mini_centrifuge", "biosafety_cabinet"}
+    assert displays == {"refrigerator", "incubator", "centrifuge", "mini_centrifuge", "biosafety_cabinet"} | {
+        "fume_hood",
+        "ultra_low_freezer",
+        "autoclave",
+        "thermal_cycler",
+        "water_bath",
+        "shaker",
+    }
     for c in displays:
         assert any(m.emissiveTexture is not None for m in _materials(c).values()), (
             f"{c}: display does not glow"
@@ -165,8 +189,10 @@ def test_waste_bin_shows_ten_thousand_colours_from_its_goal():
     """The category nearest the issue's bar (10,000 distinct colours from the Zone-3 goal, 'quality')."""
     from biovln_ms.render.goal_views import GoalViewRenderer, distinct_colours, goal_views
     from biovln_ms.scene.generator import generate_scene
+    from biovln_ms.scene.templates import get_template
 
-    instruments = [c for c in load_catalog().goal_categories() if c not in ("lab_bench", "lab_table")]
+    offered = get_template("two_room").categories() - {"lab_bench", "lab_table"}
+    instruments = [c for c in load_catalog().goal_categories() if c in offered]
     spec = generate_scene("two_room", 0, required_categories=instruments)  # the benchmark's scene
     bin_ = next(o for o in spec.instruments if o.category == "waste_bin")
     renderer = GoalViewRenderer(spec, "quality")

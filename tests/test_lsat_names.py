@@ -34,6 +34,9 @@ from biovln_ms.lsat.names import match_category
         ("Bench_Island", "lab_bench"),
         ("CO2Incubator", "incubator"),
         ("target_Fridge_02", "refrigerator"),
+        ("Fume Hood", "fume_hood"),  # a category since issue 18, and still no biosafety cabinet
+        ("ULT_Freezer_2", "ultra_low_freezer"),
+        ("PCR Machine", "thermal_cycler"),
     ],
 )
 def test_designer_names_are_recognised_by_their_words(name, category):
@@ -47,7 +50,7 @@ def test_designer_names_are_recognised_by_their_words(name, category):
         ("cabinet_door", "part", ()),  # a part word after the phrase: a part, and no biosafety cabinet
         ("Bin_Shelf", "part", ()),
         ("fridge door-2", "part", ()),
-        ("Fume Hood", "", ()),  # "hood" alone is no synonym: a fume hood is not a biosafety cabinet
+        ("Extract Hood", "", ()),  # "hood" alone is no synonym: a fume hood is not a biosafety cabinet
         ("Hood_01", "", ()),
         ("Binoculars", "", ()),  # words, not substrings: no "bin" in it (nor in "cabinet")
         ("Fridge_Incubator", "words", ("incubator", "refrigerator")),  # ambiguous: reported, not guessed
@@ -136,7 +139,7 @@ LAYOUT = [
 LOOSE = {  # meshes no rule makes an instrument: name -> (centre x, y, z), size (x, y, z)
     "cabinet_door": ((7.6, 0.5, 0.85), (0.6, 0.03, 1.7)),
     "Bin_Shelf": ((7.6, 1.4, 0.5), (0.4, 0.3, 1.0)),
-    "Fume Hood": ((2.5, 0.3, 1.0), (1.2, 0.5, 2.0)),
+    "Extract Hood": ((2.5, 0.3, 1.0), (1.2, 0.5, 2.0)),
 }
 EXPECTED = {
     "Bench_Island": "lab_bench",
@@ -193,7 +196,7 @@ def test_name_map_wins_over_words_and_synonyms(designer_glb, tmp_path):
         "# designer name or glob -> category (null: not an instrument)\n"
         "Centrifuge 5424R: mini_centrifuge\n"
         "'Heracell*': incubator\n"
-        "Fume Hood: null\n"
+        "Extract Hood: null\n"
     )
     spec, report = import_glb(designer_glb, names=load_name_map(path))
     got = {r["node"]: r["category"] for r in report.instruments}

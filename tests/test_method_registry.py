@@ -92,7 +92,7 @@ def test_registry_fields_are_consistent():
     assert report_methods()[:3] == ["random", "oracle", "frontier"]
     assert len({s.report_order for s in METHODS.values()}) == len(METHODS)
     assert len({s.label for s in METHODS.values()}) == len(METHODS)
-    assert {m for m, s in METHODS.items() if s.privileged} == {"oracle", "zone3_oracle"}
+    assert {m for m, s in METHODS.items() if s.privileged} == {"oracle", "zone3_oracle", "protocol_oracle"}
     assert METHODS["vlfm"].label == "VLFM (GT detector)" and METHODS["vlfm"].paper_key == "VLFM"
     assert [METHODS[m].paper_key for m in ("ppo", "a2c", "sac")] == [None, None, None]
     # every row of the paper's tables belongs to a registered method, and no two methods claim one row

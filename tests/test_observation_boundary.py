@@ -84,6 +84,9 @@ def _policies(tmp_path, dataset):
     from biovln_ms.agents.bc_policy import BCPolicy
     from biovln_ms.agents.frontier import FrontierPolicy
     from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
+    from biovln_ms.agents.protocol_frontier import ProtocolFrontierPolicy
+    from biovln_ms.agents.protocol_language import ProtocolLanguagePolicy
+    from biovln_ms.agents.protocol_vlfm import ProtocolVLFMPolicy
     from biovln_ms.agents.random_policy import RandomPolicy
     from biovln_ms.agents.sb3_policy import SB3Policy
     from biovln_ms.agents.vlfm import VLFMPolicy
@@ -111,19 +114,24 @@ def _policies(tmp_path, dataset):
         "vlfm": VLFMPolicy(),
         "bc": BCPolicy(str(bc)),
         "ppo": SB3Policy(str(tmp_path / "ppo.zip")),
+        "protocol_frontier": ProtocolFrontierPolicy(),
+        "protocol_vlfm": ProtocolVLFMPolicy(),
+        "protocol_language": ProtocolLanguagePolicy(),
     }
 
 
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory):
-    """Two MS VAL episodes of the held-out scene of seed 154."""
+    """Two MS VAL episodes of the held-out scene of seed 154, and a protocol episode there."""
     from biovln_ms.benchmark import FOUR_CATEGORIES
     from biovln_ms.episodes.dataset import SplitPlan, write_dataset
+    from biovln_ms.protocols import load_protocols
     from biovln_ms.scene.generator import generate_scene
 
     root = tmp_path_factory.mktemp("data") / "ds"
     scene = generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES)
-    write_dataset(root, [SplitPlan("ms_val", [(scene, 2, False)])], progress=False)
+    protocols = SplitPlan("protocol_val", [(scene, 1, False)], protocols=load_protocols(env=False))
+    write_dataset(root, [SplitPlan("ms_val", [(scene, 2, False)]), protocols], progress=False)
     return root
 
 
@@ -134,7 +142,7 @@ def test_non_privileged_methods_run_from_observations_alone(tmp_path, dataset, g
         spec = METHODS[name]
         env = gym.make(
             spec.env_id or "BioVLN-OpFace-v0",
-            split="ms_val",
+            split="protocol_val" if spec.env_id == "BioVLN-Protocol-v0" else "ms_val",
             dataset=str(dataset),
             obs_mode=spec.obs_mode,
             camera_width=96,
@@ -168,7 +176,8 @@ def test_only_oracles_get_the_read_only_privileged_view(dataset):
             view.goal = np.zeros(2)
         with pytest.raises(FrozenInstanceError):
             view.target.yaw = 1.0
-        assert {m for m, s in METHODS.items() if s.privileged} == {"oracle", "zone3_oracle"}
+        privileged = {m for m, s in METHODS.items() if s.privileged}
+        assert privileged == {"oracle", "zone3_oracle", "protocol_oracle"}
     finally:
         env.close()
 

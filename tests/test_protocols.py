@@ -171,9 +171,9 @@ BAD = {
         r"did you mean 'centrifuge'",
     ),
     "unknown_in_group": (
-        _proto(steps=[*_visits("refrigerator"), _group("pipette", "microscope")]),
+        _proto(steps=[*_visits("refrigerator"), _group("pipette", "spectrophotometer")]),
         "steps[1].any_order[1].category",
-        r"unknown category 'microscope'",
+        r"unknown category 'spectrophotometer'",
     ),
     "empty_steps": (_proto(steps=[]), "steps", r"no steps"),
     "k_too_small": (_proto(steps=_visits("refrigerator")), "steps", r"1 visit \(K = 1\)"),

@@ -40,9 +40,9 @@ class AssetPlan:
 
 
 def plans(catalog: Catalog) -> list[AssetPlan]:
-    """What to generate: every catalog asset, then the room-shell pieces."""
+    """What to generate: every catalog asset and piece of lab dressing, then the room-shell pieces."""
     out = []
-    for a in catalog.assets():
+    for a in [*catalog.assets(), *catalog.dressing()]:
         face = tuple(a.face_vector) if a.face is not None else CANONICAL_FACE
         out.append(AssetPlan(a.name, tuple(a.dimensions), face, a.collision, a.face))
     for p in catalog.room_shell:

@@ -817,3 +817,138 @@ def counter(text: str, width: int = 96, height: int = 48) -> Image.Image:
     draw.rectangle([0, 0, width - 1, height - 1], outline=(90, 90, 95), width=2)
     fit_text(draw, (width / 2, height / 2), text, width * 0.85, height * 0.8, (15, 15, 20), "mm")
     return img
+
+
+# --- added with the molecular-biology instruments (issue 18 item 4) --------------------------------
+def dial(seed: int, reading: float, label_text: str = "kPa", size: int = 128) -> Image.Image:
+    """A round pressure gauge (RGBA): a chrome bezel, a white face with a scale, a red band and a needle at
+    ``reading`` (0 to 1 of the scale)."""
+    rng = np.random.default_rng(seed)
+    img = Image.new("RGBA", (size, size), (0, 0, 0, 0))
+    draw = ImageDraw.Draw(img)
+    c, r = size / 2, size / 2 - 1
+    draw.ellipse([c - r, c - r, c + r, c + r], fill=(150, 152, 158, 255), outline=(60, 62, 66, 255), width=2)
+    ri = r * 0.84
+    draw.ellipse([c - ri, c - ri, c + ri, c + ri], fill=(246, 246, 240, 255))
+    start, span = 225.0, 270.0  # degrees, clockwise from the top-left, as dial gauges run
+    draw.arc(
+        [c - ri * 0.9, c - ri * 0.9, c + ri * 0.9, c + ri * 0.9], -45 - 54, -45, fill=(200, 30, 30), width=4
+    )
+    for t in range(11):
+        a = math.radians(start - span * t / 10)
+        inner = ri * (0.72 if t % 5 == 0 else 0.8)
+        draw.line(
+            [
+                c + math.cos(a) * inner,
+                c - math.sin(a) * inner,
+                c + math.cos(a) * ri * 0.92,
+                c - math.sin(a) * ri * 0.92,
+            ],
+            fill=(25, 25, 30, 255),
+            width=2,
+        )
+    fit_text(draw, (c, c + ri * 0.35), label_text, ri * 0.8, ri * 0.25, (25, 25, 30, 255), "mm")
+    a = math.radians(start - span * min(max(reading, 0.0), 1.0))
+    draw.line(
+        [c, c, c + math.cos(a) * ri * 0.78, c - math.sin(a) * ri * 0.78], fill=(190, 25, 25, 255), width=3
+    )
+    draw.ellipse([c - 5, c - 5, c + 5, c + 5], fill=(30, 30, 32, 255))
+    arr = np.asarray(img, float)
+    arr[..., :3] += 2.0 * rng.standard_normal((size, size, 1))
+    return Image.fromarray(np.clip(np.rint(arr), 0, 255).astype(np.uint8), "RGBA")
+
+
+def flask_platform(
+    seed: int, width: int = 256, height: int = 192, cols: int = 4, rows: int = 3
+) -> Image.Image:
+    """A shaker platform seen from above: a brushed tray, spring clamps and Erlenmeyer flasks of broth."""
+    rng = np.random.default_rng(seed)
+    canvas = to_image(brushed_field(rng, height, width, (0.70, 0.72, 0.74)))
+    draw = ImageDraw.Draw(canvas)
+    pw, ph = width / cols, height / rows
+    broth = [(0.86, 0.74, 0.42), (0.80, 0.66, 0.35), (0.92, 0.86, 0.62), (0.75, 0.80, 0.55)]
+    for i in range(rows):
+        for j in range(cols):
+            cx, cy = (j + 0.5) * pw, (i + 0.5) * ph
+            r = min(pw, ph) * 0.4
+            draw.ellipse([cx - r, cy - r, cx + r, cy + r], outline=(60, 62, 66), width=3)  # clamp ring
+            if rng.random() < 0.8:
+                col = _c8(broth[int(rng.integers(len(broth)))])
+                draw.ellipse([cx - r * 0.85, cy - r * 0.85, cx + r * 0.85, cy + r * 0.85], fill=col)
+                draw.ellipse(
+                    [cx - r * 0.3, cy - r * 0.3, cx + r * 0.3, cy + r * 0.3],
+                    fill=(235, 235, 228),
+                    outline=(150, 150, 150),
+                )  # foam plug in the neck
+    return canvas
+
+
+def safety_sign(kind: str, seed: int, width: int = 192, height: int = 192) -> Image.Image:
+    """An ISO 7010-style sign on a coloured board with its caption: 'eyewash' (green, E011) or
+    'extinguisher' (red, F001)."""
+    ground, text = {"eyewash": ((0.0, 0.55, 0.33), "EYE WASH"), "extinguisher": ((0.80, 0.08, 0.08), "FIRE")}[
+        kind
+    ]
+    img = to_image(_paper(width, height, ground))
+    draw = ImageDraw.Draw(img)
+    white = (250, 250, 248)
+    s = min(width, height * 0.72)
+    cx, cy = width / 2, s / 2 + 4
+    if kind == "eyewash":  # a face and the two jets rising into the eyes
+        draw.ellipse([cx - s * 0.22, cy - s * 0.3, cx + s * 0.22, cy + s * 0.2], outline=white, width=4)
+        for dx in (-0.09, 0.09):
+            draw.ellipse([cx + s * dx - 6, cy - s * 0.1 - 5, cx + s * dx + 6, cy - s * 0.1 + 5], fill=white)
+            draw.arc(
+                [cx + s * dx - s * 0.12, cy - s * 0.1, cx + s * dx + s * 0.12, cy + s * 0.42],
+                200,
+                340,
+                white,
+                3,
+            )
+    else:  # an extinguisher with its flame
+        draw.rounded_rectangle([cx - s * 0.1, cy - s * 0.2, cx + s * 0.1, cy + s * 0.35], 8, fill=white)
+        draw.rectangle([cx - s * 0.04, cy - s * 0.3, cx + s * 0.04, cy - s * 0.2], fill=white)
+        draw.line([cx + s * 0.04, cy - s * 0.27, cx + s * 0.25, cy - s * 0.33], fill=white, width=5)
+        draw.polygon(
+            [(cx - s * 0.38, cy + s * 0.35), (cx - s * 0.3, cy), (cx - s * 0.2, cy + s * 0.35)], fill=white
+        )
+    fit_text(draw, (width / 2, s + 8), text, width - 12, height - s - 14, white, "ma")
+    arr = np.asarray(img, float) + 2.0 * np.random.default_rng(seed).standard_normal((height, width, 1))
+    return to_image(arr)
+
+
+def poster(
+    title: str, lines: Sequence[str], ground: Color, seed: int, icon: str, width: int = 256, height: int = 362
+) -> Image.Image:
+    """A printed safety poster (A-series proportions): a coloured title band, an ISO-style icon ('mandatory'
+    blue disc with a figure, 'warning' triangle, 'biohazard', 'phone') and text lines."""
+    rng = np.random.default_rng(seed)
+    img = to_image(_paper(width, height, (0.97, 0.97, 0.95)))
+    draw = ImageDraw.Draw(img)
+    band = height // 6
+    draw.rectangle([0, 0, width, band], fill=_c8(ground))
+    fit_text(draw, (width / 2, band * 0.2), title, width - 16, band * 0.65, (250, 250, 248), "ma")
+    s = int(width * 0.45)
+    x0, y0 = (width - s) // 2, band + 12
+    if icon == "mandatory":
+        draw.ellipse([x0, y0, x0 + s, y0 + s], fill=(20, 80, 170))
+        c = x0 + s / 2
+        draw.ellipse([c - s * 0.09, y0 + s * 0.15, c + s * 0.09, y0 + s * 0.33], fill=(250, 250, 248))
+        draw.rectangle([c - s * 0.16, y0 + s * 0.36, c + s * 0.16, y0 + s * 0.7], fill=(250, 250, 248))
+        draw.rectangle([c - s * 0.13, y0 + s * 0.7, c + s * 0.13, y0 + s * 0.85], fill=(250, 250, 248))
+    elif icon in ("warning", "biohazard"):
+        sub = warning("biohazard" if icon == "biohazard" else "general", seed, s)
+        img.paste(sub, (x0, y0), sub)
+    else:  # a telephone handset in a green square
+        draw.rectangle([x0, y0, x0 + s, y0 + s], fill=(0, 140, 80))
+        draw.arc([x0 + s * 0.2, y0 + s * 0.2, x0 + s * 0.8, y0 + s * 0.9], 200, 340, (250, 250, 248), 10)
+        for dx in (0.2, 0.68):
+            draw.rectangle(
+                [x0 + s * dx, y0 + s * 0.45, x0 + s * (dx + 0.12), y0 + s * 0.62], fill=(250, 250, 248)
+            )
+    top = y0 + s + 10
+    lh = (height - top - 8) / max(1, len(lines))
+    for i, line in enumerate(lines):
+        fit_text(draw, (10, top + i * lh), line, width - 20, lh * 0.8, (25, 25, 30))
+    arr = np.asarray(img, float) + 2.5 * rng.standard_normal((height, width, 1))
+    return to_image(arr)

@@ -17,7 +17,8 @@ given (habitat-lab resolves it from its working folder). A goal is an instrument
 ``radius`` are our navigable operational-face goal and success radius, ``view_points`` ours (with
 ``iou`` null). ``goals_by_category["<scene>.glb_<category>"]`` holds every instrument of that category
 that the split's episodes target: habitat-lab counts reaching any of them, where we count only the
-episode's target (the same whenever a scene has one instrument of the category).
+episode's target (the same whenever a scene has one instrument of the category). A protocol split
+(K ordered goals per episode, ``BioVLN-Protocol-v0``) has no ObjectNav form and is refused in one line.
 """
 
 from __future__ import annotations
@@ -135,8 +136,15 @@ def export_habitat(ds: EpisodeDataset, split: str, out: str | Path) -> list[Path
     scenes = ds.split_info(split)["scenes"]
     if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*", split):
         raise BioVLNError(f"split name {split!r} cannot name a folder", field="split", fix="rename the split")
+    episodes = list(ds.episodes(split))
+    if any("protocol" in ep for ep in episodes):
+        raise BioVLNError(
+            f"split '{split}' holds protocol (multi-goal) episodes, which ObjectNav-v1 cannot express",
+            field="split",
+            fix="export a single-goal split; protocol splits run in BioVLN-Protocol-v0",
+        )
     config = out / "scenes" / SCENE_DATASET_CONFIG
-    data = habitat_dataset(ds.episodes(split), config.as_posix())
+    data = habitat_dataset(episodes, config.as_posix())
     files = [export_scene_glb(ds.spec(s), out / "scenes" / f"{s}.glb") for s in scenes]
     files.append(atomic_write_text(config, json.dumps(scene_dataset_config(), indent=1) + "\n"))
     files.append(atomic_write_bytes(out / "objectnav" / split / f"{split}.json.gz", gz_json(data)))

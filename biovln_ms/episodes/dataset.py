@@ -120,6 +120,7 @@ class _SceneEntry(TypedDict):
     sha256: _SHA256
     template: str
     seed: int
+    dressing: NotRequired[bool]  # generated with lab dressing (issue 18); absent: without
 
 
 @with_config(_STRICT)
@@ -137,6 +138,7 @@ class _SplitEntry(TypedDict):
     files: dict[str, _FileEntry]
     missing: NotRequired[str | None]
     view_of: NotRequired[str | None]
+    dressing: NotRequired[bool]  # its scenes have lab dressing (issue 18); absent: they have none
 
 
 @with_config(_STRICT)
@@ -417,6 +419,8 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, robot:
                 entry["episodes"] += base["files"][spec.name]["episodes"]
             manifest["splits"][split.name] = entry
             continue
+        if any(spec.dressing for spec, _, _ in split.scenes):
+            entry["dressing"] = True
         for spec, n, cross in split.scenes:
             if spec.robot_radius != radius:
                 raise DatasetError(
@@ -432,6 +436,8 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, robot:
                     "sha256": sha256(data),
                     "file": f"scenes/{spec.name}.json",
                 }
+                if spec.dressing:  # the generator option, recorded only when on
+                    manifest["scenes"][spec.name]["dressing"] = True
                 samplers[spec.name] = EpisodeSampler(spec)
             seed = stable_split_seed(split.name)
             if split.protocols is not None:

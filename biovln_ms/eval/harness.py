@@ -27,10 +27,12 @@ from pathlib import Path
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import method_spec
-from biovln_ms.eval.metrics import METRICS, aggregate_all, record_error
+from biovln_ms.eval.metrics import aggregate_all, record_error, required_metrics
+from biovln_ms.eval.handoff import handoff_payload, write_handoff
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.io_utils import atomic_write_text, exclusive_lock
 from biovln_ms.noise import resolve_noise
+from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
 from biovln_ms.variants import VARIANTS
 
 DEFAULT_ENV = "BioVLN-OpFace-v0"
@@ -61,8 +63,11 @@ class EvalConfig:
     record_mode: str = "full"  # "full" (PNG frames + depth) or "trace" (positions, actions, goals only)
     name: str | None = None  # results folder name (default: the method, plus the variant when not OpFace)
     noise: str = "ideal"  # a noise preset (biovln_ms.noise.PRESETS)
+    robot: str = DEFAULT_ROBOT  # a biovln_ms.robots.ROBOTS id; its own dataset unless ``dataset`` is given
+    handoff_dir: str | None = None  # write each successful episode's hand-off here (biovln_ms.eval.handoff)
 
     def __post_init__(self) -> None:
+        robot_spec(self.robot, "robot")
         if self.env_id is None:
             self.env_id = method_spec(self.method).env_id or DEFAULT_ENV
         noise = resolve_noise(self.noise)  # one-line errors before any worker starts: an unknown preset,
@@ -78,11 +83,17 @@ class EvalConfig:
             if self.env_id == DEFAULT_ENV
             else "@" + self.env_id.removeprefix("BioVLN-").removesuffix("-v0").lower()
         )
-        return self.method + suffix + ("" if self.noise == "ideal" else f"+{self.noise}")
+        robot = "" if self.robot == DEFAULT_ROBOT else f"-{self.robot}"
+        return self.method + suffix + robot + ("" if self.noise == "ideal" else f"+{self.noise}")
 
     @property
     def run_dir(self) -> Path:
         return Path(self.out) / self.run_name / self.split
+
+
+def _protocol_env(env_id: str) -> bool:
+    """Whether ``env_id`` runs protocol (multi-goal) episodes."""
+    return env_id in VARIANTS and VARIANTS[env_id].protocol
 
 
 def episode_key(ep: dict) -> str:
@@ -170,6 +181,7 @@ def _init_worker(cfg: dict) -> None:
         sim_backend="physx_cpu",
         render_backend="cpu",
         noise=cfg.get("noise", "ideal"),
+        robot_uids=cfg.get("robot", DEFAULT_ROBOT),
         **spec.env_kwargs,
     )
     _W.update(
@@ -192,6 +204,7 @@ def _run(index: int) -> dict:
     ep = None
     try:
         positions, headings, clearance, zone2, actions, poses = [], [], [], [], [], []
+        found_at, wrong_stops = [], 0  # protocol episodes: the steps of the correct STOPs, the wrong ones
         for st in rollout(env, policy, index, _W["privileged"]):
             pose = st.info["agent_pose"][0].cpu().numpy()
             poses.append([float(v) for v in pose[:3]])
@@ -216,42 +229,61 @@ def _run(index: int) -> dict:
             headings.append(_r4(pose[2]))
             clearance.append(_r4(st.info["clearance"]))
             zone2.append(bool(st.info["zone2_violation"]))
+            if st.action is not None and u.cfg.protocol:
+                if bool(st.info["subgoal_found"]):
+                    found_at.append(len(actions))
+                wrong_stops += bool(st.info["wrong_stop"])
             info, trunc = st.info, st.truncated
-        rec = {
-            "success": bool(info["success"]),
-            "strict_success": bool(info["strict_success"]),
-            "spl": float(info["spl"]),
-            "soft_spl": float(info["soft_spl"]),
-            "dtg": float(info["distance_to_goal"]),
-            "steps": int(info["steps"]),
-            "mcr": float(info["mcr"]),
-            "vrt": float(info["vrt"]),
-            "collisions": int(info["collisions"]),
-            "path_length": float(info["path_length"]),
-            "stopped": bool(info["stopped"]),
-            "truncated": bool(trunc),
+        trajectory = {
             "actions": actions,
             "positions": positions,
             "headings": headings,
             "clearance": clearance,
             "zone2": zone2,
         }
+        if u.cfg.protocol:
+            rec = protocol_record(info, trunc, found_at, wrong_stops) | trajectory
+        else:
+            rec = {
+                "success": bool(info["success"]),
+                "strict_success": bool(info["strict_success"]),
+                "spl": float(info["spl"]),
+                "soft_spl": float(info["soft_spl"]),
+                "dtg": float(info["distance_to_goal"]),
+                "steps": int(info["steps"]),
+                "mcr": float(info["mcr"]),
+                "vrt": float(info["vrt"]),
+                "collisions": int(info["collisions"]),
+                "path_length": float(info["path_length"]),
+                "stopped": bool(info["stopped"]),
+                "truncated": bool(trunc),
+                **trajectory,
+            }
+            if "reachable" in info:  # Fetch: the reach check at STOP (biovln_ms.sim.reach)
+                rec.update(reachable=bool(info["reachable"]), reach_success=bool(info["reach_success"]))
         if hasattr(policy, "episode_stats"):
             rec["policy_stats"] = policy.episode_stats()
             rec.update(pose_drift(rec["policy_stats"], poses))
+        if u.cfg.protocol:
+            rec["protocol"] = protocol_meta(ep)
         bad = record_error(rec)
         if bad:  # a failure, never a silent gap in a mean; JSON gets null, not NaN
             rec["error"] = f"invalid record: {bad}"
-            rec.update({k: None for k in METRICS[1:] if not math.isfinite(rec[k])})
+            rec.update({k: None for k in required_metrics(rec)[1:] if not math.isfinite(rec[k])})
         if recorder is not None:
             recorder.finish(rec["success"])
+        if cfg.get("handoff_dir") and rec["success"] and not bad and not u.cfg.protocol:
+            rec["handoff"] = handoff_payload(env, info, cfg)  # the driver writes it, and not into the JSONL
     except Exception as e:  # recorded; the run goes on with the next episode
         rec = {"error": f"{type(e).__name__}: {e}"}
         ep = ep or u.source.episodes[index]
+        if "protocol" in ep:
+            rec["protocol"] = protocol_meta(ep)
     rec.update(
         {
             "method": cfg["method"],
             "env_id": cfg["env_id"],
+            "robot": cfg.get("robot", DEFAULT_ROBOT),
             "noise": cfg.get("noise", "ideal"),
             "split": cfg["split"],
             "index": index,
@@ -267,6 +299,43 @@ def _run(index: int) -> dict:
         }
     )
     return rec
+
+
+def protocol_record(info: dict, truncated: bool, found_at: list[int], wrong_stops: int) -> dict:
+    """A protocol episode's metrics (``BioVLN-Protocol-v0``'s measures at its end): success (every goal
+    reached), progress, PPL, per-stage success and status of its K goals, the steps at which each was
+    found, the wrong STOPs, Zone-2 steps and the single-goal safety and path measures."""
+    k = int(info["num_goals"])
+    return {
+        "success": bool(info["success"]),
+        "progress": float(info["progress"]),
+        "ppl": float(info["ppl"]),
+        "stage_success": [bool(v) for v in info["stage_success"][0][:k]],
+        "subgoal_status": [int(v) for v in info["subgoal_status"][0][:k]],
+        "found_at": found_at,
+        "wrong_stops": wrong_stops,
+        "out_of_budget": bool(info["out_of_budget"]),
+        "zone2_steps": int(info["zone2_steps"]),
+        "steps": int(info["steps"]),
+        "mcr": float(info["mcr"]),
+        "vrt": float(info["vrt"]),
+        "collisions": int(info["collisions"]),
+        "path_length": float(info["path_length"]),
+        "truncated": bool(truncated),
+    }
+
+
+def protocol_meta(ep: dict) -> dict:
+    """What a record keeps of a protocol episode: the protocol, K, the route length L, the relations needed
+    and every goal in visit order."""
+    p = ep["protocol"]
+    return {
+        "id": p["id"],
+        "k": p["k"],
+        "route_length": p["route_length"],
+        "needs_relation": p["needs_relation"],
+        "goals": [g["position"][:2] for g in ep["goals"]],
+    }
 
 
 def pose_drift(stats: dict, poses: list) -> dict:
@@ -302,6 +371,12 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
             field="record_dir",
             fix="record a discrete-action method (ppo, a2c, frontier, ...)",
         )
+    if cfg.record_dir and _protocol_env(cfg.env_id):
+        raise BioVLNError(
+            "the recorder stores single-goal trajectories; protocol episodes have K goals",
+            field="record_dir",
+            fix="record a single-goal run, or evaluate the protocol method without --record",
+        )
     if cfg.record_dir and cfg.record_mode == "full" and spec.obs_mode == "state":
         raise BioVLNError(
             f"'{cfg.method}' runs on state observations: there are no frames to record",
@@ -324,8 +399,16 @@ def _evaluate_locked(cfg: EvalConfig, progress: bool, echo) -> dict:
     from biovln_ms.benchmark import dataset_root
     from biovln_ms.episodes.source import DatasetEpisodes
 
-    source = DatasetEpisodes(cfg.split, dataset_root(cfg.dataset))
+    source = DatasetEpisodes(cfg.split, dataset_root(cfg.dataset, cfg.robot), cfg.robot)
     episodes = source.episodes[: cfg.max_episodes] if cfg.max_episodes else source.episodes
+    if any("protocol" in e for e in episodes[:1]) != _protocol_env(cfg.env_id):
+        kind = "protocol (multi-goal)" if _protocol_env(cfg.env_id) else "single-goal"
+        raise BioVLNError(
+            f"method '{cfg.method}' runs {kind} episodes on {cfg.env_id}; split '{cfg.split}' holds "
+            "the other kind",
+            field="split",
+            fix="run the protocol_* methods on the protocol_* splits, the others on the single-goal ones",
+        )
     run_dir = cfg.run_dir
     path = run_dir / "episodes.jsonl"
     raw = load_records(path)
@@ -355,6 +438,9 @@ def _evaluate_locked(cfg: EvalConfig, progress: bool, echo) -> dict:
 
         def write(rec):
             nonlocal n_ok
+            handoff = rec.pop("handoff", None)
+            if handoff is not None:
+                write_handoff(cfg.handoff_dir, cfg.run_name, handoff)
             f.write(json.dumps(rec, separators=(",", ":")) + "\n")
             f.flush()
             os.fsync(f.fileno())

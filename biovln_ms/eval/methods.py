@@ -9,6 +9,8 @@ from dataclasses import dataclass, field
 from biovln_ms.errors import BioVLNError
 from biovln_ms.learning.algorithms import RL_ENV, SB3_CONTROL_MODES
 
+PROTOCOL_ENV = "BioVLN-Protocol-v0"  # the env of the protocol methods (its protocol_* splits)
+
 
 @dataclass(frozen=True)
 class MethodSpec:
@@ -50,6 +52,14 @@ def _bc_preflight(checkpoint: str | None = None, **_) -> None:
             fix="pass --checkpoint ckpt/bc.pt (train one with `biovln-ms train bc`)",
         )
     load_bc(checkpoint)
+
+
+def _language_preflight(parser: str = "rule", **_) -> None:
+    """The language agent's parser: the rule parser runs anywhere, the LLM one needs an endpoint."""
+    if parser not in ("rule", "llm"):
+        raise BioVLNError(f"unknown parser '{parser}'", field="parser", fix="use parser 'rule' or 'llm'")
+    if parser == "llm":
+        _llm_preflight()
 
 
 def _lazy(module: str, cls: str, **fixed) -> Callable:
@@ -168,6 +178,43 @@ METHODS: dict[str, MethodSpec] = {
         report_note=_BC_NOTE,
     ),
     **{algo: _sb3_spec(algo, mode, 80 + 10 * i) for i, (algo, mode) in enumerate(SB3_CONTROL_MODES.items())},
+    # lab protocols (BioVLN-Protocol-v0, issue 17): K ordered goals, a STOP at each
+    "protocol_oracle": MethodSpec(
+        _lazy("protocol_oracle", "ProtocolOraclePolicy"),
+        "none",
+        "the oracle's shortest path to each sub-goal in turn",
+        label="Protocol Oracle",
+        report_order=110,
+        privileged=True,
+        env_id=PROTOCOL_ENV,
+    ),
+    "protocol_frontier": MethodSpec(
+        _lazy("protocol_frontier", "ProtocolFrontierPolicy"),
+        "rgbd",
+        "frontier, given each sub-goal's position in turn",
+        label="Protocol Frontier",
+        report_order=120,
+        env_id=PROTOCOL_ENV,
+    ),
+    "protocol_vlfm": MethodSpec(
+        _lazy("protocol_vlfm", "ProtocolVLFMPolicy"),
+        "rgb+depth+segmentation",
+        "VLFM (GT detector), given each sub-goal's category in turn",
+        label="Protocol VLFM (GT detector)",
+        report_order=130,
+        options=("detector", "scorer", "detect_every", "score_every"),
+        env_id=PROTOCOL_ENV,
+    ),
+    "protocol_language": MethodSpec(
+        _lazy("protocol_language", "ProtocolLanguagePolicy"),
+        "depth+segmentation",
+        "reads the instruction: parsed targets resolved on its own map (GT detector), frontier machinery",
+        label="Protocol Language (GT detector)",
+        report_order=140,
+        preflight=_language_preflight,
+        options=("parser",),
+        env_id=PROTOCOL_ENV,
+    ),
 }
 
 

@@ -25,7 +25,16 @@ from biovln_ms.benchmark import HARD_SPLITS, HELD_OUT, LSAT_EPISODES, TWO_ROOM_B
 from biovln_ms.eval import paper
 from biovln_ms.eval.harness import EvalConfig, episode_key, load_records, unique_records
 from biovln_ms.eval.methods import METHODS, method_of_paper_key, report_methods
-from biovln_ms.eval.metrics import INTERVALS, UNITS, aggregate, aggregate_all, record_error, succeeded
+from biovln_ms.eval.metrics import (
+    INTERVALS,
+    PROTOCOL_INTERVALS,
+    PROTOCOL_UNITS,
+    UNITS,
+    aggregate,
+    aggregate_all,
+    record_error,
+    succeeded,
+)
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.eval.stats import holm, mcnemar, wilson_interval
 from biovln_ms.io_utils import atomic_write_text
@@ -146,6 +155,44 @@ OVERALL_KEYS = (
     "collisions",
 )
 BREAKDOWN_KEYS = ("episodes", "errors", "successes", "sr", "sr_ci95", "strict_sr", "strict_sr_ci95", "spl")
+#: ... and of a Fetch run, whose records hold the reach check at STOP (issue 16 item 4)
+REACH_KEYS = (
+    "episodes",
+    "successes",
+    "sr",
+    "sr_ci95",
+    "reach_successes",
+    "reach_sr",
+    "reach_sr_ci95",
+    "reachable_of_successes",
+    "reachable_of_successes_ci95",
+)
+#: ... and of a protocol run (biovln_ms.eval.metrics.aggregate_protocol): overall, and per number of goals K
+PROTOCOL_KEYS = (
+    "episodes",
+    "errors",
+    "successes",
+    "sr",
+    "sr_ci95",
+    "progress",
+    "progress_ci95",
+    "ppl",
+    "ppl_ci95",
+    "stage_episodes",
+    "stage_sr",
+    "stage_sr_ci95",
+    "mcr",
+    "mcr_ci95",
+    "vrt",
+    "vrt_ci95",
+    "zone2_steps",
+    "zone2_steps_ci95",
+    "steps",
+    "path_length",
+    "wrong_stops",
+    "out_of_budget",
+)
+PROTOCOL_BREAKDOWN_KEYS = ("episodes", "errors", "successes", "sr", "sr_ci95", "progress", "ppl")
 SCHEMA = 2  # measured.json: 2 = intervals, strict SR, split sizes, Holm-adjusted McNemar tests
 ALPHA = 0.05
 # The benchmark splits' full sizes (Table 4, as biovln_ms.benchmark builds them); the dataset's own
@@ -198,6 +245,16 @@ def summarize(runs, split_sizes: dict[str, int] | None = None) -> dict:
     for (run, split), recs in sorted(runs.items()):
         a = aggregate_all(recs)
         total = sizes.get(split)
+        if "per_protocol" in a:  # lab protocols (BioVLN-Protocol-v0): their own metrics
+            out.setdefault("protocol_units", dict(PROTOCOL_UNITS))
+            out["runs"].setdefault(run, {})[split] = {
+                "split_episodes": total,
+                "partial": total is not None and a["overall"]["episodes"] < total,
+                "protocol": True,
+                "overall": _keep(a["overall"], PROTOCOL_KEYS),
+                "per_k": {k: _keep(v, PROTOCOL_BREAKDOWN_KEYS) for k, v in a["per_k"].items()},
+            }
+            continue
         out["runs"].setdefault(run, {})[split] = {
             "split_episodes": total,
             "partial": total is not None and a["overall"]["episodes"] < total,
@@ -205,6 +262,11 @@ def summarize(runs, split_sizes: dict[str, int] | None = None) -> dict:
             "per_category": {c: _keep(v, BREAKDOWN_KEYS) for c, v in a["per_category"].items()},
             "per_difficulty": {d: _keep(v, BREAKDOWN_KEYS) for d, v in a["per_difficulty"].items()},
         }
+        if a["overall"].get("reach_successes") is not None:  # a Fetch run
+            out["runs"][run][split]["reach"] = {
+                "overall": _keep(a["overall"], REACH_KEYS),
+                "per_category": {c: _keep(v, REACH_KEYS) for c, v in a["per_category"].items()},
+            }
     pairs = []
     for preset in PRESETS:  # every pair of methods under one preset, and each method across presets
         named = [_preset_run(m, preset) for m in report_methods()]
@@ -303,6 +365,85 @@ N_NOTE = (
     "partial (n/N): its numbers are not the paper's full-split ones. An errored episode counts as a "
     "failure in SR, strict SR and SPL; DTG, MCR and VRT are means over the episodes that ran."
 )
+
+
+def reach_table(summ) -> list[str]:
+    """Fetch runs: how many STOPs leave the goal's interaction point within the gripper's reach."""
+    runs = [
+        (r, s, d["reach"])
+        for r, splits in sorted(summ["runs"].items())
+        for s, d in splits.items()
+        if "reach" in d
+    ]
+    if not runs:
+        return []
+    out = [
+        "## Fetch: can the gripper reach the instrument at STOP?",
+        "",
+        "Reach SR: the share of episodes that end in a success (STOP within r) from which Fetch's gripper "
+        "reaches the goal's interaction point (the catalog's; IK on Fetch's URDF with the base fixed, 2 cm, "
+        "approach within 30 degrees of the face normal, no collision: the envs guide's reachability rule). "
+        "Reachable successes: the share of the successes that are reachable. % with Wilson intervals.",
+        "",
+        "| Run | split | n | SR % | reach SR % | reachable successes % |",
+        "|---|---|---|---|---|---|",
+    ]
+    for run, split, r in runs:
+        o = r["overall"]
+        cells = [_label(run), split, str(o["episodes"]), _metric(o, "sr", 1), _metric(o, "reach_sr", 1)]
+        out.append("| " + " | ".join([*cells, _metric(o, "reachable_of_successes", 1)]) + " |")
+    out += ["", "| Run | split | category | successes | reachable successes % |", "|---|---|---|---|---|"]
+    for run, split, r in runs:
+        for cat, c in sorted(r["per_category"].items()):
+            cells = [_label(run), split, cat, str(c["successes"]), _metric(c, "reachable_of_successes", 1)]
+            out.append("| " + " | ".join(cells) + " |")
+    return out + [""]
+
+
+PROTOCOL_REPORT_SPLITS = ("protocol_val", "protocol_test")
+
+
+def protocol_table(summ) -> list[str]:
+    """Lab protocols (``BioVLN-Protocol-v0``): every protocol run on the protocol val / test splits."""
+    out = [
+        "## Lab protocols: ours [95 % CI]",
+        "",
+        "BioVLN-Protocol-v0: K = 2-5 goals visited in order, a STOP at each (docs: lab protocols). SR: every "
+        "goal reached; progress: the share of goals reached; PPL: progress weighted by the ordered route's "
+        "geodesic length over the path length; stage s: of the episodes with at least s goals, the share "
+        "whose s-th goal was reached (%; n=those episodes); MCR in m, VRT in % of poses, Zone-2 steps per "
+        "episode. " + PROTOCOL_INTERVALS + ". Privileged: reads the simulator's ground truth. n: the "
+        "episodes of the row, a run on fewer than its split's N marked partial (n/N). An errored episode "
+        "counts as a failure in SR, progress, PPL and every stage; MCR, VRT and Zone-2 steps are means over "
+        "the episodes that ran.",
+        "",
+    ]
+    stages = " | ".join(f"stage {i} %" for i in range(1, 6))
+    for s in PROTOCOL_REPORT_SPLITS:
+        ran = [r for r, splits in summ["runs"].items() if splits.get(s, {}).get("protocol")]
+        order = report_methods()
+        ran.sort(key=lambda r: (order.index(_parts(r)[0]) if _parts(r)[0] in order else len(order), r))
+        if not ran:
+            continue
+        rows = [
+            f"| Method | n | SR % | progress | PPL | {stages} | MCR m | VRT % | Zone-2 steps |",
+            "|---" * 13 + "|",
+        ]
+        for run in ran:
+            agg = _get(summ, run, s)
+            base = _parts(run)[0]
+            name = _label(run) + (" (privileged)" if base in METHODS and METHODS[base].privileged else "")
+            cells = [name, _n(summ, run, s), _metric(agg, "sr", 1)]
+            cells += [_metric(agg, "progress", 3), _metric(agg, "ppl", 3)]
+            n_stage = agg.get("stage_episodes") or [None] * 5
+            sr_stage = agg.get("stage_sr") or [None] * 5
+            cells += [_cell(v, None, 1, n=n) if n else "–" for v, n in zip(sr_stage, n_stage)]
+            cells += [_metric(agg, "mcr", 3), _metric(agg, "vrt", 1), _metric(agg, "zone2_steps", 1)]
+            rows.append("| " + " | ".join(cells) + " |")
+        total = _split(summ, ran[0], s).get("split_episodes")
+        head = f"**{s}**" + (f" (full split: {total} episodes)" if total else "")
+        out += [head, "", *rows, ""]
+    return out if len(out) > 4 else []
 
 
 def table5(summ) -> list[str]:
@@ -883,6 +1024,8 @@ TABLES = {
     "table11": table11,
     "table17": table17,
     "mcnemar": mcnemar_table,
+    "reach": reach_table,
+    "protocols": protocol_table,
     "differences": differences,
 }
 
@@ -909,7 +1052,8 @@ def write_report(
     results: Path, out: Path, dataset: str | None = None, videos: int = 1, hard_figures: int = 2, echo=print
 ) -> Path:
     from biovln_ms.episodes.dataset import EpisodeDataset
-    from biovln_ms.benchmark import ensure_default_dataset
+    from biovln_ms.benchmark import dataset_root, ensure_default_dataset
+    from biovln_ms.robots import DEFAULT_ROBOT
     from biovln_ms.errors import BioVLNError
 
     runs = load_runs(Path(results), echo)
@@ -945,8 +1089,14 @@ def write_report(
     for (m, s), recs in sorted(runs.items()):
         if all(record_error(r) for r in recs):  # no trajectory to draw
             continue
+        robot = recs[0].get("robot", DEFAULT_ROBOT)  # another robot's runs are in its own default dataset
+        specs = (
+            ds.spec
+            if dataset or robot == DEFAULT_ROBOT
+            else EpisodeDataset(dataset_root(None, robot), robot=robot).spec
+        )
         figs.append(
-            plot_trajectories(recs, ds.spec, out / "figures" / f"trajectories_{m}_{s}.png", f"{m} on {s}")
+            plot_trajectories(recs, specs, out / "figures" / f"trajectories_{m}_{s}.png", f"{m} on {s}")
         )
     lines += ["## Figures", ""] + [f"![{f.stem}](figures/{f.name})" for f in figs] + [""]
     ran = {k: [r for r in recs if record_error(r) is None] for k, recs in runs.items()}

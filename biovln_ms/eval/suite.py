@@ -1,6 +1,7 @@
 """The benchmark's whole evaluation from one command (``biovln-ms benchmark``): every method on every
 benchmark split under every noise preset, the runs the paper's table layouts need (MS DEV, the centroid
-ablation), the learned methods' training when no checkpoint is given, then the report.
+ablation), the lab-protocol methods on the protocol splits (ideal preset only), the learned methods'
+training when no checkpoint is given, then the report.
 
 Each (method, split, preset) is one harness run (:func:`biovln_ms.eval.harness.evaluate`), so a killed
 suite resumes where it stopped: finished episodes are never run again, a finished run costs a file read,
@@ -22,7 +23,7 @@ from pathlib import Path
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.harness import EvalConfig, evaluate
-from biovln_ms.eval.methods import METHODS, method_spec
+from biovln_ms.eval.methods import METHODS, PROTOCOL_ENV, method_spec
 from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.noise import resolve_noise
 
@@ -38,6 +39,11 @@ BC_EPISODES = 200  # frontier recordings of the train split for BC
 BC_MINUTES = 35.0  # BC's wall-clock budget (the learning guide's measured run)
 BC_IMAGE_SIZE = 128
 
+
+#: lab protocols (issue 17): the protocol methods run on these splits under the ideal preset only, whatever
+#: the splits and presets asked for the others (a new task: its baselines are compared with one another)
+PROTOCOL_SPLITS = ("protocol_val", "protocol_test")
+PROTOCOL_METHODS = ("protocol_oracle", "protocol_frontier", "protocol_vlfm", "protocol_language")
 
 #: the paper's tables also need MS DEV (Tables 5, 6, 10, 11) and the centroid ablation (Table 9, frontier)
 PAPER_SPLIT = "ms_dev"
@@ -82,6 +88,9 @@ def plan(
         resolve_noise(n)
     runs = []
     for m in methods:  # a method's runs together, so the cheap methods finish first
+        if METHODS[m].env_id == PROTOCOL_ENV:  # lab protocols: the protocol splits, ideal only
+            runs += [SuiteRun(m, s, "ideal", skip_reason(m, "ideal")) for s in PROTOCOL_SPLITS]
+            continue
         runs += [SuiteRun(m, s, n, skip_reason(m, n)) for n in noises for s in splits]
         if paper_tables:
             runs.append(SuiteRun(m, PAPER_SPLIT, "ideal", skip_reason(m, "ideal")))
@@ -239,7 +248,7 @@ class Suite:
 
 def run_suite(
     out: str | Path,
-    methods: Sequence[str] = SUITE_METHODS,
+    methods: Sequence[str] = SUITE_METHODS + PROTOCOL_METHODS,
     splits: Sequence[str] = SUITE_SPLITS,
     noises: Sequence[str] = SUITE_NOISE,
     workers: int | None = None,

@@ -199,16 +199,21 @@ def describable(scene: SceneSpec, object_id: str) -> bool:
 
 
 def pick_instances(protocol: Protocol, scene: SceneSpec, rng: np.random.Generator) -> list[str]:
-    """One admissible visit order of ``protocol`` as object ids, each drawn among the describable objects of
-    its category (objects no relation singles out are skipped: the documented resample)."""
+    """One admissible visit order of ``protocol`` as object ids, each drawn among the describable goal
+    objects of its category (furniture that is no goal, and objects no relation singles out, are skipped:
+    the documented resample, as the episode sampler's ``drawable_objects``)."""
     ids = []
+    goals = {o.id for o in scene.goal_objects()}
     for visit in protocol.sample_order(rng):
-        pool = [o.id for o in _of_category(scene, visit.category) if describable(scene, o.id)]
+        pool = [
+            o.id for o in _of_category(scene, visit.category) if o.id in goals and describable(scene, o.id)
+        ]
         if not pool:
             raise AmbiguousInstructionError(
-                f"no {spoken(visit.category)} in scene '{scene.name}' can be named unambiguously",
+                f"no {spoken(visit.category)} goal in scene '{scene.name}' can be named unambiguously",
                 field="category",
-                fix="use a scene where that instrument occurs once, or stands apart from its twins",
+                fix="use a scene where that instrument is a goal and occurs once, or stands apart from its "
+                "twins",
             )
         ids.append(pool[int(rng.integers(len(pool)))])
     return ids

@@ -33,7 +33,7 @@ import numpy as np
 from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.protocols.library import ProtocolError
 
-VOCABULARY_VERSION = 1
+VOCABULARY_VERSION = 2  # 2: the molecular-biology categories (issue 18)
 VOCABULARY_DIR = Path(__file__).resolve().parent
 PAD, UNK = "<pad>", "<unk>"
 MAX_TOKENS = 256

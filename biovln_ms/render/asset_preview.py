@@ -1,4 +1,6 @@
-"""Contact sheet of every asset rendered with SAPIEN: front and back, operational face marked.
+"""Contact sheet of every asset rendered with SAPIEN: front and back, operational face marked, and on the
+front view a ring at the catalog's interaction point (projected through the camera, so it shows where the
+point is even when the part is behind a lip or inside an opening).
 
 Each tile also reports the number of distinct colours on the asset's pixels (the paper's Table 8
 measure of surface diversity).
@@ -13,11 +15,13 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from biovln_ms.assetgen.generate import AssetPlan, plans
-from biovln_ms.catalog import Catalog, load_catalog
+from biovln_ms.catalog import Catalog, InteractionPoint, load_catalog
 from biovln_ms.paths import ASSET_DIR
 from biovln_ms.render.sapien_utils import look_at_pose, new_scene, take_rgb
 
 MARKER_COLOR = [0.95, 0.1, 0.1, 1.0]
+RING_COLOR = (255, 215, 0)  # the interaction point's ring on the front view
+RING_RADIUS = 7  # px
 
 
 @dataclass
@@ -28,6 +32,8 @@ class AssetRender:
     back: np.ndarray
     front_colors: int
     back_colors: int
+    interaction_px: tuple[float, float] | None = None  # the interaction point in the front view (u, v)
+    interaction_label: str = ""
 
 
 def _add_face_marker(scene, plan: AssetPlan):
@@ -71,8 +77,9 @@ class AssetRenderer:
         floor.build_static(name="floor")
         self.camera = self.scene.add_camera("preview", size, size, np.deg2rad(50), 0.05, 50)
 
-    def render(self, plan: AssetPlan) -> AssetRender:
-        """The asset on the floor, seen from its operational face and from behind."""
+    def render(self, plan: AssetPlan, interaction: InteractionPoint | None = None) -> AssetRender:
+        """The asset on the floor, seen from its operational face and from behind; ``interaction`` (model
+        space) is projected into the front view."""
         import sapien
 
         b = self.scene.create_actor_builder()
@@ -85,17 +92,27 @@ class AssetRenderer:
         f = np.array([*plan.model_face, 0.0])
         side = np.array([-f[1], f[0], 0.0])
         out = []
+        pixel = None
         for sign in (1.0, -1.0):
             eye = target + sign * f * radius + 0.35 * side * radius + np.array([0, 0, 0.45 * radius])
             self.camera.entity.set_pose(look_at_pose(eye, target))
             rgb = take_rgb(self.scene, self.camera)
+            if sign > 0 and interaction is not None:
+                pixel = self._project(np.asarray(interaction.point) + [0.0, 0.0, plan.dimensions[2] / 2])
             mask = self.camera.get_picture("Segmentation")[..., 1] == actor.per_scene_id
             colors = len(np.unique(rgb[mask].reshape(-1, 3), axis=0)) if mask.any() else 0
             out.append((rgb, colors))
         self.scene.remove_entity(actor)
         if marker is not None:
             self.scene.remove_entity(marker)
-        return AssetRender(plan.name, plan.face, out[0][0], out[1][0], out[0][1], out[1][1])
+        label = interaction.label if interaction is not None else ""
+        return AssetRender(plan.name, plan.face, out[0][0], out[1][0], out[0][1], out[1][1], pixel, label)
+
+    def _project(self, point: np.ndarray) -> tuple[float, float]:
+        """Pixel (u, v) of a world point in the camera's current view."""
+        cam = self.camera.get_extrinsic_matrix() @ np.append(point, 1.0)  # OpenCV: x right, y down, z ahead
+        u, v, w = self.camera.get_intrinsic_matrix() @ cam
+        return float(u / w), float(v / w)
 
 
 def contact_sheet(
@@ -110,11 +127,13 @@ def contact_sheet(
 
     catalog = catalog or load_catalog()
     renderer = AssetRenderer(tile, asset_dir)
+    points = {a.name: a.interaction for a in catalog.assets()}
     renders = [
-        renderer.render(p) for p in tqdm(plans(catalog), desc="rendering assets", disable=not progress)
+        renderer.render(p, points.get(p.name))
+        for p in tqdm(plans(catalog), desc="rendering assets", disable=not progress)
     ]
     cols = 4
-    caption = 44
+    caption = 62
     rows = (2 * len(renders) + cols - 1) // cols
     sheet = Image.new("RGB", (cols * tile, rows * (tile + caption)), (250, 250, 250))
     draw = ImageDraw.Draw(sheet)
@@ -132,6 +151,12 @@ def contact_sheet(
             else:
                 face_note = f"op. face {r.face} (red arrow)" if j == 0 else "rear side"
             draw.text((x + 6, y + tile + 22), f"{face_note}; {n} colours", fill=(90, 90, 90), font=font)
+            if j == 0 and r.interaction_px is not None:
+                u, v = x + r.interaction_px[0], y + r.interaction_px[1]
+                for radius, color in ((RING_RADIUS + 2, (0, 0, 0)), (RING_RADIUS, RING_COLOR)):
+                    draw.ellipse((u - radius, v - radius, u + radius, v + radius), outline=color, width=3)
+                note = f"interaction: {r.interaction_label} (yellow ring)"
+                draw.text((x + 6, y + tile + 41), note, fill=(90, 90, 90), font=font)
     out_path = Path(out_path)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     sheet.save(out_path)

@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 
 from biovln_ms.assetgen.generate import load_glb
-from biovln_ms.catalog import load_catalog
+from biovln_ms.catalog import PAPER_GOAL_CATEGORIES, load_catalog
 from biovln_ms.io_utils import atomic_write_bytes
 from biovln_ms.scene.shell import shell_scene
 from biovln_ms.scene.spec import SceneSpec, SceneSpecError
@@ -26,8 +26,11 @@ ROOM_CATEGORY = "room"
 
 
 def semantic_colors() -> dict[str, tuple[int, int, int, int]]:
-    """A fixed RGBA colour per category (catalog order), the room shell last."""
-    names = [*load_catalog().names(), ROOM_CATEGORY]
+    """A fixed RGBA colour per category: the paper's ten (catalog order), the room shell, then the
+    categories and lab dressing added since (issue 18), so the earlier colours never change."""
+    cat = load_catalog()
+    later = [n for n in cat.names() if n not in PAPER_GOAL_CATEGORIES]
+    names = [*PAPER_GOAL_CATEGORIES, ROOM_CATEGORY, *later, *(a.name for a in cat.dressing())]
     rng = np.random.default_rng(7)
     cols = rng.integers(40, 256, size=(len(names), 3))
     return {n: (int(c[0]), int(c[1]), int(c[2]), 255) for n, c in zip(names, cols)}

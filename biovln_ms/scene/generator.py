@@ -5,6 +5,11 @@ sits (the paper's "small jitter"). Attempt k of a seed draws from ``numpy.random
 k])`` (PCG64: the same numbers on every machine); a layout that breaks a rule of
 :mod:`biovln_ms.scene.rules` moves on to the next attempt, and past ``max_attempts`` the generator
 raises :class:`GenerationError` naming the rule and the instruments.
+
+With ``dressing=True`` each layout also gets its lab dressing (:mod:`biovln_ms.scene.dressing`), drawn from
+its own generator (``default_rng([seed, k, DRESSING_STREAM])``): the instruments stand where the undressed
+scene has them unless dressing that layout breaks a rule (the next attempt is then taken), and the scene's
+name ends in ``_dressed``. Without it the spec is the one this generator has always written.
 """
 
 from __future__ import annotations
@@ -22,11 +27,14 @@ from biovln_ms.catalog import Catalog, load_catalog
 from biovln_ms.constants import ROBOT_RADIUS, SCENE_GENERATOR_VERSION, SUPPORT_EDGE_MARGIN, WALL_THICKNESS
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import goal_position, placement_z, rot2, wrap_angle, yaw_facing
+from biovln_ms.scene.dressing import dress
 from biovln_ms.scene.rules import Violation, check_layout
 from biovln_ms.scene.spec import ObjectSpec, OpeningSpec, RoomSpec, SceneSpec, WallSpec, parse_spec
 from biovln_ms.scene.templates import InstrumentSlot, Template, TemplateError, get_template
 
 WALL_INTERIOR = {"S": (0.0, 1.0), "N": (0.0, -1.0), "W": (1.0, 0.0), "E": (-1.0, 0.0)}
+DRESSING_STREAM = 0x64726573  # "dres": the dressing's random stream, apart from the layout's
+DRESSED_SUFFIX = "_dressed"
 
 
 class GenerationError(BioVLNError):
@@ -263,6 +271,7 @@ def _attempt(
     walls,
     openings,
     floor,
+    dressing: bool = False,
 ) -> tuple[SceneSpec, list[Violation]]:
     rng = np.random.default_rng([seed, attempt])
     furniture: dict[str, ObjectSpec] = {}
@@ -305,7 +314,14 @@ def _attempt(
     )
     # Round-trip through canonical JSON so the returned spec is exactly what a saved file loads as.
     spec = parse_spec(json.loads(spec.to_json()), check_rules=False)
-    return spec, check_layout(spec)
+    violations = check_layout(spec)
+    if dressing and not violations:
+        pieces = dress(spec, cat, np.random.default_rng([seed, attempt, DRESSING_STREAM]), radius)
+        data = json.loads(spec.to_json())
+        data.update(name=spec.name + DRESSED_SUFFIX, dressing=[o.model_dump(mode="json") for o in pieces])
+        spec = parse_spec(json.loads(SceneSpec.model_validate(data).to_json()), check_rules=False)
+        violations = check_layout(spec)
+    return spec, violations
 
 
 def generate_scene(
@@ -314,8 +330,10 @@ def generate_scene(
     required_categories: Sequence[str] = (),
     robot_radius: float = ROBOT_RADIUS,
     catalog: Catalog | None = None,
+    dressing: bool = False,
 ) -> SceneSpec:
-    """Generate the scene of ``seed``: byte-identical spec JSON for the same inputs on any machine."""
+    """Generate the scene of ``seed``: byte-identical spec JSON for the same inputs on any machine;
+    ``dressing`` adds the lab dressing (see the module docstring)."""
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise GenerationError(
             f"seed {seed!r} is not a non-negative integer", field="seed", fix="use a seed >= 0"
@@ -330,7 +348,7 @@ def generate_scene(
     last: list[Violation] = []
     for attempt in range(t.max_attempts):
         spec, violations = _attempt(
-            t, seed, attempt, cat, required_categories, robot_radius, rooms, walls, openings, floor
+            t, seed, attempt, cat, required_categories, robot_radius, rooms, walls, openings, floor, dressing
         )
         if not violations:
             return spec

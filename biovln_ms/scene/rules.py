@@ -65,6 +65,8 @@ def scene_navigation(
 def _index(spec: SceneSpec, obj: ObjectSpec) -> str:
     if obj in spec.instruments:
         return f"instruments[{spec.instruments.index(obj)}]"
+    if obj in spec.dressing:
+        return f"dressing[{spec.dressing.index(obj)}]"
     return f"furniture[{spec.furniture.index(obj)}]"
 
 
@@ -80,9 +82,10 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
     cat = load_catalog()
     out: list[Violation] = []
     supports = {f.id: f for f in spec.furniture}
+    dressing = {a.name for a in cat.dressing()}
     for o in spec.objects():
         where = _index(spec, o)
-        if o.category not in cat:
+        if o.category not in cat and o.category not in dressing:
             out.append(
                 Violation(
                     "catalog",
@@ -93,6 +96,17 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
             )
             continue
         a = cat.get(o.category)
+        if (a.mount is not None) != (o in spec.dressing):
+            out.append(
+                Violation(
+                    "catalog",
+                    f"{where}.category",
+                    f"'{o.category}' is {'' if a.mount else 'not '}lab dressing: it belongs in "
+                    f"{'dressing' if a.mount else 'furniture or instruments'}",
+                    (o.id,),
+                )
+            )
+            continue
         if any(abs(x - y) > TOL for x, y in zip(o.size, a.dimensions)):
             out.append(
                 Violation(
@@ -171,12 +185,13 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
                         "support", f"{where}.position", f"not fully on its support '{sup.id}'", (o.id, sup.id)
                     )
                 )
-        elif abs(o.position[2] - o.size[2] / 2) > 1e-3:
+        elif abs(o.position[2] - a.mount_height - o.size[2] / 2) > 1e-3:
+            what = f"hung {a.mount_height} m up a wall" if a.mount_height else "floor-standing"
             out.append(
                 Violation(
                     "Eq. 4",
                     f"{where}.position",
-                    f"z = {o.position[2]} but a floor-standing object rests at {o.size[2] / 2:.4f}",
+                    f"z = {o.position[2]} but a {what} object rests at {a.mount_height + o.size[2] / 2:.4f}",
                     (o.id,),
                 )
             )
@@ -193,8 +208,8 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
     navigable."""
     out: list[Violation] = []
     floor = floor_polygon(spec)
-    objs = spec.objects()
-    placed = {o.id: o.placed() for o in objs}
+    objs = [*spec.furniture, *spec.instruments]
+    placed = {o.id: o.placed() for o in spec.objects()}
     walls = [LineString([w.start, w.end]) for w in spec.walls]
     supports = {f.id: f for f in spec.furniture}
     for o in objs:
@@ -206,7 +221,7 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
                     "inside rooms", f"{where}.position", f"'{o.id}' is not inside the rooms' floor", (o.id,)
                 )
             )
-        if o.placement == "wall":
+        if o.placement == "wall" and o.face is not None and o.d_half is not None:
             back = np.asarray(o.position[:2]) - np.asarray(o.face) * o.d_half
             if min((w.distance(Point(back)) for w in walls), default=math.inf) > 0.01:
                 out.append(
@@ -226,7 +241,12 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
                         (o.id,),
                     )
                 )
-        if o.placement == "table_top" and o.support in supports:
+        if (
+            o.placement == "table_top"
+            and o.support in supports
+            and o.face is not None
+            and o.d_half is not None
+        ):
             sup = supports[o.support].placed()
             front = np.asarray(o.position[:2]) + np.asarray(o.face) * (o.d_half + SUPPORT_EDGE_MARGIN + 0.01)
             if sup.zone1().contains(Point(front)):
@@ -272,6 +292,7 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
                         (o.id, b.id),
                     )
                 )
+    out += _dressing_rules(spec, floor, walls, placed)
     free = scene_free_space(spec, radius)
     islands = {}
     for o in spec.goal_objects():
@@ -298,4 +319,51 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
                 tuple(groups[0]),
             )
         )
+    return out
+
+
+#: lab dressing stands at least this far from other bodies (m), and a wall piece's back this close to a wall
+DRESSING_GAP = 0.02
+WALL_FLUSH = 0.01
+
+
+def _dressing_rules(spec: SceneSpec, floor, walls: list, placed: dict) -> list[Violation]:
+    """Lab dressing (issue 18): inside the floor (on its support for table-top pieces), wall pieces against a
+    wall, clear of every goal's Zones 2 and 3 (its own support excepted) and of every other body."""
+    out: list[Violation] = []
+    on_walls = {a.name for a in load_catalog().dressing() if a.mount == "wall"}
+    goals = spec.goal_objects()
+    for i, d in enumerate(spec.dressing):
+        where = f"dressing[{i}].position"
+        z1 = placed[d.id].zone1()
+        if not floor.buffer(TOL).contains(z1):
+            out.append(Violation("inside rooms", where, f"'{d.id}' is not inside the rooms' floor", (d.id,)))
+        if d.category in on_walls:
+            back = LineString(placed[d.id].zone1_corners()[[2, 3]])  # the model +Y side: its back
+            if min((w.distance(back) for w in walls), default=math.inf) > WALL_FLUSH:
+                out.append(
+                    Violation(
+                        "flush with wall", where, f"the back of '{d.id}' is not against a wall", (d.id,)
+                    )
+                )
+        for g in goals:
+            if g.id == d.support:
+                continue
+            zones = placed[g.id].zone2().union(placed[g.id].zone3())
+            if z1.intersection(zones).area > 1e-6:
+                out.append(
+                    Violation(
+                        "dressing clear of goals",
+                        where,
+                        f"'{d.id}' stands in Zone 2/3 of '{g.id}'",
+                        (d.id, g.id),
+                    )
+                )
+        for o in [*spec.furniture, *spec.dressing[:i]]:
+            if o.id == d.support or o.is_goal:
+                continue
+            if z1.intersection(placed[o.id].zone1().buffer(DRESSING_GAP, join_style=2)).area > 1e-6:
+                out.append(
+                    Violation("dressing clear of bodies", where, f"'{d.id}' overlaps '{o.id}'", (d.id, o.id))
+                )
     return out

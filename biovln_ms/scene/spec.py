@@ -23,14 +23,14 @@ from biovln_ms.io_utils import atomic_write_text
 SCHEMA_VERSION = 1
 
 # Limits (docs/guides/scenes-and-templates.md), checked before any geometry work. The templates use at
-# most 7 rooms, 28 walls, 6 openings and 13 objects; a spec file is ~15 kB.
+# most 7 rooms, 28 walls, 6 openings and 13 objects (41 with lab dressing); a spec file is ~15 kB.
 MAX_FILE_BYTES = 16 * 2**20
 MAX_JSON_DEPTH = 64
 MAX_ROOMS = 64
 MAX_POLYGON_VERTICES = 256
 MAX_WALLS = 512
 MAX_OPENINGS = 256
-MAX_OBJECTS = 512  # furniture + instruments
+MAX_OBJECTS = 512  # furniture + instruments + dressing
 MAX_COORDINATE = 1e4  # m, as the glTF reader (biovln_ms.lsat.gltf): farther is a units error, not a lab
 MIN_WALL_LENGTH = 1e-6  # m: shorter is a degenerate (zero-length) wall
 UNIT_TOL = 1e-4  # |v| of a unit vector (face, wall interior, opening normal)
@@ -170,18 +170,27 @@ class SceneSpec(_Strict):
     openings: list[OpeningSpec] = Field(max_length=MAX_OPENINGS)
     furniture: list[ObjectSpec] = Field(max_length=MAX_OBJECTS)
     instruments: list[ObjectSpec] = Field(min_length=1, max_length=MAX_OBJECTS)
+    # lab dressing (issue 18): non-goal objects; absent from the JSON when empty, so undressed specs keep
+    # their bytes
+    dressing: list[ObjectSpec] = Field(default_factory=list, max_length=MAX_OBJECTS)
 
     @model_validator(mode="after")
     def _ids(self) -> "SceneSpec":
-        if len(self.furniture) + len(self.instruments) > MAX_OBJECTS:
-            raise ValueError(f"instruments: more than {MAX_OBJECTS} objects (furniture + instruments)")
+        if len(self.objects()) > MAX_OBJECTS:
+            raise ValueError(
+                f"instruments: more than {MAX_OBJECTS} objects (furniture + instruments + dressing)"
+            )
         ids = [o.id for o in self.objects()]
         dup = sorted({i for i in ids if ids.count(i) > 1})
         if dup:
             raise ValueError(f"instruments/furniture: duplicate ids {dup}")
         room_ids = {r.id for r in self.rooms}
         furn = {f.id for f in self.furniture}
-        for key, objs in (("furniture", self.furniture), ("instruments", self.instruments)):
+        for key, objs in (
+            ("furniture", self.furniture),
+            ("instruments", self.instruments),
+            ("dressing", self.dressing),
+        ):
             for i, o in enumerate(objs):
                 if o.room not in room_ids:
                     raise ValueError(f"{key}[{i}].room: '{o.room}' is not a room id ({sorted(room_ids)})")
@@ -190,7 +199,8 @@ class SceneSpec(_Strict):
         return self
 
     def objects(self) -> list[ObjectSpec]:
-        return [*self.furniture, *self.instruments]
+        """Every placed object: furniture, instruments and lab dressing (all of them bodies in the way)."""
+        return [*self.furniture, *self.instruments, *self.dressing]
 
     def goal_objects(self) -> list[ObjectSpec]:
         """Everything an episode can target: instruments and goal furniture."""
@@ -208,8 +218,10 @@ class SceneSpec(_Strict):
     def to_json(self) -> str:
         """Canonical JSON: sorted keys, fixed float formatting (byte-identical for the same spec)."""
         data = _round(self.model_dump(mode="json"))
-        for key in ("furniture", "instruments"):
-            for o in data[key]:
+        if not data["dressing"]:
+            del data["dressing"]
+        for key in ("furniture", "instruments", "dressing"):
+            for o in data.get(key, []):
                 if o.get("goal_source") is None:
                     o.pop("goal_source", None)  # absent for Eq. 1 goals: procedural specs keep their bytes
         return json.dumps(data, indent=1, sort_keys=True) + "\n"
@@ -240,7 +252,7 @@ _LIMIT_FIXES = {  # pydantic error type -> fix, for the errors the limits raise
 def _check_counts(obj: dict, source: str) -> None:
     """Refuse oversized lists before the schema and the geometry see them."""
     sizes = {k: len(v) for k, v in obj.items() if isinstance(v, list)}
-    limits = {**_COUNT_LIMITS, "furniture": MAX_OBJECTS, "instruments": MAX_OBJECTS}
+    limits = {**_COUNT_LIMITS, "furniture": MAX_OBJECTS, "instruments": MAX_OBJECTS, "dressing": MAX_OBJECTS}
     for key, limit in limits.items():
         if sizes.get(key, 0) > limit:
             raise SceneSpecError(
@@ -249,10 +261,10 @@ def _check_counts(obj: dict, source: str) -> None:
                 field=key,
                 fix="split the lab into several scenes",
             )
-    n_objects = sizes.get("furniture", 0) + sizes.get("instruments", 0)
+    n_objects = sizes.get("furniture", 0) + sizes.get("instruments", 0) + sizes.get("dressing", 0)
     if n_objects > MAX_OBJECTS:
         raise SceneSpecError(
-            f"{n_objects} objects (furniture + instruments), more than the limit of {MAX_OBJECTS}",
+            f"{n_objects} objects (furniture + instruments + dressing), more than the limit of {MAX_OBJECTS}",
             source=source,
             field="instruments",
             fix="split the lab into several scenes",

@@ -138,6 +138,10 @@ class Template(_Strict):
     def scene_name(self, seed: int) -> str:
         return self.name_pattern.format(template=self.name, seed=seed)
 
+    def categories(self) -> set[str]:
+        """Every category a scene of this template can hold: its furniture's and its slots'."""
+        return {f.category for f in self.furniture} | {c for s in self.slots for c in s.categories}
+
 
 _REGISTRY: dict[str, Template] = {}
 _BUILTIN_LOADED = False

@@ -26,7 +26,15 @@ CATEGORY_COLORS = {
     "biosafety_cabinet": "#2e8b57",
     "lab_bench": "#6d5a45",
     "lab_table": "#8a7f72",
+    "fume_hood": "#c0392b",
+    "ultra_low_freezer": "#1f4e9c",
+    "autoclave": "#95a5a6",
+    "thermal_cycler": "#2c7a7b",
+    "microscope": "#34495e",
+    "water_bath": "#2e86c1",
+    "shaker": "#d35400",
 }
+DRESSING_COLOR = "#c8b89a"  # lab dressing: bodies in the way, no zones
 
 
 def _poly(ax, coords, **kw):
@@ -68,7 +76,17 @@ def draw_map(spec: SceneSpec, ax=None, show_free: bool = True, title: str | None
             edgecolor="#333333",
             zorder=5,
         )
-    for o in spec.objects():
+    for o in spec.dressing:
+        _poly(
+            ax,
+            o.placed().zone1_corners(),
+            facecolor=DRESSING_COLOR,
+            edgecolor="#6b5b3e",
+            hatch="////",
+            lw=0.7,
+            zorder=4,
+        )
+    for o in [*spec.furniture, *spec.instruments]:
         p = o.placed()
         color = CATEGORY_COLORS.get(o.category, "#999999")
         if o.is_goal:
@@ -120,10 +138,11 @@ def draw_map(spec: SceneSpec, ax=None, show_free: bool = True, title: str | None
     return ax
 
 
-def legend_handles():
+def legend_handles(dressing: bool = False):
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
+    extra = [Patch(facecolor=DRESSING_COLOR, edgecolor="#6b5b3e", hatch="////", label="lab dressing")]
     return [
         Patch(facecolor="#cfeccf", edgecolor="#8cc68c", label="navigable area"),
         Patch(facecolor="#999999", edgecolor="black", label="Zone 1 (body)"),
@@ -140,6 +159,7 @@ def legend_handles():
             label="goal (Eq. 1)",
         ),
         Line2D([], [], color="#999999", ls=":", label="success radius r"),
+        *(extra if dressing else []),
     ]
 
 
@@ -212,7 +232,9 @@ def save_map(spec: SceneSpec, out: str | Path, episode: dict | None = None, nav=
         if nav is not None:
             path = nav.shortest_path(episode["start_position"][:2], episode["goals"][0]["position"][:2])
         draw_episode(ax, episode, path)
-    ax.legend(handles=legend_handles(), loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    ax.legend(
+        handles=legend_handles(bool(spec.dressing)), loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8
+    )
     fig.tight_layout()
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)

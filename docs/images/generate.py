@@ -5,7 +5,8 @@
 - ``lab_s150_v0_view.png``: the held-out scene ``lab_s150_v0`` rendered by SAPIEN from above at an
   angle (``biovln_ms.render.scene_view.render_overview``; needs a Vulkan driver, lavapipe is fine);
 - ``lab_s150_v0_episode.png``: its top-down map with Zones 1/2/3, faces, goals, the navigable islands
-  and one episode's start, goal, view points and exact shortest path (``biovln_ms.scene.topdown``).
+  and one episode's start, goal, view points and exact shortest path (``biovln_ms.scene.topdown``);
+- ``molbio_s3_v0_dressed.png``: the top-down map of ``molecular_biology`` seed 3 with its lab dressing.
 
 Both are what ``biovln-ms demo`` writes for the same scene, at a size fit for a web page.
 """
@@ -41,7 +42,9 @@ def _shrink(path: Path) -> Path:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--only", nargs="*", choices=("view", "map"), default=("view", "map"))
+    ap.add_argument(
+        "--only", nargs="*", choices=("view", "map", "dressed"), default=("view", "map", "dressed")
+    )
     ap.add_argument("--out", type=Path, default=HERE)
     args = ap.parse_args()
     spec = generate_scene("single_room", 150, required_categories=FOUR_CATEGORIES)
@@ -56,6 +59,9 @@ def main() -> None:
 
         view = render_overview(spec, args.out / f"{spec.name}_view.png", size=(1200, 800))
         print(_shrink(view))
+    if "dressed" in args.only:
+        dressed = generate_scene("molecular_biology", 3, dressing=True)
+        print(_shrink(save_map(dressed, args.out / f"{dressed.name}.png", dpi=100)))
 
 
 if __name__ == "__main__":
