@@ -23,19 +23,19 @@ whole noise budget. Both models therefore draw their standard-normal samples onc
 per-frame arithmetic uses them, and a frame takes a window of the bank at an offset hashed from
 ``(seed, key)`` (SplitMix64):
 
-* RGB: int16 intensity steps, windows at pixel granularity: ``(bank_frames - 1) * H * W + 1`` of them
-  (0.9 M at 640x480);
+* RGB: three uint8 banks (a lower and an upper clamp bound and a wrapping step, see :class:`RGBNoise`),
+  windows at pixel granularity: ``(bank_frames - 1) * H * W + 1`` of them (0.9 M at 640x480);
 * depth, disparity noise: float32, pixel-granular windows, as many;
 * depth, pixel jitter: int32 absolute read positions (border clamping baked in), windows at row
   granularity: ``(bank_frames - 1) * H + 1`` jitter patterns (1441 at 480 rows), drawn independently of the
   disparity window.
 
 Two frames share noise structure only as shifted copies of the same bank; within a frame all samples are
-distinct draws. Memory at 640x480 with 4 bank frames: RGB 9.8 MB (an RGBA-layout bank; 7.4 MB more if
-contiguous RGB images come too) plus a 2.5 MB work buffer; depth 9.8 MB of banks plus 4.3 MB of work
-buffers. Per frame the models run a few in-place passes and gathers (no fresh random numbers, no full-size
-allocation but the returned image): on one CPU core about 0.2-0.3 ms for RGB and 0.6 ms for depth at
-640x480 with warm caches (``benchmarks/sensor_noise.py``). On a GPU the whole batch goes through one set
+distinct draws. Memory at 640x480 with 4 bank frames: RGB 14.7 MB (RGBA-layout banks; 11.1 MB more if
+contiguous RGB images come too) and no work buffer; depth 9.8 MB of banks plus 4.3 MB of work buffers.
+Per frame the models run a few in-place passes and gathers (no fresh random numbers, no full-size
+allocation but the returned image; RGB in place on the image when ``out`` is the input, as in the env):
+see ``benchmarks/sensor_noise.py`` for the cost per frame. On a GPU the whole batch goes through one set
 of kernels.
 
 The objects keep work buffers: one instance must not be called from two threads at once.
@@ -179,8 +179,10 @@ class RGBNoise:
     ``out = clip(round(rgb + 255 * sigma * z), 0, 255)`` as uint8, with ``z ~ N(0, 1)`` i.i.d. per pixel and
     channel and ``sigma`` the standard deviation on the [0, 1] intensity scale (Habitat's Gaussian noise
     model; the PointNav 2020 challenge used ``sigma = 0.1``). As ``rgb`` is an integer,
-    ``round(rgb + 255 sigma z) = rgb + round(255 sigma z)``: the bank holds those int16 steps (clipped to
-    +-255, which saturate any pixel anyway, so no output changes).
+    ``round(rgb + 255 sigma z) = rgb + round(255 sigma z)``: integer steps ``n``, clipped to +-255 (which
+    saturate any pixel anyway, so no output changes). A frame costs two uint8 passes and no temporary:
+    ``clip(rgb + n, 0, 255) = clip(rgb, max(-n, 0), 255 - max(n, 0)) + n``, whose sum stays in [0, 255], so
+    a clamp between two bounds banks then a wrapping add of ``n mod 256`` (a third bank) is exact.
 
     ``__call__(rgb, keys)``: the noise of image ``i`` is a function of ``(seed, keys[i])`` only (module
     docstring), whatever the memory layout: a contiguous image and a 3-channel view of an RGBA image (what
@@ -195,7 +197,6 @@ class RGBNoise:
     bank_frames: int = 4
     device: str | torch.device = "cpu"
     _banks: dict = field(init=False, repr=False, default_factory=dict)
-    _plans: dict = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.height < 1 or self.width < 1:
@@ -207,18 +208,23 @@ class RGBNoise:
         self.n_offsets = (self.bank_frames - 1) * self.frame_pixels + 1  # pixel-granular windows
         if self.sigma > 0:
             z = _standard_normal(int(self.seed), _RGB_STREAM, (self.bank_frames * self.frame_pixels, 4))
-            bank = z.mul_(255.0 * self.sigma).round_().clamp_(-255, 255).to(torch.int16)
-            bank[:, 3] = 0  # alpha passes through
-            self._banks[(_CPU, 4)] = bank.reshape(-1)
+            steps = z.mul_(255.0 * self.sigma).round_().clamp_(-255, 255).to(torch.int16)
+            steps[:, 3] = 0  # alpha passes through
+            # clip(x + n, 0, 255) = clip(x, max(-n, 0), 255 - max(n, 0)) + n, the sum never leaving [0, 255]:
+            # so a clamp between two uint8 bounds, then a wrapping uint8 add of n mod 256
+            lo, hi = (-steps).clamp_(min=0), 255 - steps.clamp(min=0)
+            banks = torch.stack((lo, hi, steps.remainder(256))).to(torch.uint8)
+            self._banks[(_CPU, 4)] = banks.reshape(3, -1)
             self._bank(torch.device(self.device), 4)
 
     def _bank(self, device: torch.device, channels: int) -> torch.Tensor:
-        """The bank laid out as RGBA (4) or RGB (3) pixels: the same samples, pixel for pixel."""
+        """The ``(3, pixels * channels)`` uint8 banks (lower bound, upper bound, wrapping step) laid out as
+        RGBA (4) or RGB (3) pixels: the same samples, pixel for pixel."""
         bank = self._banks.get((device, channels))
         if bank is None:
             if channels == 3:
-                rgba = self._banks[(_CPU, 4)].view(-1, 4)
-                bank = rgba[:, :3].contiguous().reshape(-1).to(device)
+                rgba = self._banks[(_CPU, 4)].view(3, -1, 4)
+                bank = rgba[..., :3].contiguous().reshape(3, -1).to(device)
             else:
                 bank = self._banks[(_CPU, 4)].to(device)
             self._banks[(device, channels)] = bank
@@ -256,27 +262,18 @@ class RGBNoise:
                 )
         if n == 0:
             return out
-        bank = self._bank(rgb.device, channels)
+        lo, hi, step = self._bank(rgb.device, channels)
         size = self.frame_pixels * channels
         offs = [o * channels for o in _offsets(int(self.seed), _RGB_STREAM, keys, self.n_offsets)]
         if _batched(rgb):
-            self._apply(src, _windows(bank, size, offs), dst)
+            windows = [_windows(b, size, offs).view(src.shape) for b in (lo, hi, step)]
+            torch.clamp(src, min=windows[0], max=windows[1], out=dst).add_(windows[2])
         else:
-            for i in range(n):
-                self._apply(src[i : i + 1], bank[offs[i] : offs[i] + size], dst[i : i + 1])
+            for i, o in enumerate(offs):
+                shape = src[i : i + 1].shape
+                lo_i, hi_i, step_i = (b[o : o + size].view(shape) for b in (lo, hi, step))
+                torch.clamp(src[i : i + 1], min=lo_i, max=hi_i, out=dst[i : i + 1]).add_(step_i)
         return out
-
-    def _apply(self, src: torch.Tensor, noise: torch.Tensor, dst: torch.Tensor) -> None:
-        n = src.shape[0]
-        key = (src.device, n, src.shape[3])
-        buf = self._plans.get(key)
-        if buf is None:
-            buf = self._plans[key] = torch.empty(src.shape, dtype=torch.int16, device=src.device)
-        buf.copy_(src)
-        flat = buf.view(n, -1)
-        flat.add_(noise.view(n, -1))
-        flat.clamp_(0, 255)
-        dst.copy_(buf)
 
 
 @dataclass(eq=False)

@@ -443,7 +443,8 @@ class BioVLNNavEnv(BaseEnv):
         for cam in params.values():
             b2w = torch.from_numpy(base2world).to(cam["extrinsic_cv"])
             cam["extrinsic_cv"] = cam["extrinsic_cv"] @ b2w  # world -> camera, applied to base points
-            cam["cam2world_gl"] = torch.linalg.inv(b2w) @ cam["cam2world_gl"]  # camera -> base
+            # camera -> base (inv_ex: inv's numbers without its error check, b2w is rigid)
+            cam["cam2world_gl"] = torch.linalg.inv_ex(b2w)[0] @ cam["cam2world_gl"]
 
     def _image_noise(self) -> tuple[RGBNoise | None, DepthNoise | None]:
         """The noise config's RGB and depth noise models for the head camera (built once, on first use)."""
