@@ -24,11 +24,15 @@ def test_plan_covers_every_method_split_and_preset_and_names_each_skip(monkeypat
         "hard_test",
     }
     skipped = {(r.method, r.noise): r.skip for r in runs if r.skip}
-    assert set(skipped) == {("llm_frontier", "ideal"), ("llm_frontier", "realistic"), ("ppo", "realistic")}
+    assert set(skipped) == {
+        ("llm_frontier", "ideal"),
+        ("llm_frontier", "realistic"),
+        ("ppo", "realistic"),
+        ("bc", "realistic"),
+    }
     assert "BIOVLN_LLM_API_KEY" in skipped[("llm_frontier", "ideal")]
     assert "pose" in skipped[("ppo", "realistic")]
-    # bc reads RGB and the goal sensor, which the realistic preset gives without GPS (pointgoal)
-    assert not any(r.skip for r in runs if r.method == "bc")
+    assert "GPS+compass goal sensor" in skipped[("bc", "realistic")]
 
 
 def test_plan_adds_the_runs_of_the_papers_tables():
@@ -54,6 +58,15 @@ def test_plan_refuses_unknown_names():
 def test_a_pose_reading_method_is_refused_without_gps_before_any_worker():
     with pytest.raises(NoiseConfigError, match="rl_state is the robot's pose"):
         EvalConfig("ppo", "ms_val", "out", noise="realistic")
+
+
+def test_a_method_reading_the_gps_goal_sensor_is_refused_and_skipped_without_gps():
+    with pytest.raises(NoiseConfigError, match="method 'bc' cannot run under noise 'realistic'"):
+        EvalConfig("bc", "ms_val", "out", noise="realistic")
+    runs = {r.key: r.skip for r in plan(["bc", "ppo"], ["ms_val"], ["ideal", "realistic"], False)}
+    assert runs["bc/ms_val/ideal"] is None and runs["ppo/ms_val/ideal"] is None
+    assert runs["bc/ms_val/realistic"].startswith("its goal input is the GPS+compass goal sensor")
+    assert runs["ppo/ms_val/realistic"].endswith("no GPS+compass here")
 
 
 def test_suite_runs_resumes_and_logs(held_out_dataset, tmp_path, monkeypatch):

@@ -28,6 +28,7 @@ class MethodSpec:
     env_id: str | None = None  # the env variant it must run on (None: the benchmark env)
     env_kwargs: dict = field(default_factory=dict)  # extra gym.make arguments (e.g. a control mode)
     report_note: str = ""  # why its numbers differ from the paper's, for the report (when it has runs)
+    needs_gps_compass: str | None = None  # why it cannot run without GPS+compass (None: it can)
 
     @property
     def recordable(self) -> bool:
@@ -94,6 +95,7 @@ def _sb3_spec(algo: str, control_mode: str, report_order: int) -> MethodSpec:
         options=("checkpoint", "deterministic"),
         env_id=RL_ENV,
         env_kwargs={"control_mode": control_mode},
+        needs_gps_compass="its observation (the paper's RL state vector) is the robot's pose",
     )
 
 
@@ -176,6 +178,7 @@ METHODS: dict[str, MethodSpec] = {
         preflight=_bc_preflight,
         options=("checkpoint", "sample", "seed"),
         report_note=_BC_NOTE,
+        needs_gps_compass="its goal input is the GPS+compass goal sensor it was trained on",
     ),
     **{algo: _sb3_spec(algo, mode, 80 + 10 * i) for i, (algo, mode) in enumerate(SB3_CONTROL_MODES.items())},
     # lab protocols (BioVLN-Protocol-v0, issue 17): K ordered goals, a STOP at each

@@ -9,8 +9,9 @@ and a learned method's checkpoint is trained once. ``<out>/suite.json`` keeps ev
 time (the time of a resumed run adds up over its sessions); ``<out>/suite.md`` is that as a table.
 
 Runs that cannot be made are skipped with their reason in both files, never silently: LLM-Frontier
-without an endpoint (``BIOVLN_LLM_API_KEY`` unset), and a method whose observation is the robot's pose
-(PPO reads the paper's RL state vector) under a preset without GPS+compass.
+without an endpoint (``BIOVLN_LLM_API_KEY`` unset), and a method that reads GPS+compass
+(``MethodSpec.needs_gps_compass``: PPO's observation is the paper's RL state vector, the robot's pose; BC's
+goal input is the GPS+compass goal sensor) under a preset without it.
 """
 
 from __future__ import annotations
@@ -72,8 +73,8 @@ def skip_reason(method: str, noise: str) -> str | None:
             spec.preflight()
         except BioVLNError as e:
             return e.message
-    if not resolve_noise(noise).gps_compass and method in LEARNED and spec.obs_mode == "state":
-        return "its observation (the paper's RL state vector) is the robot's pose; no GPS+compass here"
+    if not resolve_noise(noise).gps_compass and spec.needs_gps_compass:
+        return f"{spec.needs_gps_compass}; no GPS+compass here"
     return None
 
 
