@@ -23,6 +23,14 @@ Goal rule (the paper leaves it implicit): the goal position is used only to deci
 and stop: as soon as the goal cell is known free and reachable on the robot's map it navigates to it
 and STOPs within half a step (or when a step would not bring it closer). With no frontier left and
 the goal never seen, it goes to the known free cell nearest the goal and stops.
+
+A head camera mounted ahead of the turning centre (Fetch's, 0.16 m; the cylinder's is on its axis) never
+sees the ground within the circle it sweeps about the turning centre: every frame the map also frees
+that disc (the robot stands on it), else the robot's own cell is cut off from the free space the camera
+sees and no frontier is reachable (it STOPs at its first step), and unseen cells beside the base stay a
+frontier it turns toward for ever. The offset is read at the first step from the observed camera
+extrinsics (with the odometry, or in the base frame without GPS+compass), which also place the camera
+on the estimated pose's base (:func:`camera_offset`).
 """
 
 from __future__ import annotations
@@ -55,6 +63,7 @@ __all__ = [
     "OccupancyMap",
     "Scan",
     "backproject",
+    "camera_offset",
     "goal_from_sensor",
     "head_depth",
     "head_frame",
@@ -73,6 +82,22 @@ def pose_from_odometry(obs: dict) -> np.ndarray:
     The head camera's pose gives the same to ~1e-7 m, but a map origin that moves by that much re-bins
     depth points lying on cell borders, so the exact odometry keeps runs reproducible."""
     return to_numpy(obs["agent"]["qpos"][0, :3]).astype(float)
+
+
+#: m: a head camera whose ground point lies nearer the turning centre than this is on the axis (the
+#: cylinder's: its float32 extrinsics put it ~1e-7 m off, which is no offset)
+ON_AXIS = 1e-3
+
+
+def camera_offset(extrinsic: np.ndarray, base_pose: np.ndarray) -> np.ndarray:
+    """The head camera's ground position in the base frame (x ahead, y left) from its OpenCV extrinsics
+    (world to camera) and the base's (x, y, yaw) in the same frame; zero for a camera on the axis."""
+    cam = -extrinsic[:3, :3].T @ extrinsic[:3, 3]  # the camera centre
+    x, y, yaw = (float(v) for v in base_pose)
+    c, s = math.cos(yaw), math.sin(yaw)
+    dx, dy = cam[0] - x, cam[1] - y
+    offset = np.array([c * dx + s * dy, -s * dx + c * dy])
+    return offset if np.linalg.norm(offset) >= ON_AXIS else np.zeros(2)
 
 
 def goal_from_sensor(pose: np.ndarray, pointgoal) -> np.ndarray:
@@ -114,17 +139,30 @@ class FrontierPolicy(Policy):
         self.pose: np.ndarray | None = None  # (x, y, yaw) at the current step
         # without GPS+compass: the pose in the episode frame, estimated (biovln_ms.agents.localisation)
         self.localiser = None if self.task.noise.gps_compass else Localiser()
-        self.mount: np.ndarray | None = None  # the head camera on the base (height and tilt)
+        self.mount: np.ndarray | None = None  # the head camera on the base (height, tilt, offset)
+        self.camera_offset = np.zeros(2)  # the head camera's ground point ahead of the turning centre
         self._blocked = False  # the last frame showed a FORWARD blocked (localisation.blocked_ahead)
         self.pose_estimates: list[np.ndarray] = []
 
     def act(self, obs, info: dict) -> int:
+        if self.map is None:
+            self._mount(obs)
         self.pose = pose_from_odometry(obs) if self.localiser is None else self._localise(obs)
         if self.map is None:
             self._start(obs, self.pose)
         self._integrate(obs)
         self.pose_estimates.append(self.pose)
         return self.control.act(self.pose)
+
+    def _mount(self, obs) -> None:
+        """First step: the head camera's ground offset from the turning centre and, without GPS+compass
+        (whose observed extrinsics are in the base frame), its mount on the base."""
+        extrinsic = to_numpy(obs["sensor_param"]["head"]["extrinsic_cv"][0])
+        base = pose_from_odometry(obs) if self.localiser is None else np.zeros(3)
+        self.camera_offset = camera_offset(extrinsic, base)
+        if self.localiser is not None:
+            self.mount = camera_mount(extrinsic)
+            self.mount[:2, 3] = self.camera_offset
 
     def _localise(self, obs) -> np.ndarray:
         """The pose without odometry: the start at the first step, then the previous command's dead
@@ -133,7 +171,6 @@ class FrontierPolicy(Policy):
         p = self.params
         depth, intrinsic = head_depth(obs)
         if self.map is None:
-            self.mount = camera_mount(to_numpy(obs["sensor_param"]["head"]["extrinsic_cv"][0]))
             self.localiser.reset()
         points = scan_points(depth, intrinsic, self.mount, p.pixel_stride, p.depth_clip, p.floor_z, p.top_z)
         if self.map is not None:
@@ -172,9 +209,13 @@ class FrontierPolicy(Policy):
         self.control = FrontierController(p, self.task.forward_step, turn, self.map, self.planner)
 
     def _integrate(self, obs) -> Scan:
-        """Add the head camera's depth frame to the map (VLFM also scores and detects on it)."""
+        """Add the head camera's depth frame to the map (VLFM also scores and detects on it), and the disc
+        under the base that a camera mounted ahead of the turning centre never sees."""
         p = self.params
-        return self.map.integrate(*self._frame(obs), p.pixel_stride, p.depth_clip, p.floor_z, p.top_z)
+        base = self.pose[:2] if self.camera_offset.any() else None
+        return self.map.integrate(
+            *self._frame(obs), p.pixel_stride, p.depth_clip, p.floor_z, p.top_z, base_xy=base
+        )
 
     def episode_stats(self) -> dict:
         """The pose acted on at each step (x, y, yaw; ``pose_frame``: "world" from odometry, "episode"

@@ -56,6 +56,9 @@ class OccupancyMap:
         self.log_odds = np.zeros((self.n, self.n), np.float32) if evidence else None
         self.lo = np.array([self.n, self.n])
         self.hi = np.array([0, 0])
+        # cells a depth frame has reached, kept once a frame frees the ground under the base (``base_xy``):
+        # that ground is known free but not seen, so its edge is no frontier (None: every free cell is seen)
+        self.seen: np.ndarray | None = None
 
     def cell(self, xy) -> np.ndarray:
         """The (row, col) of world point(s) ``xy`` (..., 2)."""
@@ -81,11 +84,16 @@ class OccupancyMap:
         floor_z: float = FrontierParams.floor_z,
         top_z: float = FrontierParams.top_z,
         column_stride: int | None = None,
+        base_xy: np.ndarray | None = None,
     ) -> Scan:
         """Add one depth frame. The camera is level, so every image column maps to one ground
         azimuth: per column the cells up to the nearest obstacle point are free (a laser scan from
         depth); every sampled pixel between ``floor_z`` and ``top_z`` marks an obstacle. Rows are
         sampled every ``stride`` pixels, columns about ``SCAN_COLUMNS`` across the image.
+        ``base_xy``: the robot's turning centre, for a camera mounted ahead of it (Fetch's): the rays start
+        on the circle the camera sweeps about it and point outward, so none ever crosses the disc inside;
+        the robot stands on that ground, and it is free too (with half a cell more, so that the camera's
+        own cell joins the base's). Those cells are not :attr:`seen`.
         Returns the scan (camera position, per-column ground direction and free length)."""
         h, w = depth_m.shape
         column_stride = column_stride or max(1, w // SCAN_COLUMNS)
@@ -105,6 +113,13 @@ class OccupancyMap:
         rc, _ = self.ray_cells(scan)
         orc = self.cell(pw[obstacle][:, :2])
         orc = orc[self._in_bounds(orc)]
+        if base_xy is not None:
+            if self.seen is None:
+                self.seen = np.zeros((self.n, self.n), bool)
+            self.seen[rc[:, 0], rc[:, 1]] = self.seen[orc[:, 0], orc[:, 1]] = True
+            base_xy = np.asarray(base_xy, float)
+            blind = float(np.linalg.norm(scan.cam - base_xy)) + self.res / 2
+            rc = np.concatenate([rc, self.disc_cells(base_xy, blind)])
         if self.log_odds is None:
             keep = self.grid[rc[:, 0], rc[:, 1]] != OCCUPIED
             self.grid[rc[keep, 0], rc[keep, 1]] = FREE
@@ -139,6 +154,14 @@ class OccupancyMap:
         rc = self.cell(pts)
         ok = self._in_bounds(rc)
         return rc[ok], owner[ok]
+
+    def disc_cells(self, centre: np.ndarray, radius: float) -> np.ndarray:
+        """Grid cells (row, col) whose centres lie within ``radius`` of world point ``centre``."""
+        c = self.cell(centre)
+        k = int(np.ceil(radius / self.res))
+        rc = c + np.stack(np.mgrid[-k : k + 1, -k : k + 1], axis=-1).reshape(-1, 2)
+        rc = rc[np.linalg.norm(self.centre(rc) - centre, axis=1) <= radius]
+        return rc[self._in_bounds(rc)]
 
     def _in_bounds(self, rc: np.ndarray) -> np.ndarray:
         """Mask of the (row, col) cells that lie on the grid."""

@@ -2,11 +2,11 @@
 
 Path lengths come from Dijkstra over the known-free cells of the observed part of the map, with
 obstacles grown by the robot radius plus a margin (:class:`PlanField`). Frontiers are free cells next
-to unknown ones; their 8-connected groups are split into square tiles of the cluster diameter
-(2 x 1.0 m, Table 15), and every tile of at least 10 cells with a reachable cell is a candidate, at
-its reachable cell nearest the robot. Which target wins is decided by the policy's
-:class:`TargetRules`: a known target first (the frontier baseline's goal, VLFM's detected object),
-else the chosen frontier, else the exhausted fallback.
+to unknown ones (seen ones: not the ground under a base that its camera never sees, ``OccupancyMap.seen``);
+their 8-connected groups are split into square tiles of the cluster diameter (2 x 1.0 m, Table 15), and
+every tile of at least 10 cells with a reachable cell is a candidate, at its reachable cell nearest the
+robot. Which target wins is decided by the policy's :class:`TargetRules`: a known target first (the
+frontier baseline's goal, VLFM's detected object), else the chosen frontier, else the exhausted fallback.
 """
 
 from __future__ import annotations
@@ -156,6 +156,9 @@ class FrontierPlanner:
         p = self.params
         eight = np.ones((3, 3))  # 8-connectivity
         frontier = (field.grid == FREE) & ndimage.binary_dilation(field.grid == UNKNOWN, structure=eight)
+        if field.occ_map.seen is not None:  # the ground under the base that no frame has seen is no frontier
+            lo, hi = field.lo, field.lo + np.array(field.grid.shape)
+            frontier &= field.occ_map.seen[lo[0] : hi[0], lo[1] : hi[1]]
         labels, k = ndimage.label(frontier, structure=eight)
         reachable = field.reachable()
         tile = max(1, round(2 * p.cluster_radius / field.occ_map.res))

@@ -16,21 +16,18 @@ def dataset(held_out_dataset):
     return held_out_dataset(ms_val=4)
 
 
+def run_ms_val(method: str, tmp, dataset, **kw) -> dict:
+    """Evaluate ``method`` on the test dataset's MS VAL at 160 x 120 into ``tmp / "res"``; the summary."""
+    return evaluate(
+        EvalConfig(method, "ms_val", str(tmp / "res"), dataset, workers=1, camera=(160, 120), **kw),
+        progress=False,
+    )
+
+
 @pytest.fixture(scope="module")
 def trained(dataset, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("bc")
-    evaluate(
-        EvalConfig(
-            "oracle",
-            "ms_val",
-            str(tmp / "res"),
-            dataset,
-            workers=1,
-            camera=(160, 120),
-            record_dir=str(tmp / "rec"),
-        ),
-        progress=False,
-    )
+    run_ms_val("oracle", tmp, dataset, record_dir=str(tmp / "rec"))
     result = train_bc(
         [tmp / "rec"],
         tmp / "ckpt",
@@ -61,21 +58,16 @@ def test_training_writes_checkpoint_curve_and_history(trained):
     assert cfg.image_size == 32 and meta["frame_size"] == [224, 224] and not model.training
 
 
-def test_bc_is_evaluated_through_the_harness(trained, dataset):
+def bc_run(trained, dataset, episodes: int, noise: str = "ideal") -> dict:
+    """Evaluate the trained BC checkpoint on the first ``episodes`` of MS VAL; returns the summary."""
     tmp, r = trained
-    summary = evaluate(
-        EvalConfig(
-            "bc",
-            "ms_val",
-            str(tmp / "res"),
-            dataset,
-            workers=1,
-            camera=(160, 120),
-            max_episodes=2,
-            method_kwargs={"checkpoint": str(r.checkpoint)},
-        ),
-        progress=False,
-    )
+    kwargs = {"checkpoint": str(r.checkpoint)}
+    return run_ms_val("bc", tmp, dataset, max_episodes=episodes, method_kwargs=kwargs, noise=noise)
+
+
+def test_bc_is_evaluated_through_the_harness(trained, dataset):
+    tmp, _ = trained
+    summary = bc_run(trained, dataset, 2)
     recs = load_records(tmp / "res" / "bc" / "ms_val" / "episodes.jsonl")
     assert summary["overall"]["episodes"] == 2 and len(recs) == 2
     assert all(not rec.get("error") and all(a in (0, 1, 2, 3) for a in rec["actions"]) for rec in recs)
@@ -114,3 +106,14 @@ def test_bad_checkpoints_are_refused(tmp_path, trained, dataset):
             ),
             progress=False,
         )
+
+
+def test_bc_runs_without_gps_on_its_own_pose_estimate(trained, dataset):
+    tmp, _ = trained
+    bc_run(trained, dataset, 1, noise="realistic")
+    (rec,) = load_records(tmp / "res" / "bc+realistic" / "ms_val" / "episodes.jsonl")
+    assert not rec.get("error")
+    stats = rec["policy_stats"]
+    assert stats["pose_frame"] == "episode" and len(stats["pose_estimates"]) == len(rec["actions"])
+    assert stats["pose_estimates"][0] == [0.0, 0.0, 0.0]  # the episode frame's origin
+    assert rec["pose_drift_max"] >= 0.0

@@ -7,6 +7,7 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+import sapien
 import torch
 from typer.testing import CliRunner
 
@@ -291,3 +292,133 @@ def test_fetch_builds_every_paper_split(tmp_path):
     counts = {s.name: (len(s.scenes), sum(n for _, n, _ in s.scenes)) for s in paper_splits()}
     assert {k: (len(v["scenes"]), v["episodes"]) for k, v in m["splits"].items()} == counts
     assert m["robot"] == "fetch" and m["agent_radius"] == FETCH.footprint_radius
+
+
+@pytest.fixture(scope="module")
+def two_room_env(tmp_path_factory):
+    root = tmp_path_factory.mktemp("data") / "fetch2"
+    s = generate_scene("two_room", 200, robot_radius=FETCH.footprint_radius)
+    write_dataset(root, [SplitPlan("two_room", [(s, 2, True)])], False, "fetch")
+    e = gym.make(
+        "BioVLN-OpFace-v0", robot_uids="fetch", dataset=str(root), split="two_room", obs_mode="none", **CPU
+    )
+    e.reset(options={"episode_index": 0})
+    yield e
+    e.close()
+
+
+def _floor_shapes(u):
+    shell = next(a for a in u.scene.actors.values() if a.name.endswith("room_shell"))
+    body = shell._objs[0].find_component_by_type(sapien.physx.PhysxRigidStaticComponent)
+    return [s for s in body.get_collision_shapes() if s.local_pose.p[2] < 0]
+
+
+def _drive_through_the_corridor(env) -> list[float]:
+    """FORWARD from room A along the corridor's centre line into room B; the length of each move."""
+    u = env.unwrapped
+    u.agent.reset_planar(torch.tensor([[5.0, 2.5, 0.0]]))
+    moves, prev = [], pose(u)
+    for _ in range(14):  # the base's centre from x = 5.0 to 8.5: over both rooms' floor seams (x = 6, 8)
+        env.step(1)
+        moves.append(float(np.linalg.norm(pose(u)[:2] - prev[:2])))
+        prev = pose(u)
+    return moves
+
+
+def test_fetch_crosses_the_seams_between_rooms_floors(two_room_env):
+    """Each room's floor is its own box. Fetch's wheel meshes reach below the floor (its base is carried by
+    the planar joints), so the edge of the next room's floor box stopped them at Two-Room's corridor: the
+    floor ignores Fetch's base and wheels (ManiSkill's collision bits, as its own grounds do)."""
+    from shapely.geometry import LineString
+
+    from biovln_ms.sim.sapien_builder import FLOOR_IGNORED_BITS
+
+    u = two_room_env.unwrapped
+    assert scene_free_space(u.scene_spec).covers(LineString([(5.0, 2.5), (8.5, 2.5)]))  # nothing in the way
+    wheels = u.agent.robot.links_map["l_wheel_link"]._objs[0]
+    low = 1.0
+    for shape in wheels.get_collision_shapes():
+        t = (wheels.entity_pose * shape.local_pose).to_transformation_matrix()
+        low = min(low, float(((shape.vertices * shape.scale) @ t[:3, :3].T + t[:3, 3])[:, 2].min()))
+    assert low < -0.003  # the cause: 5 mm into the floor
+    floors = _floor_shapes(u)
+    assert len(floors) == 3 and all(s.get_collision_groups()[2] & FLOOR_IGNORED_BITS for s in floors)
+    moves = _drive_through_the_corridor(two_room_env)
+    assert moves == pytest.approx([0.25] * 14, abs=0.01)
+    for s in floors:  # without the bits the wheels catch on the seam at x = 6
+        groups = s.get_collision_groups()
+        groups[2] = 0
+        s.set_collision_groups(groups)
+    moves = _drive_through_the_corridor(two_room_env)
+    assert min(moves) < 0.15 and pose(u)[0] < 6.1
+
+
+def test_frontier_on_fetch_sees_its_footprint_and_explores(fetch_dataset):
+    """Fetch's head camera is 0.16 m ahead of its turning centre, so no depth ray crosses the cells under
+    its base: the frontier map frees them from the camera's offset (read from the observed extrinsics), else
+    the robot's cell is cut off from what it sees and it STOPs at its first step."""
+    from biovln_ms.agents.frontier import FREE, FrontierPolicy
+    from biovln_ms.eval.rollout import rollout
+
+    e = gym.make(
+        "BioVLN-OpFace-v0",
+        robot_uids="fetch",
+        dataset=str(fetch_dataset),
+        split="ms_val",
+        obs_mode="rgbd",
+        camera_width=320,
+        camera_height=240,
+        **CPU,
+    )
+    pol = FrontierPolicy()
+    try:
+        steps = list(rollout(e, pol, 0))
+    finally:
+        e.close()
+    assert pol.camera_offset == pytest.approx([0.164, 0.0], abs=0.005)
+    actions = [s.action for s in steps[1:]]
+    assert actions[0] != 0 and len(actions) > 5
+    dtg = [float(s.info["distance_to_goal"]) for s in steps]
+    assert bool(steps[-1].info["success"]) or dtg[-1] < dtg[0] - 1.0  # it went a long way toward the goal
+    rc = pol.map.cell(pol.pose[:2])
+    assert pol.map.grid[rc[0], rc[1]] == FREE  # the ground under the base, which the camera never sees
+
+
+def test_the_ground_under_the_base_is_free_but_no_frontier_for_a_camera_off_the_axis():
+    """``camera_offset`` reads the camera's ground offset from extrinsics and a base pose (zero within 1 mm
+    of the axis: the cylinder's float32 extrinsics). ``integrate(base_xy=...)`` frees the disc the camera
+    circles about the turning centre, which no ray crosses; those cells are not ``seen``, so their edge is
+    no frontier (else the nearest frontier lies under the robot and it turns to and fro)."""
+    from biovln_ms.agents.frontier import FREE, UNKNOWN, FrontierParams, OccupancyMap, camera_offset
+    from biovln_ms.agents.frontier_planner import FrontierPlanner, PlanField
+
+    def extrinsic(cam_xy, yaw):  # a level camera looking along yaw, 1 m up (OpenCV: x right, y down, z ahead)
+        c, s = math.cos(yaw), math.sin(yaw)
+        r = np.array([[s, -c, 0.0], [0.0, 0.0, -1.0], [c, s, 0.0]])  # world -> camera
+        return np.hstack([r, (-r @ np.array([*cam_xy, 1.0]))[:, None]])
+
+    base = np.array([2.0, 1.0, 0.5])
+    ahead = base[:2] + 0.164 * np.array([math.cos(0.5), math.sin(0.5)])
+    assert camera_offset(extrinsic(ahead, 0.5), base) == pytest.approx([0.164, 0.0], abs=1e-9)
+    assert not camera_offset(extrinsic(base[:2] + 2e-7, 0.5), base).any()
+    depth = np.full((48, 64), 3.0, np.float32)  # a wall 3 m ahead
+    k = np.array([[32.0, 0.0, 32.0], [0.0, 32.0, 24.0], [0.0, 0.0, 1.0]])
+    params = FrontierParams(robot_radius=FETCH.footprint_radius)
+    plain = OccupancyMap(base[:2], extent=10.0)
+    plain.integrate(depth, k, extrinsic(ahead, 0.5), stride=4)
+    rc = plain.cell(base[:2])
+    assert plain.grid[rc[0], rc[1]] == UNKNOWN and plain.seen is None
+    m = OccupancyMap(base[:2], extent=10.0)
+    m.integrate(depth, k, extrinsic(ahead, 0.5), stride=4, base_xy=base[:2])
+    disc = m.disc_cells(base[:2], 0.164)
+    assert len(disc) > 30 and (m.grid[disc[:, 0], disc[:, 1]] == FREE).all()
+    seen = m.cell(ahead + 1.0 * np.array([math.cos(0.5), math.sin(0.5)]))  # 1 m ahead of the camera
+    assert not m.seen[rc[0], rc[1]] and m.seen[seen[0], seen[1]]
+
+    def nearest_frontier(occ):
+        field = PlanField.compute(occ, base[:2], params.inflate_cells)
+        return min(c.path_length for c in FrontierPlanner(params, None).candidates(field))
+
+    assert nearest_frontier(m) >= 0.15  # where the camera's view ends
+    m.seen = None  # were the freed disc seen, its edge beside the base would be the nearest frontier
+    assert nearest_frontier(m) < 0.15

@@ -31,7 +31,7 @@ from biovln_ms.eval.metrics import aggregate_all, record_error, required_metrics
 from biovln_ms.eval.handoff import handoff_payload, write_handoff
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.io_utils import atomic_write_text, exclusive_lock
-from biovln_ms.noise import NoiseConfigError, resolve_noise
+from biovln_ms.noise import resolve_noise
 from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
 from biovln_ms.variants import VARIANTS
 
@@ -73,13 +73,6 @@ class EvalConfig:
         noise = resolve_noise(self.noise)  # one-line errors before any worker starts: an unknown preset,
         if self.env_id in VARIANTS:  # or a variant whose sensors the preset cannot give
             VARIANTS[self.env_id].with_noise(noise)
-        needs = method_spec(self.method).needs_gps_compass
-        if needs and not noise.gps_compass:
-            raise NoiseConfigError(
-                f"method '{self.method}' cannot run under noise '{noise.name}': {needs}",
-                field="noise",
-                fix="evaluate it under a preset with GPS+compass, e.g. --noise ideal",
-            )
 
     @property
     def run_name(self) -> str:

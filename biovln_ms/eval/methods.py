@@ -170,7 +170,7 @@ METHODS: dict[str, MethodSpec] = {
     ),
     "bc": MethodSpec(
         _lazy("bc_policy", "BCPolicy"),
-        "rgb",
+        "rgbd",
         "behavioural cloning: ResNet-18 + 4-d goal vector (--checkpoint)",
         label="BC",
         report_order=70,
@@ -178,7 +178,6 @@ METHODS: dict[str, MethodSpec] = {
         preflight=_bc_preflight,
         options=("checkpoint", "sample", "seed"),
         report_note=_BC_NOTE,
-        needs_gps_compass="its goal input is the GPS+compass goal sensor it was trained on",
     ),
     **{algo: _sb3_spec(algo, mode, 80 + 10 * i) for i, (algo, mode) in enumerate(SB3_CONTROL_MODES.items())},
     # lab protocols (BioVLN-Protocol-v0, issue 17): K ordered goals, a STOP at each

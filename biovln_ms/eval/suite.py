@@ -6,12 +6,13 @@ training when no checkpoint is given, then the report.
 Each (method, split, preset) is one harness run (:func:`biovln_ms.eval.harness.evaluate`), so a killed
 suite resumes where it stopped: finished episodes are never run again, a finished run costs a file read,
 and a learned method's checkpoint is trained once. ``<out>/suite.json`` keeps every run's status and wall
-time (the time of a resumed run adds up over its sessions); ``<out>/suite.md`` is that as a table.
+time (the time of a resumed run adds up over its sessions; a run whose results were deleted starts its
+time afresh); ``<out>/suite.md`` is that as a table.
 
 Runs that cannot be made are skipped with their reason in both files, never silently: LLM-Frontier
-without an endpoint (``BIOVLN_LLM_API_KEY`` unset), and a method that reads GPS+compass
-(``MethodSpec.needs_gps_compass``: PPO's observation is the paper's RL state vector, the robot's pose; BC's
-goal input is the GPS+compass goal sensor) under a preset without it.
+without an endpoint (``BIOVLN_LLM_API_KEY`` unset), and a method that needs GPS+compass
+(``MethodSpec.needs_gps_compass``: PPO, whose observation, the paper's RL state vector, is the robot's pose)
+under a preset without it.
 """
 
 from __future__ import annotations
@@ -185,21 +186,20 @@ class Suite:
             kwargs = {}
             if r.method in LEARNED:
                 kwargs["checkpoint"] = self.checkpoint(r.method, given, progress)
-            t = time.perf_counter()
-            summary = evaluate(
-                EvalConfig(
-                    r.method,
-                    r.split,
-                    str(self.out / "results"),
-                    self.dataset,
-                    r.env_id,
-                    workers=self.workers,
-                    method_kwargs=kwargs,
-                    noise=r.noise,
-                ),
-                progress=progress,
-                echo=self.echo,
+            cfg = EvalConfig(
+                r.method,
+                r.split,
+                str(self.out / "results"),
+                self.dataset,
+                r.env_id,
+                workers=self.workers,
+                method_kwargs=kwargs,
+                noise=r.noise,
             )
+            if not (cfg.run_dir / "episodes.jsonl").exists():  # a fresh start: earlier sessions' time goes
+                self.log["runs"].pop(r.key, None)
+            t = time.perf_counter()
+            summary = evaluate(cfg, progress=progress, echo=self.echo)
             overall = summary["overall"]
             self._note(
                 r.key,

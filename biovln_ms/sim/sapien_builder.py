@@ -22,6 +22,13 @@ from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 from biovln_ms.sim.instance_looks import apply_variant
 
 
+#: ManiSkill's group-2 collision bits of a mobile base's wheels (30) and base link (31)
+#: (``mani_skill.agents.robots.fetch``): the floor ignores them, as ManiSkill's own grounds do. Such a base
+#: is carried at its height by its planar joints and rests on nothing; Fetch's wheels reach 5 mm below the
+#: floor, so the edge where two rooms' floor boxes meet (a door, a corridor) stopped them.
+FLOOR_IGNORED_BITS = (1 << 30) | (1 << 31)
+
+
 def frictionless():
     """Scene colliders are frictionless: the robot stops at them and slides along them without its
     heading being twisted (PhysX averages the two materials' friction)."""
@@ -85,7 +92,9 @@ def add_spec_to_scene(
             material=mat,
         )
     b.initial_pose = sapien.Pose()
-    built.shell.append(b.build_static(name=f"{name_prefix}room_shell"))
+    shell = b.build_static(name=f"{name_prefix}room_shell")
+    _floor_ignores_mobile_bases(shell)
+    built.shell.append(shell)
     if ceiling:
         b = _builder(scene, scene_idxs)
         b.add_visual_from_file(str(ceiling_path))
@@ -112,6 +121,17 @@ def _add_object(scene, o: ObjectSpec, glb: Path, collision: str, scene_idxs, nam
         b.add_box_collision(half_size=[s / 2 for s in o.size], material=frictionless())
     b.initial_pose = sapien.Pose(list(o.position), yaw_quat(o.yaw))
     return b.build_static(name=f"{name_prefix}{o.id}")
+
+
+def _floor_ignores_mobile_bases(shell) -> None:
+    """Set :data:`FLOOR_IGNORED_BITS` on the shell's floor boxes (below z = 0, the walls above)."""
+    for entity in getattr(shell, "_objs", [shell]):  # a ManiSkill Actor (an entity per sub-scene) or Entity
+        body = entity.find_component_by_type(sapien.physx.PhysxRigidStaticComponent)
+        for shape in body.get_collision_shapes():
+            if shape.local_pose.p[2] < 0:
+                groups = shape.get_collision_groups()
+                groups[2] |= FLOOR_IGNORED_BITS
+                shape.set_collision_groups(groups)
 
 
 def add_lights(

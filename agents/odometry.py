@@ -1,0 +1,93 @@
+"""A pose estimate without GPS+compass for a policy that keeps no map of its own (BC under ``realistic``).
+
+The frontier agent's scheme (:mod:`~biovln_ms.agents.frontier`, :mod:`~biovln_ms.agents.localisation`) as a
+module of its own: in the episode frame (origin at the start pose, x along the start heading), dead
+reckoning of the commands the policy sent, corrected by matching each depth scan against an occupancy
+map that the module builds from the same scans at the estimated poses. The camera's mount on the base
+(height, tilt, the ground point's offset ahead of the turning centre) is read once from the observed
+extrinsics, which without GPS+compass are in the base frame. It reads observations only: depth, the
+camera parameters and the start-frame ``pointgoal``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from biovln_ms.agents.frontier import camera_offset, goal_from_sensor, head_depth, to_numpy
+from biovln_ms.agents.frontier_map import OccupancyMap
+from biovln_ms.agents.frontier_params import FrontierParams
+from biovln_ms.agents.localisation import (
+    Localiser,
+    blocked_ahead,
+    camera_mount,
+    extrinsic_at,
+    scan_points,
+    wrap,
+)
+from biovln_ms.agents.policy import STOP, TaskSpec
+
+__all__ = ["EpisodeOdometry"]
+
+
+class EpisodeOdometry:
+    """``update(obs, last_action)`` each step returns the estimated (x, y, yaw) in the episode frame;
+    :meth:`pointgoal` gives the goal's distance and bearing from it (what ``pointgoal_with_gps_compass``
+    would read with GPS+compass). Map and matcher use the frontier agent's parameters (paper Table 15)."""
+
+    def __init__(self, task: TaskSpec, params: FrontierParams | None = None) -> None:
+        self.task = task
+        self.params = params or FrontierParams()
+        self.localiser = Localiser()
+        self.map: OccupancyMap | None = None
+        self.mount: np.ndarray | None = None
+        self.offset = np.zeros(2)
+        self.goal: np.ndarray | None = None  # episode frame
+        self._blocked = False
+        self.poses: list[np.ndarray] = []
+
+    def update(self, obs, last_action) -> np.ndarray:
+        """The pose at this step: the start at the first call, then ``last_action`` (the command sent
+        on the previous step) dead-reckoned and corrected by this frame's scan; the frame then joins the
+        map."""
+        p = self.params
+        depth, intrinsic = head_depth(obs)
+        if self.map is None:
+            extrinsic = to_numpy(obs["sensor_param"]["head"]["extrinsic_cv"][0])
+            self.offset = camera_offset(extrinsic, np.zeros(3))
+            self.mount = camera_mount(extrinsic)
+            self.mount[:2, 3] = self.offset
+            self.localiser.reset()
+            self.map = OccupancyMap(np.zeros(2), p.resolution, p.extent, evidence=self.task.noise.depth)
+            self.goal = goal_from_sensor(np.zeros(3), to_numpy(obs["extra"]["pointgoal"][0]))
+        points = scan_points(depth, intrinsic, self.mount, p.pixel_stride, p.depth_clip, p.floor_z, p.top_z)
+        if self.poses:
+            self.localiser.predict(STOP if last_action is None else last_action, self.task, self._blocked)
+            if p.scan_match:
+                self.localiser.correct(points, self.map)
+        self._blocked = blocked_ahead(points, depth, intrinsic, self.task)
+        pose = self.localiser.pose.copy()
+        base = pose[:2] if self.offset.any() else None
+        extrinsic = extrinsic_at(pose, self.mount)
+        self.map.integrate(
+            depth, intrinsic, extrinsic, p.pixel_stride, p.depth_clip, p.floor_z, p.top_z, base_xy=base
+        )
+        self.poses.append(pose)
+        return pose
+
+    def pointgoal(self) -> tuple[float, float]:
+        """(rho, phi): the goal's distance and bearing (counter-clockwise from the heading) from the last
+        estimated pose."""
+        x, y, yaw = self.poses[-1]
+        dx, dy = self.goal[0] - x, self.goal[1] - y
+        return math.hypot(dx, dy), wrap(math.atan2(dy, dx) - yaw)
+
+    def stats(self) -> dict:
+        """The poses acted on (episode frame) and the scan matches accepted and dropped as weak."""
+        return {
+            "pose_frame": "episode",
+            "pose_estimates": [[round(float(v), 4) for v in pose] for pose in self.poses],
+            "scan_matches": self.localiser.accepted,
+            "scan_matches_weak": self.localiser.rejected,
+        }
