@@ -23,6 +23,12 @@ before):
   dimension, the sub-envs' images differ; a montage goes to ``DIR/render_check.png``.
 * ``cpu_ref``: the same env on ``physx_cpu`` (num_envs = 1): state-only, and RGB-D 128x128 rendered by the
   GPU (needs no PhysX GPU library), and PickCube-v1 on the CPU.
+* ``lighting``: the frame cost of the lighting presets (issue 18 item 1), ``quality`` against ``fast`` at
+  640x480 and 128x128, as ``benchmarks/lighting.py`` measures it on the CPU: the env on ``physx_cpu``
+  (num_envs = 1, rendered by the GPU; needs no PhysX GPU library) turning in place, ms per ``step`` with its
+  RGB-D observation, and the head camera's raw SAPIEN frame (update_render + take_picture + read-back).
+  Last in ``run_all.sh``'s order, so a run whose budget the others spent skips it: ``bash
+  scripts/gpu/run_all.sh meta,lighting`` measures it alone.
 
 ``--smoke`` runs every section at tiny sizes on the CPU backend (num_envs = 1, physx_cpu, CPU rendering),
 to test this script on a machine without a GPU. ``scripts/gpu/run_all.sh`` runs each section in its own
@@ -44,7 +50,19 @@ from pathlib import Path
 
 import numpy as np
 
-SECTIONS = ("meta", "state", "state_autoreset", "rgbd", "pickcube", "equivalence", "render", "cpu_ref")
+SECTIONS = (
+    "meta",
+    "state",
+    "state_autoreset",
+    "rgbd",
+    "pickcube",
+    "equivalence",
+    "render",
+    "cpu_ref",
+    "lighting",
+)
+LIGHTING_SIZES = ((640, 480), (128, 128))
+LIGHTING_PRESETS = ("fast", "quality")
 NEEDS_PHYSX_GPU = ("state", "state_autoreset", "rgbd", "pickcube", "equivalence", "render")
 ENV_ID = "BioVLN-OpFace-v0"
 SPLIT = "ms_val"  # one scene (seed 154), 50 episodes: partial resets never change a sub-env's scene
@@ -539,6 +557,33 @@ def save_montage(tiles: list[np.ndarray], path: Path) -> None:
     out.save(path)
 
 
+# --- lighting presets ----------------------------------------------------------------------------------
+def lighting_speed(preset: str, size: tuple[int, int], sizes: Sizes) -> dict:
+    """ms per env step (turning in place, RGB-D observation) and per raw head-camera frame of the env on
+    ``physx_cpu`` under lighting ``preset`` at ``size``: rendered by the GPU where there is one."""
+    import torch
+
+    from biovln_ms.render.sapien_utils import raw_camera_rate
+
+    t = time.perf_counter()
+    env = make_nav(1, "rgbd", sizes.smoke, size, lighting=preset, sim_backend="physx_cpu")
+    make_s = time.perf_counter() - t
+    try:
+        dev = env.unwrapped.device
+        turn = torch.full((1,), 2, device=dev)  # TURN_LEFT: the robot stays put, the view changes
+        out = timed_steps(env, 1, lambda: turn, sizes)
+        out.update(
+            lighting=preset,
+            size=f"{size[0]}x{size[1]}",
+            make_s=round(make_s, 2),
+            ms_per_step=round(1000 / out["steps_per_s"], 2),
+            raw_ms_per_frame=round(1000 / raw_camera_rate(env, max(5, sizes.steps // 4)), 2),
+        )
+        return out
+    finally:
+        env.close()
+
+
 # --- the sections ---------------------------------------------------------------------------------------
 def run_section(name: str, results: Results, sizes: Sizes) -> None:
     if name == "meta":
@@ -578,6 +623,12 @@ def run_section(name: str, results: Results, sizes: Sizes) -> None:
         # RGB-D on physx_cpu: rendered by the GPU where there is one (no PhysX GPU library needed)
         guarded(results, "cpu_ref", "rgbd128_physx_cpu", nav_speed, 1, "rgbd", cpu)
         guarded(results, "cpu_ref", "pickcube_physx_cpu", pickcube_speed, 1, cpu, "physx_cpu")
+    elif name == "lighting":
+        light = Sizes(smoke=True)
+        light.steps, light.warmup, light.budget_s = (6, 2, 10.0) if sizes.smoke else (100, 10, 10.0)
+        for w, h in LIGHTING_SIZES:
+            for preset in LIGHTING_PRESETS:
+                guarded(results, "lighting", f"{preset}_{w}x{h}", lighting_speed, preset, (w, h), light)
     else:
         raise SystemExit(f"unknown section {name!r}; known: {', '.join(SECTIONS)}")
 
@@ -687,6 +738,31 @@ def markdown(data: dict) -> str:
                 )
             elif isinstance(e, dict) and k != "blocked":
                 lines.append(f"- {k}: {_fig(e)}")
+    lt = data.get("lighting")
+    if lt:
+        lines += [
+            "",
+            "## Lighting presets (physx_cpu, num_envs = 1, rendered by the GPU)",
+            "",
+            "| size | preset | ms / env step (RGB-D) | ms / raw frame | vs fast (step / raw) |",
+            "|---|---|---:|---:|---:|",
+        ]
+        for w, h in LIGHTING_SIZES:
+            fast = lt.get(f"fast_{w}x{h}")
+            for preset in LIGHTING_PRESETS:
+                e = lt.get(f"{preset}_{w}x{h}")
+                if not (isinstance(e, dict) and "ms_per_step" in e):
+                    lines.append(f"| {w}x{h} | {preset} | {_fig(e)} | – | – |")
+                    continue
+                vs = "–"
+                if isinstance(fast, dict) and "ms_per_step" in fast:
+                    vs = (
+                        f"{e['ms_per_step'] / fast['ms_per_step']:.2f}x / "
+                        f"{e['raw_ms_per_frame'] / fast['raw_ms_per_frame']:.2f}x"
+                    )
+                lines.append(
+                    f"| {w}x{h} | {preset} | {e['ms_per_step']:.2f} | {e['raw_ms_per_frame']:.2f} | {vs} |"
+                )
     return "\n".join(lines) + "\n"
 
 

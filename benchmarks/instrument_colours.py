@@ -1,21 +1,24 @@
 """Distinct colours of every goal category seen from its Zone-3 goal (issue 18 item 2; paper Table 8).
 
-The paper found GPT-4o recognised only the instrument with a rich surface (the biosafety cabinet, 12.6k-14.9k
-distinct colours), none of the near-uniform ones. For each goal category, the first instance in scene
-``two_room`` seed 0 (which holds every category) is seen by a head camera like the env's (640x480, the
-task's 79 degree field of view, ManiSkill's "minimal" shader with 8-bit colour, 0.88 m high) from three
-eyes: the Eq. 1 goal g = c + f (d + delta), and g turned by -15 and +15 degrees about the object's centre
-(all within the success radius), each looking at the object's centre, under the lighting preset
-``quality``. The count is of distinct RGB values inside the object's segmentation mask.
+The paper found GPT-4o recognised only the instrument with a rich surface (the biosafety cabinet,
+12.6k-14.9k distinct colours), none of the near-uniform ones. For each goal category, its first instance
+in the scenes of :func:`~biovln_ms.render.goal_views.showcase_scenes` (``two_room`` seed 0 for the paper's
+ten categories, ``molecular_biology`` scenes for the seven of issue 18 item 4) is seen by a head camera
+like the env's (640x480, the task's 79 degree field of view, ManiSkill's "minimal" shader with 8-bit
+colour, 0.88 m high) from three eyes: the Eq. 1 goal g = c + f (d + delta), and g turned by -15 and +15
+degrees about the object's centre (all within the success radius), each looking at the object's centre,
+under the lighting preset ``quality``. The count is of distinct RGB values inside the object's
+segmentation mask.
 
     python benchmarks/instrument_colours.py [--lighting quality] [--before DIR] [--images DIR]
+                                            [--only CAT ...]
 
 ``--before DIR`` renders the same views with the GLBs in DIR as shipped (no per-instance variants), for a
 before/after table; the assets of an earlier commit come out of git with
 ``git archive COMMIT assets | tar -x -C /tmp/before`` (then ``--before /tmp/before/assets --before-name
-"commit COMMIT"``). ``--images``
-saves every view as PNG. The table goes to ``docs/data/benchmarks/instrument_colours.json``
-(``--data-out``), which the docs' benchmarks page renders.
+"commit COMMIT"``). ``--images`` saves every view as PNG; ``--only`` measures a few categories (the table
+is then not written). The table goes to ``docs/data/benchmarks/instrument_colours.json`` (``--data-out``),
+which the docs' benchmarks page renders.
 """
 
 from __future__ import annotations
@@ -25,19 +28,17 @@ from pathlib import Path
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.measured import docs_data_dir, write_table
-from biovln_ms.render.goal_views import GoalViewRenderer, distinct_colours, goal_views
+from biovln_ms.render.goal_views import GoalViewRenderer, distinct_colours, goal_views, showcase_scenes
 from biovln_ms.render.sapien_utils import vulkan_device_label
-from biovln_ms.scene.generator import generate_scene
-from biovln_ms.scene.templates import get_template
+from biovln_ms.scene.spec import ObjectSpec
 from biovln_ms.task_config import NavTaskConfig
 
-TEMPLATE, SEED = "two_room", 0
 OFFSETS = (0.0, -15.0, 15.0)
 TARGET = 10_000
 
 
 def measure(
-    renderer: GoalViewRenderer, objects, images: Path | None, tag: str
+    renderer: GoalViewRenderer, objects: list[ObjectSpec], images: Path | None, tag: str
 ) -> dict[str, tuple[list, list]]:
     """Per category: (distinct colours, mask pixels) of each view."""
     out = {}
@@ -65,23 +66,36 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument(
         "--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "instrument_colours.json"
     )
+    ap.add_argument("--only", nargs="+", metavar="CAT", help="measure these categories only (no table)")
     args = ap.parse_args(argv)
     cfg = NavTaskConfig()
-    offered = get_template(TEMPLATE).categories()  # the template's categories, in catalog order
-    categories = [c for c in load_catalog().goal_categories() if c in offered]
-    spec = generate_scene(
-        TEMPLATE, SEED, required_categories=[c for c in categories if c not in ("lab_bench", "lab_table")]
-    )
-    objects = [next(o for o in spec.goal_objects() if o.category == c) for c in categories]
+    categories = load_catalog().goal_categories()
+    if args.only:
+        unknown = sorted(set(args.only) - set(categories))
+        if unknown:
+            ap.error(f"--only: {', '.join(unknown)} not a goal category (one of: {', '.join(categories)})")
+        categories = [c for c in categories if c in args.only]
     kw = dict(width=cfg.camera_width, height=cfg.camera_height, hfov_deg=cfg.camera_hfov_deg)
-    after = measure(GoalViewRenderer(spec, args.lighting, **kw), objects, args.images, "after")
-    before = None
-    if args.before is not None:
-        r = GoalViewRenderer(spec, args.lighting, asset_dir=args.before, variants=False, **kw)
-        before = measure(r, objects, args.images, "before")
+    after: dict[str, tuple[list, list]] = {}
+    before: dict[str, tuple[list, list]] | None = None if args.before is None else {}
+    objects, names = [], []
+    for spec, objs in showcase_scenes(categories):
+        objects += objs
+        names.append(spec.name)
+        after |= measure(GoalViewRenderer(spec, args.lighting, **kw), objs, args.images, "after")
+        if before is not None:
+            r = GoalViewRenderer(spec, args.lighting, asset_dir=args.before, variants=False, **kw)
+            before |= measure(r, objs, args.images, "before")
     size = f"{cfg.camera_width}×{cfg.camera_height}"
-    print(f"device: {vulkan_device_label()}; {spec.name}, lighting {args.lighting}, {size}")
-    header = ["category", "object", "mask px (min)", "colours at g, -15°, +15°", "min", f"≥ {TARGET:,}"]
+    print(f"device: {vulkan_device_label()}; {', '.join(names)}, lighting {args.lighting}, {size}")
+    header = [
+        "category",
+        "object",
+        "mask px at g, -15°, +15°",
+        "colours at g, -15°, +15°",
+        "min",
+        f"≥ {TARGET:,}",
+    ]
     if before is not None:
         header[4:4] = ["before: min"]
     rows = []
@@ -90,23 +104,32 @@ def main(argv: list[str] | None = None) -> None:
         row = [
             o.category,
             o.id,
-            min(pixels),
+            " / ".join(f"{p:,}" for p in pixels),
             " / ".join(f"{c:,}" for c in counts),
             min(counts),
             "yes" if min(counts) >= TARGET else "no",
         ]
         if before is not None:
-            row[4:4] = [min(before[o.category][0])]
+            row[4:4] = [min(before[o.category][0]) if o.category in before else None]
         rows.append(row)
         print("  ".join(str(c) for c in row))
     notes = [
-        f"Scene {spec.name}; eyes at the Eq. 1 goal and at it turned ±15° about the object's centre, "
-        f"0.88 m high, looking at the centre; lighting `{args.lighting}`; the head camera's 'minimal' "
-        "shader, 8-bit colour; each instance in its own variant (labels, paint, wear). Paper Table 8: "
-        "the biosafety cabinet, the one instrument recognised, showed 12.6k-14.9k colours.",
-        "A category's count cannot exceed its mask's pixels: the pipette stand's operational face is "
-        "4 cm wide (Table 2), a few thousand pixels from its goal.",
+        f"Scenes {', '.join(names)}; eyes at the Eq. 1 goal and at it turned ±15° about the object's "
+        f"centre, 0.88 m high, looking at the centre; lighting `{args.lighting}`; the head camera's "
+        "'minimal' shader, 8-bit colour; each instance in its own variant (labels, paint, wear). Paper "
+        "Table 8: the biosafety cabinet, the one instrument recognised, showed 12.6k-14.9k colours.",
     ]
+    for o in objects:
+        counts, pixels = after[o.category]
+        if max(pixels) < TARGET:
+            bounds = " × ".join(f"{d:g}" for d in load_catalog().get(o.category).dimensions)
+            notes.append(
+                f"{o.category}: a view's count cannot exceed its mask's pixels, and its masks hold "
+                f"{' / '.join(f'{p:,}' for p in pixels)} px: fewer than {TARGET:,} from its goal, whatever "
+                f"the look (its bounds: {bounds} m, Table 2)."
+            )
+    if args.only:
+        return
     if before is not None:
         what = f" ({args.before_name})" if args.before_name else ""
         notes.append(f"Before: the GLBs in `{args.before}`{what}, as shipped (no per-instance variants).")

@@ -166,29 +166,11 @@ def assets_verify(
     typer.echo("assets OK")
 
 
-@assets_app.command("preview")
-def assets_preview(
-    out: Path = typer.Option(Path("asset_sheet.png"), "-o", "--out", help="PNG to write."),
-    tile: int = typer.Option(320, help="Tile size in pixels."),
-) -> None:
-    """Render every asset into one contact sheet.
-
-    SAPIEN views, front and back, operational face marked."""
-    from biovln_ms.render.asset_preview import contact_sheet
-
-    renders = contact_sheet(out, tile=tile)
-    for r in renders:
-        typer.echo(
-            f"{r.name:<18} face {r.face or '-':<3} colours front {r.front_colors:>5}  back {r.back_colors:>5}"
-        )
-    typer.echo(f"wrote {out}")
-
-
-def _lighting_option():
+def _lighting_option(default: str = "fast"):
     from biovln_ms.render.lighting import LIGHTING
 
     return typer.Option(
-        "fast",
+        default,
         "--lighting",
         help=f"Lighting preset: {', '.join(LIGHTING)} (quality: shadowed ceiling lights).",
     )
@@ -201,10 +183,30 @@ def _check_lighting(name: str) -> None:
     lighting_preset(name)
 
 
+@assets_app.command("preview")
+def assets_preview(
+    out: Path = typer.Option(Path("asset_sheet.png"), "-o", "--out", help="PNG to write."),
+    tile: int = typer.Option(320, help="Tile size in pixels."),
+    lighting: str = _lighting_option("quality"),
+) -> None:
+    """Render every asset into one contact sheet.
+
+    SAPIEN views, front and back, operational face marked, lit by a lighting preset over a 4 m room."""
+    from biovln_ms.render.asset_preview import contact_sheet
+
+    _check_lighting(lighting)
+    renders = contact_sheet(out, tile=tile, lighting=lighting)
+    for r in renders:
+        typer.echo(
+            f"{r.name:<18} face {r.face or '-':<3} colours front {r.front_colors:>5}  back {r.back_colors:>5}"
+        )
+    typer.echo(f"wrote {out}")
+
+
 @app.command()
 def demo(
     out: Path = typer.Option(Path("outputs/demo"), "-o", "--out", help="Folder for the demo's files."),
-    lighting: str = _lighting_option(),
+    lighting: str = _lighting_option("quality"),
 ) -> None:
     """Run the end-to-end demo.
 

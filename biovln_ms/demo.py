@@ -8,11 +8,12 @@ from biovln_ms.catalog import load_catalog
 from biovln_ms.render.asset_preview import contact_sheet
 
 
-def run_demo(out_dir: Path, echo=print, lighting: str = "fast") -> dict[str, Path]:
-    """Asset contact sheet and catalog table; the held-out scene lab_s150_v0 as spec, SAPIEN view and
-    a map with one episode (start, goal, view points, exact shortest path); the oracle run on MS VAL
-    episode 0 as an MP4 (egocentric view beside the map) with its metrics; then oracle and frontier
-    evaluated on MS VAL and the report (tables with the paper's numbers, plots, renders, one MP4)."""
+def run_demo(out_dir: Path, echo=print, lighting: str = "quality") -> dict[str, Path]:
+    """Asset contact sheet and catalog table; the held-out scene lab_s150_v0 as spec, SAPIEN view and a map
+    with one episode (start, goal, view points, exact shortest path); the oracle run on MS VAL episode 0 as
+    an MP4 (egocentric view beside the map) with its metrics, the renders under the lighting preset
+    ``lighting``; then oracle and frontier evaluated on MS VAL and the report (tables with the paper's
+    numbers, plots, renders, one MP4)."""
     from biovln_ms.benchmark import FOUR_CATEGORIES
     from biovln_ms.episodes.generator import EpisodeSampler
     from biovln_ms.scene.rules import scene_navigation
@@ -25,7 +26,7 @@ def run_demo(out_dir: Path, echo=print, lighting: str = "fast") -> dict[str, Pat
     out_dir.mkdir(parents=True, exist_ok=True)
     cat = load_catalog()
     files: dict[str, Path] = {"sheet": out_dir / "asset_sheet.png"}
-    renders = {r.name: r for r in contact_sheet(files["sheet"], cat)}
+    renders = {r.name: r for r in contact_sheet(files["sheet"], cat, lighting=lighting)}
     lines = [
         "# BioVLN-MS catalog (paper Table 2 + Tables 6, 8)",
         "",

@@ -186,7 +186,7 @@ def test_each_instance_gets_its_own_textures():
 
 @pytest.mark.render
 def test_waste_bin_shows_ten_thousand_colours_from_its_goal():
-    """The category nearest the issue's bar (10,000 distinct colours from the Zone-3 goal, 'quality')."""
+    """Of the paper's categories the nearest the bar (10,000 colours from its Zone-3 goal, quality)."""
     from biovln_ms.render.goal_views import GoalViewRenderer, distinct_colours, goal_views
     from biovln_ms.scene.generator import generate_scene
     from biovln_ms.scene.templates import get_template
@@ -198,4 +198,21 @@ def test_waste_bin_shows_ten_thousand_colours_from_its_goal():
     renderer = GoalViewRenderer(spec, "quality")
     rgb, mask = renderer.render(bin_, goal_views(bin_, (0.0,))[0])
     assert mask.sum() > 20_000
+    assert distinct_colours(rgb, mask) >= 10_000
+
+
+@pytest.mark.render
+def test_microscope_shows_ten_thousand_colours_from_its_goal():
+    """The smallest mask that holds 10,000 colours (the pipette stand's ~4,200 px cannot): the microscope
+    in the benchmark's molecular-biology scene, from its Eq. 1 goal."""
+    from biovln_ms.render.goal_views import GoalViewRenderer, distinct_colours, goal_views, showcase_scenes
+
+    spec, objects = next(
+        (s, o)
+        for s, o in showcase_scenes(load_catalog().goal_categories())
+        if s.template == "molecular_biology"
+    )
+    scope = next(o for o in objects if o.category == "microscope")
+    rgb, mask = GoalViewRenderer(spec, "quality").render(scope, goal_views(scope, (0.0,))[0])
+    assert 15_000 < mask.sum() < 25_000
     assert distinct_colours(rgb, mask) >= 10_000

@@ -65,3 +65,25 @@ def test_quality_shadows_the_floor_under_furniture():
     assert np.abs(fast_rgb.astype(int) - quality_rgb.astype(int)).mean() > 5
     # without shadows the floor under a bench is lit like open floor; with them it is darker
     assert quality < fast - 0.04, (fast, quality)
+
+
+@pytest.mark.render
+def test_contact_sheet_and_scene_views_under_quality(tmp_path):
+    """The looked-at pictures (issue 18 item 6) render under ``quality``: an asset under its one shadowed
+    fixture (SAPIEN's default shader pack would refuse it), a lit robot's-eye view and a view from above."""
+    from PIL import Image
+
+    from biovln_ms.assetgen.generate import plans
+    from biovln_ms.catalog import load_catalog
+    from biovln_ms.render.asset_preview import AssetRenderer
+    from biovln_ms.render.scene_view import render_robot_and_top_views
+
+    plan = next(p for p in plans(load_catalog()) if p.name == "waste_bin")
+    r = AssetRenderer(96, lighting="quality").render(plan)
+    assert r.front.shape == (96, 96, 3) and r.front.std() > 5 and r.front_colors > 200
+    spec = generate_scene("single_room", 0)
+    robot, top = render_robot_and_top_views(spec, tmp_path, "quality", eye_size=(96, 72), top_width=96)
+    for png in (robot, top):
+        rgb = np.asarray(Image.open(png))
+        assert rgb.mean() > 40 and rgb.std() > 5, png.name  # lit, not one flat colour
+    assert np.asarray(Image.open(top)).shape[:2] == (72, 96)  # the 8 x 6 m room's aspect

@@ -1149,15 +1149,26 @@ def autoclave_label(v: Variant) -> Image.Image:
 
 
 def cycler_display(v: Variant) -> tx.Surface:
-    step = v.pick(("DENATURE 95.0", "ANNEAL 58.0", "EXTEND 72.0"), "step")
+    anneal = v.pick((55.0, 58.0, 60.0, 62.0), "anneal")
+    current = v.pick((1, 2, 3, 3), "step")
     cycle = int(v.rng("cycle").integers(1, 36))
-    return tx.display(
-        [f"{step} °C", f"CYCLE {cycle}/35   LID 105 °C", f"RUN {v.pick(('PCR-STD', 'COLONY', 'QC'), 'run')}"],
+    profile = (
+        (95.0, "3:00", (0.90, 0.25, 0.20)),
+        (95.0, "0:30", (0.95, 0.45, 0.20)),
+        (anneal, "0:30", (0.25, 0.55, 0.95)),
+        (72.0, "1:00", (0.30, 0.80, 0.40)),
+        (72.0, "5:00", (0.55, 0.85, 0.35)),
+        (4.0, "HOLD", (0.45, 0.45, 0.85)),
+    )
+    run = v.pick(("PCR-STD", "COLONY", "QC-16S", "GIBSON"), "run")
+    return tx.touchscreen(
+        f"RUN {run}",
+        profile,
+        current,
+        [f"CYCLE {cycle}/35   LID 105 °C   BLOCK {profile[current][0]:.1f} °C"],
         v.rng("display").integers(1 << 30),
-        glow=(0.55, 0.85, 1.0),
-        width=256,
-        height=160,
-        bars=5,
+        width=320,
+        height=120,
     )
 
 
@@ -1596,13 +1607,15 @@ def autoclave(k: Kit) -> None:
 
 def thermal_cycler(k: Kit) -> None:
     W = k.W
-    body = plastic(k, "body", (0.86, 0.87, 0.88), tile=0.2)
+    body = paint(k, "body", (0.84, 0.85, 0.86), tile=0.4, mottle=0.05, grain=5.0, chroma=4.0)
     feet(k, 0.012, 0.04, radius=0.015)
     z0 = k.bottom + 0.012
     z_lid = k.bottom + 0.14
     k.box_span("body", (-W / 2, k.front + 0.05, z0), (W / 2, k.back - 0.001, z_lid), body)
     cw, ch = W, z_lid - z0
-    console = tx.Panel.painted(cw, ch, (0.22, 0.24, 0.28), k.seed("console"), mottle=0.05)
+    console = tx.Panel.painted(
+        cw, ch, (0.62, 0.65, 0.69), k.seed("console"), density=900, mottle=0.06, grain=5.0, chroma=4.0
+    )
     console.shade(cw / 2, ch * 0.58, 0.22, 0.085, 0.55, 2.0)
     console.paste(tx.warning("hot", k.seed("hot")), cw - 0.03, 0.025, 0.03, 0.03)
     console.weather(k.seed("console_wear"), 0.3, handle=(cw / 2, ch * 0.58))
@@ -1621,7 +1634,7 @@ def thermal_cycler(k: Kit) -> None:
         0.16,
         0.025,
     )
-    lid = plastic(k, "lid", (0.30, 0.36, 0.46), tile=0.2, roughness=0.3)
+    lid = paint(k, "lid", (0.34, 0.42, 0.56), tile=0.4, roughness=0.3, mottle=0.06, grain=5.0, chroma=4.0)
     k.box_span(
         "lid", (-W / 2 + 0.01, k.front + 0.04, z_lid), (W / 2 - 0.01, k.back - 0.01, k.top - 0.001), lid
     )
@@ -1647,15 +1660,29 @@ def thermal_cycler(k: Kit) -> None:
     )
 
 
+#: the nosepiece's objectives: angle on the turret, colour-code ring (ISO 8578) and engraving
+OBJECTIVES = (
+    (-2.0, (0.85, 0.12, 0.10), ("4x", "0.10")),
+    (0.0, (0.95, 0.80, 0.10), ("10x", "0.25")),
+    (2.0, (0.45, 0.75, 0.95), ("40x", "0.65")),
+)
+
+
 def microscope(k: Kit) -> None:
-    body = paint(k, "body", (0.93, 0.92, 0.87), tile=0.2)
-    black = plastic(k, "black", (0.10, 0.10, 0.11), tile=0.1, roughness=0.5)
+    # Texels about as dense as the head camera's pixels from the goal (a finer tiling is averaged away).
+    body = paint(k, "body", (0.88, 0.87, 0.83), tile=0.4, mottle=0.05, grain=6.0, chroma=4.0)
+    # the stage, eyepiece tubes and knobs: wrinkle-finish black paint and stippled rubber
+    black = paint(k, "black", (0.26, 0.26, 0.28), tile=0.4, roughness=0.6, mottle=0.12, grain=9.0, chroma=4.0)
     steel = metal(k)
     z0 = k.bottom
     k.box_span("base", (-0.10, k.front + 0.04, z0), (0.10, k.back, z0 + 0.06), body)
     bw, bh = 0.2, 0.055
-    front = tx.Panel.painted(bw, bh, (0.20, 0.21, 0.23), k.seed("base_front"), mottle=0.04)
+    front = tx.Panel.painted(
+        bw, bh, (0.50, 0.52, 0.55), k.seed("base_front"), density=900, mottle=0.06, grain=4.0, chroma=4.0
+    )
     front.shade(0.16, bh / 2, 0.05, 0.04, 0.6, 1.5)
+    front.paste(tx.warning("hot", k.seed("lamp_hot")), 0.105, bh / 2, 0.02, 0.02)
+    front.weather(k.seed("base_wear"), 0.4, handle=(0.16, bh / 2))
     front.cut(0.05, bh / 2, 0.08, 0.035)
     k.box_span(
         "base_front",
@@ -1664,7 +1691,13 @@ def microscope(k: Kit) -> None:
         face(k, "base_front", front),
     )
     live(k, "label", (-0.05, k.front + 0.02, z0 + bh / 2), 0.08, 0.035)
-    k.decal("control_dial", tx.counter("LED 3"), (0.06, k.front + 0.0195, z0 + bh / 2), 0.04, 0.02)
+    k.decal(
+        "control_dial",
+        tx.intensity_scale(k.seed("lamp_scale"), 4),
+        (0.06, k.front + 0.0195, z0 + bh / 2),
+        0.04,
+        0.02,
+    )
     k.box_span("arm", (-0.05, k.back - 0.08, z0 + 0.06), (0.05, k.back, z0 + 0.36), body)
     k.box_span("head", (-0.06, k.front + 0.18, k.top - 0.10), (0.06, k.back, k.top), body)
     for sx in (-1, 1):
@@ -1682,18 +1715,21 @@ def microscope(k: Kit) -> None:
             0.019,
             0.02,
             (sx * 0.032, k.front + 0.01, k.top - 0.03),
-            plastic(k, "rubber", (0.05, 0.05, 0.05), tile=0.05, roughness=0.9),
+            paint(k, "rubber", (0.18, 0.18, 0.18), tile=0.3, roughness=0.9, mottle=0.1, grain=8.0),
             axis="y",
             sections=20,
         )
     k.cylinder("nosepiece", 0.045, 0.03, (0.0, 0.02, k.top - 0.115), steel, sections=24)
-    for i, a in enumerate((-2.0, 0.0, 2.0)):
+    for i, (a, ring, lines) in enumerate(OBJECTIVES):
+        barrel = tx.objective_barrel(ring, lines, k.seed("objective", str(i)))
         k.cylinder(
             f"objective_{i}",
             0.011,
             0.045,
             (0.025 * math.sin(a), 0.02 - 0.025 * math.cos(a), k.top - 0.152),
-            metal(k, "chrome", (0.85, 0.86, 0.88)),
+            k.material(
+                f"objective_{i}", color=OPAQUE, texture=barrel, tile=None, metallic=0.8, roughness=0.3
+            ),
             sections=16,
         )
     k.box_span("stage", (-0.09, k.front + 0.12, z0 + 0.19), (0.09, k.back - 0.08, z0 + 0.21), black)
@@ -1712,7 +1748,7 @@ def microscope(k: Kit) -> None:
             0.035,
             0.03,
             (sx * (k.W / 2 - 0.015), k.back - 0.05, z0 + 0.14),
-            plastic(k, "knob", (0.15, 0.15, 0.16), tile=0.05, roughness=0.7),
+            paint(k, "knob", (0.30, 0.30, 0.32), tile=0.3, roughness=0.7, mottle=0.1, grain=8.0),
             axis="x",
             sections=24,
         )

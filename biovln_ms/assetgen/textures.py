@@ -952,3 +952,101 @@ def poster(
         fit_text(draw, (10, top + i * lh), line, width - 20, lh * 0.8, (25, 25, 30))
     arr = np.asarray(img, float) + 2.5 * rng.standard_normal((height, width, 1))
     return to_image(arr)
+
+
+# --- added with the looks of the small bench instruments (issue 18 item 2) --------------------------
+def touchscreen(
+    title: str,
+    profile: Sequence[tuple[float, str, Color]],
+    current: int,
+    lines: Sequence[str],
+    seed: int,
+    width: int = 320,
+    height: int = 160,
+) -> Surface:
+    """A colour touchscreen (emission map) of a programmable instrument: a title bar, a run profile drawn as
+    coloured steps (``profile``: temperature, caption, colour; step ``current`` highlighted), status lines.
+    The albedo is the same picture dimmed."""
+    rng = np.random.default_rng(seed)
+    yy = np.linspace(0.0, 1.0, height)[:, None, None]
+    ground = _rgb((0.05, 0.09, 0.16)) * (1.25 - 0.5 * yy) + 3.0 * noise(rng, height, width, 1, channels=3)
+    img = to_image(ground)
+    draw = ImageDraw.Draw(img)
+    bar = height // 6
+    for y in range(bar):  # the title bar, a vertical gradient
+        draw.line([0, y, width, y], fill=_c8((0.10 + 0.12 * y / bar, 0.35 + 0.1 * y / bar, 0.65)))
+    fit_text(draw, (6, bar * 0.12), title, width * 0.7, bar * 0.8, (240, 245, 250))
+    fit_text(
+        draw, (width - 6, bar * 0.12), "12:4" + str(seed % 10), width * 0.2, bar * 0.8, (200, 220, 240), "ra"
+    )
+    g0, g1 = bar + 6, int(height * 0.68)  # graph band (px rows)
+    lo, hi = min(t for t, _, _ in profile) - 10.0, max(t for t, _, _ in profile) + 8.0
+    step = (width - 12) / len(profile)
+    prev = None
+    for i, (t, caption, col) in enumerate(profile):
+        x0, x1 = 6 + i * step, 6 + (i + 1) * step
+        y = g1 - (t - lo) / (hi - lo) * (g1 - g0)
+        c = np.asarray(col, float)
+        for r in range(int(y), g1):  # the area under the step, fading downwards
+            f = 0.35 + 0.5 * (g1 - r) / max(1.0, g1 - y)
+            draw.line([x0 + 1, r, x1 - 1, r], fill=_c8(tuple(np.clip(c * f, 0, 1))))
+        if prev is not None:
+            draw.line([x0, prev, x0 + 4, y], fill=(250, 250, 250), width=2)
+        draw.line([x0 + 4, y, x1, y], fill=(250, 250, 250), width=2)
+        fit_text(draw, ((x0 + x1) / 2, y - 2), f"{t:.0f}", step * 0.8, height * 0.08, (235, 240, 245), "md")
+        fit_text(draw, ((x0 + x1) / 2, g1 + 2), caption, step * 0.9, height * 0.07, (170, 190, 210), "ma")
+        if i == current:
+            draw.rectangle([x0, g0, x1 - 1, g1], outline=(255, 210, 60), width=2)
+        prev = y
+    lh = (height - g1 - height * 0.1) / max(1, len(lines))
+    for i, line in enumerate(lines):
+        fit_text(draw, (6, g1 + height * 0.09 + i * lh), line, width - 12, lh * 0.85, (210, 225, 240))
+    lit = np.asarray(img, float)
+    lit += 0.5 * np.asarray(img.filter(ImageFilter.GaussianBlur(max(2, height // 40))), float)
+    return Surface(to_image(lit * 0.4), emission=to_image(lit * 0.9))
+
+
+def objective_barrel(
+    ring: Color, engraving: Sequence[str], seed: int, width: int = 128, height: int = 128
+) -> Image.Image:
+    """A microscope objective's barrel unrolled (a cylinder's texture: rows run down the barrel): chrome
+    with its magnification's colour-code ring and its engraved lettering, knurled at the top."""
+    rng = np.random.default_rng(seed)
+    arr = brushed_field(rng, height, width, (0.80, 0.81, 0.83))  # turning marks run round the barrel
+    arr = arr * (1.0 + 0.12 * np.sin(np.linspace(0, np.pi, width))[None, :, None] - 0.06)
+    arr[: height // 8] *= 0.55 + 0.25 * (np.arange(width)[None, :, None] % 4 < 2)  # knurling
+    r0, r1 = int(height * 0.62), int(height * 0.72)
+    arr[r0:r1] = _rgb(ring) * (0.9 + 0.1 * noise(rng, r1 - r0, width, 4, 3)) + 3.0 * noise(
+        rng, r1 - r0, width, 1, 3
+    )
+    img = to_image(arr)
+    draw = ImageDraw.Draw(img)
+    lh = (r0 - height // 8 - 6) / max(1, len(engraving))
+    for i, line in enumerate(engraving):
+        fit_text(
+            draw, (width / 4, height // 8 + 4 + i * lh), line, width * 0.45, lh * 0.9, (35, 35, 40), "ma"
+        )
+    return img
+
+
+def intensity_scale(seed: int, setting: int, width: int = 128, height: int = 48) -> Image.Image:
+    """The graduated scale beside a lamp's intensity knob: a dark-to-bright wedge, ticks 1-6, a pointer at
+    ``setting``."""
+    rng = np.random.default_rng(seed)
+    x = np.linspace(0.0, 1.0, width)[None, :, None]
+    arr = _rgb((0.16, 0.16, 0.18)) + 3.0 * noise(rng, height, width, 1, 3)
+    band = slice(height // 2, height - 6)
+    arr[band] = (
+        _rgb((0.25, 0.22, 0.12))
+        + x * _rgb((0.7, 0.65, 0.35))
+        + 3.0 * noise(rng, height - 6 - height // 2, width, 1, 3)
+    )
+    img = to_image(arr)
+    draw = ImageDraw.Draw(img)
+    for i in range(6):
+        xi = 8 + i * (width - 16) / 5
+        draw.line([xi, height // 2 - 6, xi, height // 2 - 1], fill=(230, 230, 225), width=1)
+        fit_text(draw, (xi, 2), str(i + 1), width / 8, height * 0.3, (230, 230, 225), "ma")
+    xs = 8 + (setting - 1) * (width - 16) / 5
+    draw.polygon([(xs - 4, height - 2), (xs + 4, height - 2), (xs, height // 2 + 2)], fill=(240, 60, 40))
+    return img

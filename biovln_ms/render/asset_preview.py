@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
@@ -60,14 +61,38 @@ def _add_face_marker(scene, plan: AssetPlan):
     return marker
 
 
-class AssetRenderer:
-    """One SAPIEN scene reused for every asset (a new scene per asset costs seconds on lavapipe)."""
+#: the room a lighting preset lights on the contact sheet: 4 m x 4 m, 3 m high (one ceiling fixture), the
+#: asset in the middle
+STUDIO = SimpleNamespace(
+    rooms=[
+        SimpleNamespace(kind="room", polygon=[(-3.0, -3.0), (3.0, -3.0), (3.0, 3.0), (-3.0, 3.0)], height=3.0)
+    ]
+)
 
-    def __init__(self, size: int = 320, asset_dir: Path = ASSET_DIR) -> None:
+
+class AssetRenderer:
+    """One SAPIEN scene reused for every asset (a new scene per asset costs seconds on lavapipe). Lit by
+    fixed studio lights, or with ``lighting`` by that preset's lights (:mod:`biovln_ms.render.lighting`)
+    over a 4 m x 4 m room around the asset (no walls drawn: the floor and the asset), seen through the
+    head camera's shader (ManiSkill's "minimal", 8-bit colour: SAPIEN's default shader pack casts no
+    point-light shadows)."""
+
+    def __init__(self, size: int = 320, asset_dir: Path = ASSET_DIR, lighting: str | None = None) -> None:
         import sapien
+
+        from biovln_ms.render.lighting import apply_lighting
 
         self.asset_dir = Path(asset_dir)
         self.scene = new_scene()
+        if lighting is not None:
+            for e in self.scene.get_entities():  # new_scene's studio lights
+                if any(isinstance(c, sapien.render.RenderLightComponent) for c in e.components):
+                    self.scene.remove_entity(e)
+            apply_lighting(self.scene, STUDIO, lighting)
+            sapien.render.set_camera_shader_dir("minimal")
+            sapien.render.set_picture_format("Color", "r8g8b8a8unorm")
+            sapien.render.set_picture_format("PositionSegmentation", "r16g16b16a16sint")
+        self.head_shader = lighting is not None
         floor = self.scene.create_actor_builder()
         floor.add_box_visual(
             sapien.Pose([0, 0, -0.01]),
@@ -99,7 +124,10 @@ class AssetRenderer:
             rgb = take_rgb(self.scene, self.camera)
             if sign > 0 and interaction is not None:
                 pixel = self._project(np.asarray(interaction.point) + [0.0, 0.0, plan.dimensions[2] / 2])
-            mask = self.camera.get_picture("Segmentation")[..., 1] == actor.per_scene_id
+            if self.head_shader:
+                mask = self.camera.get_picture("PositionSegmentation")[..., 3] == actor.per_scene_id
+            else:
+                mask = self.camera.get_picture("Segmentation")[..., 1] == actor.per_scene_id
             colors = len(np.unique(rgb[mask].reshape(-1, 3), axis=0)) if mask.any() else 0
             out.append((rgb, colors))
         self.scene.remove_entity(actor)
@@ -121,12 +149,14 @@ def contact_sheet(
     tile: int = 320,
     progress: bool = True,
     asset_dir: Path = ASSET_DIR,
+    lighting: str | None = None,
 ) -> list[AssetRender]:
-    """Render every asset (front and back) into one PNG; returns the renders with colour counts."""
+    """Render every asset (front and back) into one PNG, in studio light or under the preset ``lighting``
+    (see :class:`AssetRenderer`); returns the renders with colour counts."""
     from tqdm import tqdm
 
     catalog = catalog or load_catalog()
-    renderer = AssetRenderer(tile, asset_dir)
+    renderer = AssetRenderer(tile, asset_dir, lighting)
     points = {a.name: a.interaction for a in catalog.assets()}
     renders = [
         renderer.render(p, points.get(p.name))

@@ -55,8 +55,8 @@ def take_rgb(scene, camera) -> np.ndarray:
     """uint8 RGB (H, W, 3) from a camera after updating the render state."""
     scene.update_render()
     camera.take_picture()
-    rgba = camera.get_picture("Color")
-    return (np.clip(rgba[..., :3], 0, 1) * 255).round().astype(np.uint8)
+    rgb = np.asarray(camera.get_picture("Color"))[..., :3]
+    return rgb if rgb.dtype == np.uint8 else (np.clip(rgb, 0, 1) * 255).round().astype(np.uint8)
 
 
 SOFTWARE_RENDERERS = ("llvmpipe", "lavapipe", "swiftshader", "softpipe")

@@ -3,12 +3,18 @@
     python docs/images/generate.py [--only map view]
 
 - ``lab_s150_v0_view.png``: the held-out scene ``lab_s150_v0`` rendered by SAPIEN from above at an
-  angle (``biovln_ms.render.scene_view.render_overview``; needs a Vulkan driver, lavapipe is fine);
+  angle under the ``quality`` lighting (``biovln_ms.render.scene_view.render_overview``; needs a Vulkan
+  driver, lavapipe is fine);
 - ``lab_s150_v0_episode.png``: its top-down map with Zones 1/2/3, faces, goals, the navigable islands
   and one episode's start, goal, view points and exact shortest path (``biovln_ms.scene.topdown``);
-- ``molbio_s3_v0_dressed.png``: the top-down map of ``molecular_biology`` seed 3 with its lab dressing.
+- ``molbio_s3_v0_dressed.png``: the top-down map of ``molecular_biology`` seed 3 with its lab dressing;
+- ``templates/<scene>_robot.png`` and ``templates/<scene>_top.png``: seed 0 of every template (the
+  molecular-biology lab with its dressing) under ``quality``, from the robot's head camera at its first
+  episode's start, facing its target or the way its path sets off, and straight down from above
+  (``biovln_ms.render.scene_view.render_robot_and_top_views``);
+- ``asset_sheet.png``: the contact sheet of every asset under ``quality`` (``biovln-ms assets preview``).
 
-Both are what ``biovln-ms demo`` writes for the same scene, at a size fit for a web page.
+The view, the map and the sheet are what ``biovln-ms demo`` writes, at a size fit for a web page.
 """
 
 from __future__ import annotations
@@ -42,9 +48,8 @@ def _shrink(path: Path) -> Path:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument(
-        "--only", nargs="*", choices=("view", "map", "dressed"), default=("view", "map", "dressed")
-    )
+    parts = ("view", "map", "dressed", "templates", "sheet")
+    ap.add_argument("--only", nargs="*", choices=parts, default=parts)
     ap.add_argument("--out", type=Path, default=HERE)
     args = ap.parse_args()
     spec = generate_scene("single_room", 150, required_categories=FOUR_CATEGORIES)
@@ -57,11 +62,25 @@ def main() -> None:
     if "view" in args.only:
         from biovln_ms.render.scene_view import render_overview
 
-        view = render_overview(spec, args.out / f"{spec.name}_view.png", size=(1200, 800))
+        view = render_overview(spec, args.out / f"{spec.name}_view.png", size=(1200, 800), lighting="quality")
         print(_shrink(view))
     if "dressed" in args.only:
         dressed = generate_scene("molecular_biology", 3, dressing=True)
         print(_shrink(save_map(dressed, args.out / f"{dressed.name}.png", dpi=100)))
+    if "templates" in args.only:
+        from biovln_ms.render.scene_view import render_robot_and_top_views
+        from biovln_ms.scene.templates import template_names
+
+        for name in template_names():
+            scene = generate_scene(name, 0, dressing=name == "molecular_biology")
+            for png in render_robot_and_top_views(scene, args.out / "templates", "quality"):
+                print(_shrink(png))
+    if "sheet" in args.only:
+        from biovln_ms.render.asset_preview import contact_sheet
+
+        sheet = args.out / "asset_sheet.png"
+        contact_sheet(sheet, lighting="quality")
+        print(_shrink(sheet))
 
 
 if __name__ == "__main__":
