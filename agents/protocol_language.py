@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
@@ -53,9 +53,9 @@ from scipy import ndimage
 from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy, backproject, to_numpy
 from biovln_ms.agents.frontier_control import FrontierController
 from biovln_ms.agents.frontier_map import FREE, OCCUPIED
-from biovln_ms.agents.frontier_planner import FrontierPlanner, PlanField
+from biovln_ms.agents.frontier_planner import PlanField
 from biovln_ms.agents.policy import STOP, EpisodeInfo
-from biovln_ms.agents.protocol_chain import subgoal_index
+from biovln_ms.agents.protocol_chain import EscapePlanner, disk, subgoal_index
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import MAX_VISITS
 from biovln_ms.errors import BioVLNError
@@ -80,7 +80,6 @@ NEAR_WALL = 1.0  # m: an instance with a wall this near behind one side faces aw
 FLANK = 0.4  # m: beside an instance, where a wall behind it shows on the floor map
 SPAN_MARGIN = 0.15  # m: points spanning more than a footprint's shorter side by this show its longer one
 STAND_OFF = 0.4  # m: the least distance kept from the instance when standing at it
-ESCAPE_INFLATE = 2  # cells: obstacle growth for planning while boxed in by the full growth
 LONG_FURNITURE, SEEN_SHARE = 2.0, 0.7  # m, share: furniture this long is gone to once this much is seen
 FRONT = 0.6  # m: the standing point in front of an instance, beyond its points
 FRONT_SLACK = 0.75  # m: the farthest the standing cell may lie from that point
@@ -173,36 +172,8 @@ def _count_frame(grid: np.ndarray, flat: np.ndarray) -> None:
     view[cells] = np.minimum(view[cells].astype(np.int64) + 1, np.iinfo(grid.dtype).max)
 
 
-class EscapePlanner(FrontierPlanner):
-    """The frontier planner, planning on obstacles grown only ``ESCAPE_INFLATE`` cells while the robot is
-    boxed in: every cell around its own lies in the grown obstacles (after a STOP close to an instrument,
-    or in a doorway), where the full growth would leave it no cell to go to."""
-
-    def __init__(self, params: FrontierParams, rules) -> None:
-        super().__init__(params, rules)
-        self.full = params
-
-    def plan(self, occ_map, pose: np.ndarray):
-        grow = self.full.inflate_cells
-        rc = occ_map.cell(pose[:2])
-        lo = np.maximum(rc - grow - 1, 0)
-        window = occ_map.grid[lo[0] : rc[0] + grow + 2, lo[1] : rc[1] + grow + 2] == OCCUPIED
-        near = ndimage.binary_dilation(window, _disk(grow))[
-            rc[0] - lo[0] - 1 : rc[0] - lo[0] + 2, rc[1] - lo[1] - 1 : rc[1] - lo[1] + 2
-        ]
-        self.params = self.full
-        if near.sum() >= near.size - 1:  # at most the robot's own cell is clear
-            self.params = replace(self.full, margin=0.0, robot_radius=ESCAPE_INFLATE * occ_map.res)
-        return super().plan(occ_map, pose)
-
-
 def _largest(instances: list[Instance]) -> Instance | None:
     return max(instances, key=lambda i: i.size, default=None)
-
-
-def _disk(radius: int) -> np.ndarray:
-    y, x = np.mgrid[-radius : radius + 1, -radius : radius + 1]
-    return x * x + y * y <= radius * radius
 
 
 class ProtocolLanguagePolicy(FrontierPolicy):
@@ -419,7 +390,7 @@ class ProtocolLanguagePolicy(FrontierPolicy):
         free = np.zeros(walls.shape, bool)
         fr, fc = np.nonzero(free_fine)
         free[np.minimum(fr // 2, walls.shape[0] - 1), np.minimum(fc // 2, walls.shape[1] - 1)] = True
-        closed = ndimage.binary_closing(walls, _disk(DOOR_CLOSING))
+        closed = ndimage.binary_closing(walls, disk(DOOR_CLOSING))
         doors = closed & ~ndimage.binary_dilation(walls) & free
         space = free & ~ndimage.binary_dilation(closed, iterations=WALL_MARGIN)
         labels, k = ndimage.label(space)
@@ -534,6 +505,8 @@ class ProtocolLanguagePolicy(FrontierPolicy):
     def exhausted(self, field: PlanField, pose: np.ndarray) -> np.ndarray:
         """No frontier left: the best guess among the detected instances, else where it stands."""
         inst = self.resolve(self.targets[self.leg], final=True)
+        if inst is not None:
+            self.resolved[self.leg] = [round(float(v), 3) for v in inst.centroid]
         cell = None if inst is None else self.standing_cell(inst, self.targets[self.leg].category, field)
         return pose[:2] if cell is None else cell
 

@@ -233,6 +233,38 @@ def test_the_privileged_view_and_the_goal_sensors_follow_the_current_subgoal(dat
 
 
 # --- the chains --------------------------------------------------------------------------------------
+@pytest.mark.slow  # VLFM loads its scorer
+def test_a_leg_that_starts_boxed_in_at_an_instrument_plans_its_way_out():
+    """A leg starts where the last STOP was, 0.15 m from an instrument's side: the single-goal planner finds
+    no path (its grown obstacles cover the robot) and would give up; the chain's escape planner reaches the
+    goal, and both chained frontier-based agents plan with it."""
+    from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy
+    from biovln_ms.agents.frontier_map import FREE, OCCUPIED, OccupancyMap
+    from biovln_ms.agents.frontier_planner import FrontierPlanner
+    from biovln_ms.agents.policy import EpisodeInfo, TaskSpec
+    from biovln_ms.agents.protocol_chain import EscapePlanner
+    from biovln_ms.agents.protocol_frontier import ProtocolFrontierPolicy
+    from biovln_ms.agents.protocol_vlfm import LegVLFMPolicy
+
+    params = FrontierParams(robot_radius=0.2)
+    occ = OccupancyMap(np.zeros(2), params.resolution, 20.0)
+    r0, c0 = occ.cell(np.zeros(2))
+    occ.grid[r0 - 40 : r0 + 41, c0 - 40 : c0 + 41] = FREE  # 4 m of known floor
+    occ.grid[r0 - 10 : r0 + 11, c0 + 3] = OCCUPIED  # the instrument's side, 0.15 m east
+    occ.lo, occ.hi = np.array([r0 - 40, c0 - 40]), np.array([r0 + 41, c0 + 41])
+    rules = FrontierPolicy(params)
+    rules.goal = np.array([-1.5, 0.0])
+    stuck = FrontierPlanner(params, rules).plan(occ, np.zeros(3))
+    out = EscapePlanner(params, rules).plan(occ, np.zeros(3))
+    assert len(stuck.path) <= 1  # nowhere to go: the controller would STOP where it stands
+    assert out.mode == "goal" and np.linalg.norm(out.path[-1] - rules.goal) < 0.1 and len(out.path) > 10
+    task = TaskSpec(0.25, 30.0, 79.0, 500, ("centrifuge",), "discrete", 0.2)
+    for inner in (ProtocolFrontierPolicy().inner, LegVLFMPolicy()):
+        inner.reset(EpisodeInfo("s", 0, "centrifuge", task))
+        inner._build(np.zeros(3))
+        assert isinstance(inner.planner, EscapePlanner) and inner.control.planner is inner.planner
+
+
 def test_the_oracle_chain_reaches_every_goal(dataset):
     from biovln_ms.agents.protocol_oracle import ProtocolOraclePolicy
 
@@ -329,6 +361,9 @@ def test_the_harness_runs_protocol_splits_and_refuses_the_other_kind(dataset, tm
         evaluate(EvalConfig("oracle", "protocol_val", str(tmp_path), dataset, workers=1), progress=False)
     with pytest.raises(BioVLNError, match="field 'record_dir'"):
         evaluate(EvalConfig("protocol_oracle", "protocol_val", str(tmp_path), record_dir=str(tmp_path)))
+    with pytest.raises(BioVLNError, match="field 'handoff_dir': a hand-off is one goal's") as err:
+        evaluate(EvalConfig("protocol_oracle", "protocol_val", str(tmp_path), handoff_dir=str(tmp_path)))
+    assert "\n" not in str(err.value)
 
 
 def _fake(index: int, k: int, reached: int, method: str = "protocol_frontier", **extra) -> dict:
@@ -399,6 +434,21 @@ def test_the_report_renders_the_lab_protocols_table_from_fake_records():
     assert md.index("Protocol Oracle") < md.index("| Protocol Frontier")
     assert any(block for block in tables_of(summ))  # every table renders beside it
     assert protocol_table(summarize({})) == []
+
+
+def test_the_report_plots_each_protocol_runs_stage_success(tmp_path):
+    from matplotlib.image import imread
+
+    from biovln_ms.eval.report import plot_protocol_stages, summarize
+
+    runs = {
+        ("protocol_oracle", "protocol_val"): [_fake(i, 3, 3, "protocol_oracle") for i in range(4)],
+        ("protocol_frontier", "protocol_test"): [_fake(i, 2, i % 3) for i in range(3)],
+    }
+    png = plot_protocol_stages(summarize(runs, {"protocol_val": 4}), tmp_path / "stages.png")
+    assert png == tmp_path / "stages.png" and imread(png).shape[1] > 1000  # two panels side by side
+    assert plot_protocol_stages(summarize({}), tmp_path / "none.png") is None
+    assert not (tmp_path / "none.png").exists()
 
 
 def test_the_suite_runs_the_protocol_methods_on_the_protocol_splits_ideal_only():

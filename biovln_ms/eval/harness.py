@@ -377,6 +377,13 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
             field="record_dir",
             fix="record a single-goal run, or evaluate the protocol method without --record",
         )
+    if cfg.handoff_dir and _protocol_env(cfg.env_id):
+        raise BioVLNError(
+            "a hand-off is one goal's final pose; protocol episodes have K goals",
+            field="handoff_dir",
+            fix="export hand-offs of a single-goal run, or evaluate the protocol method without "
+            "--export-handoff",
+        )
     if cfg.record_dir and cfg.record_mode == "full" and spec.obs_mode == "state":
         raise BioVLNError(
             f"'{cfg.method}' runs on state observations: there are no frames to record",

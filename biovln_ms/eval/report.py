@@ -840,6 +840,42 @@ def plot_sr(summ: dict, out: Path) -> Path:
     return out
 
 
+def plot_protocol_stages(summ: dict, out: Path) -> Path | None:
+    """Lab protocols: per split, each protocol run's SR and stage 1-5 success with their Wilson 95 %
+    intervals (a partial run's bars hatched, its n in the legend); None when no protocol run is there."""
+    order = report_methods()
+    splits = [
+        s for s in PROTOCOL_REPORT_SPLITS if any(p.get(s, {}).get("protocol") for p in summ["runs"].values())
+    ]
+    if not splits:
+        return None
+    fig, axes = plt.subplots(1, len(splits), figsize=(6.5 * len(splits), 4), squeeze=False)
+    labels = ["SR", *(f"stage {i}" for i in range(1, 6))]
+    for ax, s in zip(axes[0], splits):
+        ran = [r for r, p in summ["runs"].items() if p.get(s, {}).get("protocol")]
+        ran.sort(key=lambda r: (order.index(_parts(r)[0]) if _parts(r)[0] in order else len(order), r))
+        w = 0.8 / len(ran)
+        for i, run in enumerate(ran):
+            agg = _get(summ, run, s)
+            ys = np.array([agg["sr"], *agg["stage_sr"]], dtype=float)
+            ci = np.array([agg["sr_ci95"], *agg["stage_sr_ci95"]], dtype=float)
+            err = np.nan_to_num(np.abs(ci.T - ys), nan=0.0)
+            name = f"{_label(run)} (n={agg['episodes']}{', partial' if _partial(summ, run, s) else ''})"
+            bars = ax.bar(np.arange(6) + i * w, ys, w, yerr=err, capsize=2, label=name, error_kw={"lw": 0.8})
+            if _partial(summ, run, s):
+                for bar in bars:
+                    bar.set_hatch("//")
+        ax.set_xticks(np.arange(6) + 0.4 - w / 2, labels)
+        ax.set_ylim(0, 105)
+        ax.set_ylabel("success (%)")
+        ax.set_title(f"{s}: SR and per-stage success, 95 % CI")
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
 def plot_safety(runs, out: Path) -> Path:
     fig, ax = plt.subplots(figsize=(6, 4.5))
     for (m, s), recs in sorted(runs.items()):
@@ -1082,10 +1118,11 @@ def write_report(
     )
     for block in tables_of(summ):
         lines += block + [""]
-    figs = [
-        plot_sr(summ, out / "figures" / "sr_by_method.png"),
-        plot_safety(runs, out / "figures" / "safety.png"),
-    ]
+    single = any(_ran(summ, m, s) for m in report_methods() for s in SPLITS)
+    figs = [plot_sr(summ, out / "figures" / "sr_by_method.png")] if single else []
+    figs.append(plot_safety(runs, out / "figures" / "safety.png"))
+    stages = plot_protocol_stages(summ, out / "figures" / "protocol_stages.png")
+    figs += [stages] if stages else []
     for (m, s), recs in sorted(runs.items()):
         if all(record_error(r) for r in recs):  # no trajectory to draw
             continue
