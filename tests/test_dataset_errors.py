@@ -448,10 +448,15 @@ def _partial(parent: Path, pid: int, age_s: float = 0.0) -> Path:
 def test_killed_builds_are_removed_by_the_next_build(tmp_path):
     dead = _partial(tmp_path, _dead_pid())
     old_reused_pid = _partial(tmp_path, 1, age_s=2 * 3600)  # pid 1 runs, but not this build for 2 h
-    young_live_pid = _partial(tmp_path, os.getppid())  # a build that may not have taken its lock yet
+    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])  # not pid 1, not us
+    young_live_pid = _partial(tmp_path, live.pid)  # a build that may not have taken its lock yet
     other = tmp_path / ".other.partial-123456789"  # another dataset's: not ours to judge
     other.mkdir()
-    write_dataset(tmp_path / "ds", _splits(1), progress=False)
+    try:
+        write_dataset(tmp_path / "ds", _splits(1), progress=False)
+    finally:
+        live.kill()
+        live.wait()
     assert not dead.exists() and not old_reused_pid.exists()
     assert young_live_pid.exists() and other.exists()
     assert len(_load_all(tmp_path / "ds")["ms_val"]) == 1
