@@ -177,17 +177,22 @@ def test_walls_and_instruments_stop_fetch_and_its_arm_stays_tucked(env):
     assert worst < 0.02  # 150 steps, bumping into walls: every held joint within 0.02 rad (m) of the tuck
 
 
-def test_head_camera_rgbd(fetch_dataset):
-    e = gym.make(
+def fetch_rgbd(fetch_dataset, width: int, height: int):
+    """Fetch on its MS VAL episodes with the head camera's RGB-D at ``width`` x ``height``."""
+    return gym.make(
         "BioVLN-OpFace-v0",
         robot_uids="fetch",
         dataset=str(fetch_dataset),
         split="ms_val",
         obs_mode="rgbd",
-        camera_width=96,
-        camera_height=72,
+        camera_width=width,
+        camera_height=height,
         **CPU,
     )
+
+
+def test_head_camera_rgbd(fetch_dataset):
+    e = fetch_rgbd(fetch_dataset, 96, 72)
     obs, _ = e.reset(options={"episode_index": 0})
     assert set(obs["sensor_data"]) == {"head"}  # not ManiSkill's fetch_head / fetch_hand
     cam = obs["sensor_data"]["head"]
@@ -360,16 +365,7 @@ def test_frontier_on_fetch_sees_its_footprint_and_explores(fetch_dataset):
     from biovln_ms.agents.frontier import FREE, FrontierPolicy
     from biovln_ms.eval.rollout import rollout
 
-    e = gym.make(
-        "BioVLN-OpFace-v0",
-        robot_uids="fetch",
-        dataset=str(fetch_dataset),
-        split="ms_val",
-        obs_mode="rgbd",
-        camera_width=320,
-        camera_height=240,
-        **CPU,
-    )
+    e = fetch_rgbd(fetch_dataset, 320, 240)
     pol = FrontierPolicy()
     try:
         steps = list(rollout(e, pol, 0))
