@@ -51,8 +51,8 @@ from biovln_ms.agents.frontier_planner import (
     nearest_candidate,
     nearest_reachable,
 )
-from biovln_ms.agents.localisation import Localiser, blocked_ahead, camera_mount, extrinsic_at, scan_points
-from biovln_ms.agents.policy import STOP, EpisodeInfo, Policy, TaskSpec
+from biovln_ms.agents.localisation import Localiser, camera_mount, extrinsic_at, scan_points
+from biovln_ms.agents.policy import EpisodeInfo, Policy, TaskSpec
 
 __all__ = [
     "FREE",
@@ -141,7 +141,6 @@ class FrontierPolicy(Policy):
         self.localiser = None if self.task.noise.gps_compass else Localiser()
         self.mount: np.ndarray | None = None  # the head camera on the base (height, tilt, offset)
         self.camera_offset = np.zeros(2)  # the head camera's ground point ahead of the turning centre
-        self._blocked = False  # the last frame showed a FORWARD blocked (localisation.blocked_ahead)
         self.pose_estimates: list[np.ndarray] = []
 
     def act(self, obs, info: dict) -> int:
@@ -161,8 +160,7 @@ class FrontierPolicy(Policy):
         base = pose_from_odometry(obs) if self.localiser is None else np.zeros(3)
         self.camera_offset = camera_offset(extrinsic, base)
         if self.localiser is not None:
-            self.mount = camera_mount(extrinsic)
-            self.mount[:2, 3] = self.camera_offset
+            self.mount = camera_mount(extrinsic, self.camera_offset)
 
     def _localise(self, obs) -> np.ndarray:
         """The pose without odometry: the start at the first step, then the previous command's dead
@@ -173,13 +171,8 @@ class FrontierPolicy(Policy):
         if self.map is None:
             self.localiser.reset()
         points = scan_points(depth, intrinsic, self.mount, p.pixel_stride, p.depth_clip, p.floor_z, p.top_z)
-        if self.map is not None:
-            last = self.control.last_action
-            self.localiser.predict(STOP if last is None else last, self.task, self._blocked)
-            if p.scan_match:
-                self.localiser.correct(points, self.map)
-        self._blocked = blocked_ahead(points, depth, intrinsic, self.task)
-        return self.localiser.pose.copy()
+        last = None if self.map is None else self.control.last_action
+        return self.localiser.step(last, points, depth, intrinsic, self.task, self.map, p.scan_match)
 
     def _frame(self, obs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The head camera's depth, intrinsics and extrinsics in the policy's frame: the observed ones

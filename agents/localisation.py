@@ -54,7 +54,7 @@ import numpy as np
 from scipy import ndimage
 
 from biovln_ms.agents.frontier_map import OCCUPIED, SCAN_COLUMNS, OccupancyMap, backproject
-from biovln_ms.agents.policy import FORWARD, TURN_LEFT, TURN_RIGHT, TaskSpec
+from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, TaskSpec
 from biovln_ms.noise import LOCOBOT_FORWARD, LOCOBOT_TURN
 
 __all__ = [
@@ -120,10 +120,11 @@ def blocked_ahead(points_xy: np.ndarray, depth_m: np.ndarray, intrinsic: np.ndar
     return bool((depth_m[:, ahead] <= 0).mean() > 0.5)
 
 
-def camera_mount(extrinsic: np.ndarray) -> np.ndarray:
-    """The head camera's 4x4 camera-to-base transform (OpenCV axes) for a camera on the base's vertical
-    axis looking along its heading (the BioVLN base's): its height, tilt and roll taken from the
-    extrinsics, whose planar part (x, y and heading in the world) is discarded."""
+def camera_mount(extrinsic: np.ndarray, offset: np.ndarray | None = None) -> np.ndarray:
+    """The head camera's 4x4 camera-to-base transform (OpenCV axes) for a camera looking along the base's
+    heading: its height, tilt and roll taken from the extrinsics, whose planar part (x, y and heading in
+    the world) is discarded; it stands on the base's vertical axis (the BioVLN base's), or ``offset``
+    (x ahead, y left, m) from it (Fetch's, ``frontier.camera_offset``)."""
     cam2world = np.linalg.inv(np.vstack([np.asarray(extrinsic, float)[:3], [0.0, 0.0, 0.0, 1.0]]))
     optical = cam2world[:3, 2]
     yaw = math.atan2(optical[1], optical[0])
@@ -131,6 +132,8 @@ def camera_mount(extrinsic: np.ndarray) -> np.ndarray:
     mount = np.eye(4)
     mount[:3, :3] = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ cam2world[:3, :3]
     mount[2, 3] = cam2world[2, 3]
+    if offset is not None:
+        mount[:2, 3] = offset
     return mount
 
 
@@ -194,6 +197,29 @@ class Localiser:
         self._sd = np.array(self.params.floor)
         self._outcomes = [(self.pose[:2].copy(), self._sd[:2])]  # (x, y) and (along, across) sd
         self.accepted = self.rejected = 0
+        self.blocked = False  # the last frame showed a FORWARD blocked (blocked_ahead)
+        return self.pose.copy()
+
+    def step(
+        self,
+        action,
+        points_xy: np.ndarray,
+        depth_m: np.ndarray,
+        intrinsic: np.ndarray,
+        task: TaskSpec,
+        occ_map: OccupancyMap | None,
+        scan_match: bool = True,
+    ) -> np.ndarray:
+        """One frame: unless it is the first (``occ_map`` None: no move yet, nothing mapped), the command
+        sent on the previous step (``action``; None: STOP) dead-reckoned with the outcome the previous frame
+        showed (:attr:`blocked`), then corrected by matching this frame's scan (``points_xy``, base frame)
+        against ``occ_map`` when ``scan_match``; then whether this frame shows a FORWARD blocked. Returns
+        the pose."""
+        if occ_map is not None:
+            self.predict(STOP if action is None else action, task, self.blocked)
+            if scan_match:
+                self.correct(points_xy, occ_map)
+        self.blocked = blocked_ahead(points_xy, depth_m, intrinsic, task)
         return self.pose.copy()
 
     def predict(self, action, task: TaskSpec, blocked: bool = False) -> np.ndarray:

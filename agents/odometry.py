@@ -20,13 +20,12 @@ from biovln_ms.agents.frontier_map import OccupancyMap
 from biovln_ms.agents.frontier_params import FrontierParams
 from biovln_ms.agents.localisation import (
     Localiser,
-    blocked_ahead,
     camera_mount,
     extrinsic_at,
     scan_points,
     wrap,
 )
-from biovln_ms.agents.policy import STOP, TaskSpec
+from biovln_ms.agents.policy import TaskSpec
 
 __all__ = ["EpisodeOdometry"]
 
@@ -44,7 +43,6 @@ class EpisodeOdometry:
         self.mount: np.ndarray | None = None
         self.offset = np.zeros(2)
         self.goal: np.ndarray | None = None  # episode frame
-        self._blocked = False
         self.poses: list[np.ndarray] = []
 
     def update(self, obs, last_action) -> np.ndarray:
@@ -56,18 +54,13 @@ class EpisodeOdometry:
         if self.map is None:
             extrinsic = to_numpy(obs["sensor_param"]["head"]["extrinsic_cv"][0])
             self.offset = camera_offset(extrinsic, np.zeros(3))
-            self.mount = camera_mount(extrinsic)
-            self.mount[:2, 3] = self.offset
+            self.mount = camera_mount(extrinsic, self.offset)
             self.localiser.reset()
             self.map = OccupancyMap(np.zeros(2), p.resolution, p.extent, evidence=self.task.noise.depth)
             self.goal = goal_from_sensor(np.zeros(3), to_numpy(obs["extra"]["pointgoal"][0]))
         points = scan_points(depth, intrinsic, self.mount, p.pixel_stride, p.depth_clip, p.floor_z, p.top_z)
-        if self.poses:
-            self.localiser.predict(STOP if last_action is None else last_action, self.task, self._blocked)
-            if p.scan_match:
-                self.localiser.correct(points, self.map)
-        self._blocked = blocked_ahead(points, depth, intrinsic, self.task)
-        pose = self.localiser.pose.copy()
+        occ_map = self.map if self.poses else None  # the first frame: no move yet, nothing mapped
+        pose = self.localiser.step(last_action, points, depth, intrinsic, self.task, occ_map, p.scan_match)
         base = pose[:2] if self.offset.any() else None
         extrinsic = extrinsic_at(pose, self.mount)
         self.map.integrate(
