@@ -38,7 +38,7 @@ allocation but the returned image; RGB in place on the image when ``out`` is the
 see ``benchmarks/sensor_noise.py`` for the cost per frame. On a GPU the whole batch goes through one set
 of kernels.
 
-The objects keep work buffers: one instance must not be called from two threads at once.
+A DepthNoise keeps work buffers: one instance must not be called from two threads at once.
 """
 
 from __future__ import annotations
