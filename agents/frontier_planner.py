@@ -5,8 +5,12 @@ obstacles grown by the robot radius plus a margin (:class:`PlanField`). Frontier
 to unknown ones (seen ones: not the ground under a base that its camera never sees, ``OccupancyMap.seen``);
 their 8-connected groups are split into square tiles of the cluster diameter (2 x 1.0 m, Table 15), and
 every tile of at least 10 cells with a reachable cell is a candidate, at its reachable cell nearest the
-robot. Which target wins is decided by the policy's :class:`TargetRules`: a known target first (the
-frontier baseline's goal, VLFM's detected object), else the chosen frontier, else the exhausted fallback.
+robot. While the robot is boxed in (every cell around its own lies in the grown obstacles: beside a wall
+seen late, in a doorway, or where a protocol leg starts, after a STOP at an instrument) the full growth
+leaves it no cell to go to and it would give up with a STOP; it then plans on obstacles grown only
+``ESCAPE_INFLATE`` cells (0.1 m) until it is out. Which target wins is decided by the policy's
+:class:`TargetRules`: a known target first (the frontier baseline's goal, VLFM's detected object), else the
+chosen frontier, else the exhausted fallback.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from biovln_ms.agents.frontier_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap
 from biovln_ms.agents.frontier_params import FrontierParams
 
 CROP_PAD = 2  # cells kept around the observed part of the map, so that its border cells have neighbours
+ESCAPE_INFLATE = 2  # cells: obstacle growth for planning while boxed in by the full growth
 _NEIGHBOURS = [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)]
 
 
@@ -127,6 +132,23 @@ class TargetRules(Protocol):
         """Where to go (and stop) when no frontier is left."""
 
 
+def disk(radius: int) -> np.ndarray:
+    """A boolean disc of ``radius`` cells (a structuring element)."""
+    y, x = np.mgrid[-radius : radius + 1, -radius : radius + 1]
+    return x * x + y * y <= radius * radius
+
+
+def boxed_in(occ_map: OccupancyMap, xy: np.ndarray, grow: int) -> bool:
+    """Whether at most the cell of ``xy`` is clear, among it and its 8 neighbours, of the occupied cells
+    grown by ``grow`` cells."""
+    rc = occ_map.cell(xy)
+    lo = np.maximum(rc - grow - 1, 0)
+    window = occ_map.grid[lo[0] : rc[0] + grow + 2, lo[1] : rc[1] + grow + 2] == OCCUPIED
+    r, c = rc - lo
+    near = ndimage.binary_dilation(window, disk(grow))[r - 1 : r + 2, c - 1 : c + 2]
+    return bool(near.sum() >= near.size - 1)
+
+
 class FrontierPlanner:
     """Plans a target and its path on the map; frontiers found unreachable are banned for the episode."""
 
@@ -136,7 +158,10 @@ class FrontierPlanner:
 
     def plan(self, occ_map: OccupancyMap, pose: np.ndarray) -> Plan:
         """A known target if the rules have one, else the chosen frontier, else the exhausted fallback."""
-        field = PlanField.compute(occ_map, pose[:2], self.params.inflate_cells)
+        grow = self.params.inflate_cells
+        if boxed_in(occ_map, pose[:2], grow):
+            grow = ESCAPE_INFLATE
+        field = PlanField.compute(occ_map, pose[:2], grow)
         target = self.rules.known_target(field)
         mode = "goal"
         if target is None:

@@ -8,10 +8,8 @@ if a new episode began where the last leg ended (a mapping policy with an empty 
 :class:`EpisodeInfo` carries the leg's category, read from ``objectgoal`` when the observation has it.
 
 Each leg after the first starts where the last ended: at an instrument, closer than a single-goal episode
-ever starts (1.0 m from every obstacle), often inside the frontier planner's grown obstacles, where it finds
-no path and gives up with a STOP. A frontier-based inner policy (:class:`EscapingLegs`: the frontier agent,
-VLFM) therefore plans with :class:`EscapePlanner`, which grows obstacles less while the robot is boxed in, as
-the language agent does; away from obstacles it plans exactly as the single-goal agent.
+ever starts (1.0 m from every obstacle), often inside the frontier planner's grown obstacles; the planner's
+escape rule (:mod:`~biovln_ms.agents.frontier_planner`) gets it out.
 
 Without GPS+compass the inner policy localises in the frame of its leg's start, while ``pointgoal`` is in the
 episode's start frame: the chain keeps where each leg started (the previous leg's last pose estimate, in the
@@ -25,15 +23,10 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from scipy import ndimage
 
-from biovln_ms.agents.frontier_map import OCCUPIED
-from biovln_ms.agents.frontier_params import FrontierParams
-from biovln_ms.agents.frontier_planner import FrontierPlanner
 from biovln_ms.agents.policy import EpisodeInfo, Policy
 
 POSE_KEYS = ("pose_frame", "pose_estimates")
-ESCAPE_INFLATE = 2  # cells: obstacle growth for planning while boxed in by the full growth
 
 
 def subgoal_index(info: dict) -> int:
@@ -47,45 +40,6 @@ def compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The planar pose ``b`` (x, y, yaw), given in the frame of pose ``a``, in ``a``'s own frame."""
     c, s = math.cos(a[2]), math.sin(a[2])
     return np.array([a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], a[2] + b[2]])
-
-
-def disk(radius: int) -> np.ndarray:
-    """A boolean disc of ``radius`` cells (a structuring element)."""
-    y, x = np.mgrid[-radius : radius + 1, -radius : radius + 1]
-    return x * x + y * y <= radius * radius
-
-
-class EscapePlanner(FrontierPlanner):
-    """The frontier planner, planning on obstacles grown only ``ESCAPE_INFLATE`` cells while the robot is
-    boxed in: every cell around its own lies in the grown obstacles (after a STOP close to an instrument,
-    or in a doorway), where the full growth would leave it no cell to go to."""
-
-    def __init__(self, params: FrontierParams, rules) -> None:
-        super().__init__(params, rules)
-        self.full = params
-
-    def plan(self, occ_map, pose: np.ndarray):
-        grow = self.full.inflate_cells
-        rc = occ_map.cell(pose[:2])
-        lo = np.maximum(rc - grow - 1, 0)
-        window = occ_map.grid[lo[0] : rc[0] + grow + 2, lo[1] : rc[1] + grow + 2] == OCCUPIED
-        near = ndimage.binary_dilation(window, disk(grow))[
-            rc[0] - lo[0] - 1 : rc[0] - lo[0] + 2, rc[1] - lo[1] - 1 : rc[1] - lo[1] + 2
-        ]
-        self.params = self.full
-        if near.sum() >= near.size - 1:  # at most the robot's own cell is clear
-            self.params = replace(self.full, margin=0.0, robot_radius=ESCAPE_INFLATE * occ_map.res)
-        return super().plan(occ_map, pose)
-
-
-class EscapingLegs:
-    """Mixin for a frontier-based policy (:class:`~biovln_ms.agents.frontier.FrontierPolicy` or a subclass)
-    run as a chain's inner policy: its planner is an :class:`EscapePlanner`."""
-
-    def _build(self, pose: np.ndarray) -> None:
-        super()._build(pose)
-        self.planner = EscapePlanner(self.params, self)
-        self.control.planner = self.planner
 
 
 class SubgoalChain(Policy):

@@ -3,19 +3,14 @@ given each sub-goal of a lab protocol in turn.
 
 At each sub-goal the agent starts over (an empty map, the goal read once from the goal sensor, which now
 points at the new sub-goal), as if a new episode began where the last goal was found; see
-:mod:`~biovln_ms.agents.protocol_chain` (whose escape planner gets it away from the instrument it stopped
-at). Like the single-goal agent it knows each goal's position, not its
+:mod:`~biovln_ms.agents.protocol_chain`. Like the single-goal agent it knows each goal's position, not its
 category or the instruction.
 """
 
 from __future__ import annotations
 
 from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy
-from biovln_ms.agents.protocol_chain import EscapingLegs, SubgoalChain
-
-
-class LegFrontierPolicy(EscapingLegs, FrontierPolicy):
-    """The frontier agent, planning with the chain's escape planner."""
+from biovln_ms.agents.protocol_chain import SubgoalChain
 
 
 class ProtocolFrontierPolicy(SubgoalChain):
@@ -24,4 +19,4 @@ class ProtocolFrontierPolicy(SubgoalChain):
     name = "protocol_frontier"
 
     def __init__(self, params: FrontierParams | None = None) -> None:
-        super().__init__(LegFrontierPolicy(params))
+        super().__init__(FrontierPolicy(params))

@@ -35,8 +35,8 @@ the room with their back to a wall: of the compass sides with free floor before 
 catalog's footprint gives when the points show its longer side, the one with a wall nearest behind it, in the
 wall grid or on the floor map beside it, else the longest run of free floor), else the reachable free cell
 nearest the instance (VLFM's rule), at least 0.4 m from it, and STOPs there as the frontier agent stops at
-its goal. While every cell around the robot lies in the grown obstacles (after a STOP close to an instrument,
-or in a doorway) it plans on obstacles grown less (:class:`EscapePlanner`). With nothing of the category
+its goal (out of the grown obstacles by the planner's escape rule after a STOP close to an instrument,
+:mod:`~biovln_ms.agents.frontier_planner`). With nothing of the category
 detected and no frontier left it STOPs where it stands. ``episode_stats`` holds the parsed targets, the
 instance gone to for each, and the parser's use of the LLM.
 """
@@ -53,9 +53,9 @@ from scipy import ndimage
 from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy, backproject, to_numpy
 from biovln_ms.agents.frontier_control import FrontierController
 from biovln_ms.agents.frontier_map import FREE, OCCUPIED
-from biovln_ms.agents.frontier_planner import PlanField
+from biovln_ms.agents.frontier_planner import FrontierPlanner, PlanField, disk
 from biovln_ms.agents.policy import STOP, EpisodeInfo
-from biovln_ms.agents.protocol_chain import EscapePlanner, disk, subgoal_index
+from biovln_ms.agents.protocol_chain import subgoal_index
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import MAX_VISITS
 from biovln_ms.errors import BioVLNError
@@ -259,8 +259,8 @@ class ProtocolLanguagePolicy(FrontierPolicy):
         return super().act(obs, info)
 
     def _new_leg(self) -> None:
-        """A new planner (:class:`EscapePlanner`) and controller on the map kept so far."""
-        self.planner = EscapePlanner(self.params, self)
+        """A new planner and controller on the map kept so far."""
+        self.planner = FrontierPlanner(self.params, self)
         turn = math.radians(self.task.turn_deg)
         p = self.control.params
         self.control = FrontierController(p, self.task.forward_step, turn, self.map, self.planner)

@@ -3,20 +3,15 @@ sub-goal's category in turn.
 
 At each sub-goal the agent starts over (empty frontier, value and object maps) with the category the
 ``objectgoal`` sensor now names, as if a new episode began where the last goal was found; see
-:mod:`~biovln_ms.agents.protocol_chain` (whose escape planner gets it away from the instrument it stopped
-at). Like the single-goal agent it is never told a goal's position, and
+:mod:`~biovln_ms.agents.protocol_chain`. Like the single-goal agent it is never told a goal's position, and
 it does not read the instruction: which instance of a category is meant is not known to it, so it stops at
 the first one it detects.
 """
 
 from __future__ import annotations
 
-from biovln_ms.agents.protocol_chain import EscapingLegs, SubgoalChain
+from biovln_ms.agents.protocol_chain import SubgoalChain
 from biovln_ms.agents.vlfm import VLFMPolicy
-
-
-class LegVLFMPolicy(EscapingLegs, VLFMPolicy):
-    """VLFM, planning with the chain's escape planner."""
 
 
 class ProtocolVLFMPolicy(SubgoalChain):
@@ -26,4 +21,4 @@ class ProtocolVLFMPolicy(SubgoalChain):
 
     def __init__(self, detector="gt", scorer="default", detect_every: int = 5, score_every: int = 1) -> None:
         every = dict(detect_every=detect_every, score_every=score_every)
-        super().__init__(LegVLFMPolicy(detector=detector, scorer=scorer, **every))
+        super().__init__(VLFMPolicy(detector=detector, scorer=scorer, **every))

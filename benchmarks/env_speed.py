@@ -63,7 +63,7 @@ def time_noise_work(env) -> list[float]:
             controller.perturb = timed(controller.perturb)
     u._no_sliding = timed(u._no_sliding)
     u._camera_params_in_base_frame = timed(u._camera_params_in_base_frame)
-    u._image_noise_models = tuple(m and timed(m) for m in u._image_noise())
+    u._apply_image_noise = timed(u._apply_image_noise)
     return spent
 
 

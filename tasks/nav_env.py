@@ -417,13 +417,7 @@ class BioVLNNavEnv(BaseEnv):
     def _get_obs_with_sensor_data(self, info: dict, apply_texture_transforms: bool = True) -> dict:
         obs = super()._get_obs_with_sensor_data(info, apply_texture_transforms)
         head = obs.get("sensor_data", {}).get("head", {})
-        rgb_noise, depth_noise = self._image_noise()
-        if (rgb_noise and "rgb" in head) or (depth_noise and "depth" in head):
-            keys = frame_keys(self._episode_seed, self._elapsed_steps.cpu().numpy())
-            if rgb_noise and "rgb" in head:
-                rgb_noise(head["rgb"], keys, out=head["rgb"])
-            if depth_noise and "depth" in head:
-                depth_noise(head["depth"], keys, out=head["depth"])
+        self._apply_image_noise(head)
         if "segmentation" in head:
             obs["extra"]["semantic_category"] = semantic_category(
                 head["segmentation"], self._segmentation_lookup
@@ -436,15 +430,30 @@ class BioVLNNavEnv(BaseEnv):
         """Without GPS+compass the cameras' extrinsics are given relative to the robot's base (the mount,
         as a robot knows it), not the world: world-frame extrinsics would tell the pose."""
         pose = self._measures["agent_pose"]  # this step's pose, already read from the joints
-        c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+        x, y, c, s = pose[:, 0], pose[:, 1], np.cos(pose[:, 2]), np.sin(pose[:, 2])
         base2world = np.zeros((len(pose), 4, 4))
         base2world[:, 0, 0], base2world[:, 0, 1], base2world[:, 1, 0], base2world[:, 1, 1] = c, -s, s, c
         base2world[:, :2, 3], base2world[:, 2, 2], base2world[:, 3, 3] = pose[:, :2], 1.0, 1.0
+        world2base = base2world.transpose(0, 2, 1).copy()  # a planar rigid motion's inverse: R^T, -R^T t
+        world2base[:, 3, :2] = 0.0
+        world2base[:, 0, 3], world2base[:, 1, 3] = -(c * x + s * y), s * x - c * y
         for cam in params.values():
-            b2w = torch.from_numpy(base2world).to(cam["extrinsic_cv"])
+            dtype, device = cam["extrinsic_cv"].dtype, cam["extrinsic_cv"].device
+            b2w = torch.from_numpy(base2world).to(device=device, dtype=dtype)
             cam["extrinsic_cv"] = cam["extrinsic_cv"] @ b2w  # world -> camera, applied to base points
-            # camera -> base (inv_ex: inv's numbers without its error check, b2w is rigid)
-            cam["cam2world_gl"] = torch.linalg.inv_ex(b2w)[0] @ cam["cam2world_gl"]
+            w2b = torch.from_numpy(world2base).to(device=device, dtype=dtype)
+            cam["cam2world_gl"] = w2b @ cam["cam2world_gl"]  # camera -> base
+
+    def _apply_image_noise(self, head: dict) -> None:
+        """The noise config's RGB and depth noise on the head camera's images (in place), keyed by each
+        sub-env's (episode, step) so that a recorded episode replays exactly."""
+        rgb_noise, depth_noise = self._image_noise()
+        if (rgb_noise and "rgb" in head) or (depth_noise and "depth" in head):
+            keys = frame_keys(self._episode_seed, self._elapsed_steps.cpu().numpy())
+            if rgb_noise and "rgb" in head:
+                rgb_noise(head["rgb"], keys, out=head["rgb"])
+            if depth_noise and "depth" in head:
+                depth_noise(head["depth"], keys, out=head["depth"])
 
     def _image_noise(self) -> tuple[RGBNoise | None, DepthNoise | None]:
         """The noise config's RGB and depth noise models for the head camera (built once, on first use)."""

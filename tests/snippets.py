@@ -207,7 +207,7 @@ def unknown_options(span: str) -> tuple[list[str], list[str]]:
 def other_bash_line_error(command: str) -> str | None:
     """A bash line that is not a ``biovln-ms`` command must run a script that exists or a known tool."""
     words = shlex.split(command)
-    if words[0] == "bash":
+    if words[0] in ("bash", "python") and len(words) > 1:
         return None if (ROOT / words[1]).is_file() else f"{words[1]} does not exist"
     return None if words[0] in OTHER_TOOLS else f"unchecked tool in `{command}`"
 

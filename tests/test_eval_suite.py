@@ -74,7 +74,10 @@ def test_suite_runs_resumes_and_logs(held_out_dataset, tmp_path, monkeypatch):
     recs = load_records(tmp_path / "results" / "oracle+realistic" / "ms_val" / "episodes.jsonl")
     assert len(recs) == 3 and all(r["noise"] == "realistic" for r in recs)
     table = (tmp_path / "suite.md").read_text()
-    assert "| oracle/ms_val/ideal | done | 3 | 100.0 |" in table and "Geometric methods:" in table
+    assert "| oracle/ms_val/ideal | done | 3 | 100.0 |" in table and "Geometric methods on the" in table
+    assert Suite.benchmark_run("frontier/hard_val/realistic")
+    assert not Suite.benchmark_run("oracle/ms_dev/ideal")
+    assert not Suite.benchmark_run("frontier@BioVLN-Centroid-v0/ms_val/ideal")
     # a second call resumes: nothing runs again, the records stay, the time adds up
     before = json.loads((tmp_path / "suite.json").read_text())
     run_suite(tmp_path, ["oracle"], echo=lines.append, **args)

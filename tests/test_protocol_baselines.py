@@ -233,18 +233,13 @@ def test_the_privileged_view_and_the_goal_sensors_follow_the_current_subgoal(dat
 
 
 # --- the chains --------------------------------------------------------------------------------------
-@pytest.mark.slow  # VLFM loads its scorer
-def test_a_leg_that_starts_boxed_in_at_an_instrument_plans_its_way_out():
-    """A leg starts where the last STOP was, 0.15 m from an instrument's side: the single-goal planner finds
-    no path (its grown obstacles cover the robot) and would give up; the chain's escape planner reaches the
-    goal, and both chained frontier-based agents plan with it."""
+def test_a_robot_boxed_in_beside_an_instrument_plans_its_way_out():
+    """A leg starts where the last STOP was, 0.15 m from an instrument's side (a single-goal robot gets there
+    beside a wall it saw late): the grown obstacles cover the robot, so with the full growth its own cell is
+    all it can reach and it would give up; the planner's escape rule reaches the goal."""
     from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy
     from biovln_ms.agents.frontier_map import FREE, OCCUPIED, OccupancyMap
-    from biovln_ms.agents.frontier_planner import FrontierPlanner
-    from biovln_ms.agents.policy import EpisodeInfo, TaskSpec
-    from biovln_ms.agents.protocol_chain import EscapePlanner
-    from biovln_ms.agents.protocol_frontier import ProtocolFrontierPolicy
-    from biovln_ms.agents.protocol_vlfm import LegVLFMPolicy
+    from biovln_ms.agents.frontier_planner import FrontierPlanner, PlanField, boxed_in
 
     params = FrontierParams(robot_radius=0.2)
     occ = OccupancyMap(np.zeros(2), params.resolution, 20.0)
@@ -254,15 +249,11 @@ def test_a_leg_that_starts_boxed_in_at_an_instrument_plans_its_way_out():
     occ.lo, occ.hi = np.array([r0 - 40, c0 - 40]), np.array([r0 + 41, c0 + 41])
     rules = FrontierPolicy(params)
     rules.goal = np.array([-1.5, 0.0])
-    stuck = FrontierPlanner(params, rules).plan(occ, np.zeros(3))
-    out = EscapePlanner(params, rules).plan(occ, np.zeros(3))
-    assert len(stuck.path) <= 1  # nowhere to go: the controller would STOP where it stands
+    assert boxed_in(occ, np.zeros(2), params.inflate_cells)
+    assert PlanField.compute(occ, np.zeros(2), params.inflate_cells).reachable().sum() == 1
+    out = FrontierPlanner(params, rules).plan(occ, np.zeros(3))
     assert out.mode == "goal" and np.linalg.norm(out.path[-1] - rules.goal) < 0.1 and len(out.path) > 10
-    task = TaskSpec(0.25, 30.0, 79.0, 500, ("centrifuge",), "discrete", 0.2)
-    for inner in (ProtocolFrontierPolicy().inner, LegVLFMPolicy()):
-        inner.reset(EpisodeInfo("s", 0, "centrifuge", task))
-        inner._build(np.zeros(3))
-        assert isinstance(inner.planner, EscapePlanner) and inner.control.planner is inner.planner
+    assert not boxed_in(occ, out.path[-1], params.inflate_cells)  # away from it, the full growth again
 
 
 def test_the_oracle_chain_reaches_every_goal(dataset):
