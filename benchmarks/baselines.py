@@ -23,23 +23,16 @@ from biovln_ms.render.sapien_utils import vulkan_device_label
 
 
 def table_rows(log: dict) -> tuple[list[list], list[str]]:
-    """The suite log's runs as table rows, and the notes with the totals."""
-    rows, totals = [], {"geometric": 0.0, "all": 0.0}
+    """The suite log's runs as table rows, and the note with the totals."""
+    rows = []
     for key, e in sorted(log["runs"].items(), key=lambda kv: Suite.order(kv[0])):
-        totals["all"] += e["seconds"]
-        if Suite.geometric(key):
-            totals["geometric"] += e["seconds"]
         method, split, preset = (key.split("/") + ["", ""])[:3]  # train/ppo: a training stage
         if e["status"] == "skipped":
             rows.append([method, split, preset, None, None, f"skipped: {e['reason']}"])
         else:
             sr = None if e.get("sr") is None else f"{e['sr']:.1f}"
             rows.append([method, split, preset, e.get("episodes"), sr, f"{e['seconds'] / 60:.1f} min"])
-    notes = [
-        f"Geometric methods (oracle, 3-zone oracle, frontier, random): {totals['geometric'] / 60:.0f} min "
-        f"(budget 60 min); every run listed: {totals['all'] / 60:.0f} min.",
-    ]
-    return rows, notes
+    return rows, [f"{Suite.totals_line(log['runs'])} Budget: 60 min."]
 
 
 def main() -> None:

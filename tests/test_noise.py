@@ -11,6 +11,7 @@ import shapely
 import torch
 
 import biovln_ms  # noqa: F401
+from biovln_ms.eval.rollout import rollout
 from biovln_ms.noise import (
     LOCOBOT_FORWARD,
     LOCOBOT_TURN,
@@ -128,6 +129,34 @@ def test_actuation_noise_is_deterministic_and_recorded(realistic_env):
     ideal.close()
     assert "actuation_error" not in ideal_infos[0]
     assert np.abs(a - exact).max() > 0.01  # the noise moved the robot
+
+
+class _Scripted:
+    """A fixed action sequence (a policy that ignores its observations)."""
+
+    def reset(self, episode_info) -> None:
+        self.actions = iter([1, 1, 2, 1, 3, 1, 1, 1, 0])
+
+    def act(self, obs, info) -> int:
+        return next(self.actions)
+
+
+def test_an_episodes_noise_does_not_depend_on_the_episodes_before_it(realistic_env):
+    """The harness's rollout seeds each episode by its identity: the same noise whichever episodes its
+    worker ran before (ManiSkill's unseeded resets draw a new seed from an RNG every reset advances)."""
+
+    def errors(episodes):
+        out = []
+        for k in episodes:
+            out = [
+                st.info["actuation_error"][0].numpy()
+                for st in list(rollout(realistic_env, _Scripted(), k))[1:]
+            ]
+        return np.array(out)
+
+    alone, after_two = errors([3]), errors([1, 0, 3])
+    np.testing.assert_array_equal(alone, after_two)
+    assert len(alone) == 9 and not np.array_equal(alone, errors([1]))
 
 
 def test_noisy_episode_replays_from_a_saved_state(realistic_env):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass
 from typing import Any, Iterator
 
@@ -22,10 +23,20 @@ class Step:
     truncated: bool = False
 
 
+def episode_seed(episode: dict) -> int:
+    """The reset seed of a dataset episode: CRC-32 of ``"<scene_id>/<episode_id>"`` (31 bits).
+
+    ManiSkill draws an unseeded reset's episode seed from the env's main RNG, which every reset advances,
+    so an episode's noise (actuation, image noise) would depend on the episodes its worker ran before it.
+    Seeded by its identity, an episode gets the same noise in any worker, order or run."""
+    return zlib.crc32(f"{episode['scene_id']}/{episode['episode_id']}".encode()) & 0x7FFFFFFF
+
+
 def rollout(env, policy, episode_index: int, privileged: bool = False) -> Iterator[Step]:
-    """Reset ``env`` to an episode, reset ``policy`` with what it may know (``privileged``: the oracles'
-    read-only view too), and run until STOP or the variant's step limit."""
-    obs, info = env.reset(options={"episode_index": episode_index})
+    """Reset ``env`` to an episode (seeded by :func:`episode_seed`), reset ``policy`` with what it may know
+    (``privileged``: the oracles' read-only view too), and run until STOP or the variant's step limit."""
+    seed = episode_seed(env.unwrapped.source.episodes[episode_index])
+    obs, info = env.reset(seed=seed, options={"episode_index": episode_index})
     episode_info = env.unwrapped.episode_info(0, privileged=privileged)
     policy.reset(episode_info)
     yield Step(None, None, None, obs, info)
