@@ -6,6 +6,7 @@ import pytest
 
 from biovln_ms.benchmark import FOUR_CATEGORIES
 from biovln_ms.episodes.dataset import SplitPlan, write_dataset
+from biovln_ms.eval import harness
 from biovln_ms.eval.harness import EvalConfig, ResultsError, evaluate, load_records
 from biovln_ms.scene.generator import generate_scene
 
@@ -69,6 +70,17 @@ def test_resume_after_a_kill_loses_and_repeats_nothing(dataset, tmp_path):
     assert fresh["overall"]["sr"] == s["overall"]["sr"] and fresh["overall"]["spl"] == pytest.approx(
         s["overall"]["spl"]
     )
+
+
+def test_a_complete_run_resumes_without_building_an_env(dataset, tmp_path, monkeypatch):
+    cfg = EvalConfig("random", "ms_val", str(tmp_path), dataset, workers=1, max_episodes=2)
+    first = evaluate(cfg, progress=False)
+
+    def no_env(wcfg):
+        raise AssertionError("a complete run built an env")
+
+    monkeypatch.setattr(harness, "_init_worker", no_env)
+    assert evaluate(cfg, progress=False)["overall"] == first["overall"]
 
 
 def test_corrupt_results_file_is_named(dataset, tmp_path):

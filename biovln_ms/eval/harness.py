@@ -455,7 +455,7 @@ def _evaluate_locked(cfg: EvalConfig, progress: bool, echo) -> dict:
             bar.update(1)
             bar.set_postfix(SR=f"{100 * n_ok / max(bar.n, 1):.1f}%")
 
-        if workers == 1:
+        if todo and workers == 1:  # (a complete run only rewrites its summary: no env is built)
             _init_worker(wcfg)
             try:
                 for i in todo:
