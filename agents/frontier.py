@@ -195,6 +195,8 @@ class FrontierPolicy(Policy):
         p = self.params
         # a noisy depth sensor (the robot knows its own): cells weigh evidence over frames
         self.map = OccupancyMap(pose[:2], p.resolution, p.extent, evidence=self.task.noise.depth)
+        if not self.task.noise.sliding:  # a move that grazes an obstacle is lost: step clear when boxed in
+            p = replace(p, step_clear=True)
         self.planner = FrontierPlanner(p, self)
         turn = math.radians(self.task.turn_deg)
         if self.localiser is not None:  # an estimated pose: a blocked FORWARD moved it less than half a step

@@ -8,7 +8,10 @@ every tile of at least 10 cells with a reachable cell is a candidate, at its rea
 robot. While the robot is boxed in (every cell around its own lies in the grown obstacles: beside a wall
 seen late, in a doorway, or where a protocol leg starts, after a STOP at an instrument) the full growth
 leaves it no cell to go to and it would give up with a STOP; it then plans on obstacles grown only
-``ESCAPE_INFLATE`` cells (0.1 m) until it is out. Which target wins is decided by the policy's
+``ESCAPE_INFLATE`` cells (0.1 m) until it is out. Without sliding (``FrontierParams.step_clear``) a path
+that grazes an obstacle loses the move, and a frontier along the obstacle (its noisy fringe) would draw
+the robot into it, so while boxed in it first goes to the nearest cell clear of the full growth; a
+known target still comes first. Which target wins is decided by the policy's
 :class:`TargetRules`: a known target first (the frontier baseline's goal, VLFM's detected object), else the
 chosen frontier, else the exhausted fallback.
 """
@@ -149,6 +152,17 @@ def boxed_in(occ_map: OccupancyMap, xy: np.ndarray, grow: int) -> bool:
     return bool(near.sum() >= near.size - 1)
 
 
+def clear_cell(field: PlanField, grow: int) -> np.ndarray | None:
+    """The reachable cell of ``field`` nearest the robot by path that lies clear of the occupied cells grown
+    by ``grow`` cells (world x, y), or None."""
+    occ = ndimage.binary_dilation(field.grid == OCCUPIED, iterations=grow)
+    cells = np.argwhere(field.reachable() & ~occ)
+    if not len(cells):
+        return None
+    d = field.dist[field.index[cells[:, 0], cells[:, 1]]]
+    return field.occ_map.centre(cells[int(np.argmin(d))] + field.lo)
+
+
 class FrontierPlanner:
     """Plans a target and its path on the map; frontiers found unreachable are banned for the episode."""
 
@@ -159,17 +173,17 @@ class FrontierPlanner:
     def plan(self, occ_map: OccupancyMap, pose: np.ndarray) -> Plan:
         """A known target if the rules have one, else the chosen frontier, else the exhausted fallback."""
         grow = self.params.inflate_cells
-        if boxed_in(occ_map, pose[:2], grow):
-            grow = ESCAPE_INFLATE
-        field = PlanField.compute(occ_map, pose[:2], grow)
-        target = self.rules.known_target(field)
-        mode = "goal"
+        boxed = boxed_in(occ_map, pose[:2], grow)
+        field = PlanField.compute(occ_map, pose[:2], ESCAPE_INFLATE if boxed else grow)
+        mode, target = "goal", self.rules.known_target(field)
+        if target is None and boxed and self.params.step_clear:
+            mode, target = "explore", clear_cell(field, grow)
         if target is None:
             candidates = self.candidates(field)
             if candidates:
                 mode, target = "explore", self.rules.choose(candidates, pose)
             else:
-                target = self.rules.exhausted(field, pose)
+                mode, target = "goal", self.rules.exhausted(field, pose)
         return Plan(mode, target, field.path_to(target))
 
     def ban(self, target: np.ndarray) -> None:

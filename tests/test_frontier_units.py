@@ -2,6 +2,7 @@
 obs helpers, and the policy run from synthetic observation dicts."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -18,7 +19,7 @@ from biovln_ms.agents.frontier import (
     pose_from_odometry,
 )
 from biovln_ms.agents.frontier_control import FrontierController
-from biovln_ms.agents.frontier_planner import FrontierPlanner, Plan, PlanField, goal_if_reachable
+from biovln_ms.agents.frontier_planner import FrontierPlanner, Plan, PlanField, boxed_in, goal_if_reachable
 from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EpisodeInfo, TaskSpec
 
 W, H, HFOV, CAM_Z = 160, 120, math.radians(79), 0.88
@@ -202,6 +203,21 @@ def test_planner_goes_to_the_goal_once_its_cell_is_free_and_reachable():
     plan = FrontierPlanner(PARAMS, _goal_rules([1.0, 0.0])).plan(m, np.zeros(3))
     assert plan.mode == "goal" and np.allclose(plan.target, [1.0, 0.0])
     assert np.allclose(plan.path[-1], m.centre(m.cell([1.0, 0.0])))
+
+
+def test_without_sliding_a_boxed_in_robot_steps_clear_before_exploring_a_frontier_on_the_obstacle():
+    """0.15 m from a wall whose face is still unknown in places (a noisy depth sensor's fringe): the escape
+    growth lets the robot reach that fringe, a frontier it would drive into; with ``step_clear`` (the
+    policy sets it without sliding) it first goes to the nearest cell clear of the full growth."""
+    walls = [(180, 185, 180, 220), (215, 220, 180, 220), (185, 215, 180, 185), (185, 215, 203, 208)]
+    m = _grid(free=[(185, 215, 185, 203)], occupied=walls)  # a closed room, east wall 0.15 m away
+    m.grid[195:206, 201] = UNKNOWN  # the wall's unread fringe, beside the robot
+    rules = _goal_rules([5.0, 0.0])
+    plain = FrontierPlanner(PARAMS, rules).plan(m, np.zeros(3))
+    assert plain.mode == "explore" and np.linalg.norm(plain.target) < 0.15  # the fringe, at the wall
+    out = FrontierPlanner(replace(PARAMS, step_clear=True), rules).plan(m, np.zeros(3))
+    assert out.mode == "explore" and not boxed_in(m, out.target, PARAMS.inflate_cells)
+    assert out.target[0] < -0.05 and len(out.path) > 1  # away from the wall, along a path
 
 
 def test_planner_falls_back_to_the_free_cell_nearest_the_goal_when_exhausted():
