@@ -639,6 +639,12 @@ def eval_cmd(
         "--export-handoff",
         help="Write each successful episode's hand-off JSON here (final base pose, joints, scene).",
     ),
+    fresh_scene: bool = typer.Option(
+        False,
+        "--fresh-scene",
+        help="Rebuild the scene at every episode (0.3-0.75 s each): outcomes that do not depend on the "
+        "episodes a worker ran before (contacts; see the noise presets guide).",
+    ),
 ) -> None:
     from biovln_ms.eval.harness import EvalConfig, evaluate
 
@@ -661,6 +667,7 @@ def eval_cmd(
         noise=noise,
         robot=robot,
         handoff_dir=str(export_handoff) if export_handoff else None,
+        fresh_scene=fresh_scene,
     )
     o = evaluate(cfg, echo=typer.echo)["overall"]
     path = "progress {progress:.3f}, PPL {ppl:.3f}" if "progress" in o else "SPL {spl:.3f}, DTG {dtg:.2f} m"

@@ -159,6 +159,33 @@ def test_an_episodes_noise_does_not_depend_on_the_episodes_before_it(realistic_e
     assert len(alone) == 9 and not np.array_equal(alone, errors([1]))
 
 
+class _IntoWalls(_Scripted):
+    """Long straight runs: the robot meets the room's walls (no sliding under ``realistic``)."""
+
+    def reset(self, episode_info) -> None:
+        self.actions = iter([1] * 14 + [2, 2] + [1] * 14 + [3] + [1] * 10 + [0])
+
+
+def test_a_fresh_scene_rebuilds_the_scene_at_each_reset(realistic_env):
+    """``fresh_scene``: every reset rebuilds the scene (PhysX keeps contact state across resets within one
+    scene), and an episode that runs into walls gives the same poses after another episode as alone."""
+    u = realistic_env.unwrapped
+
+    def poses(episodes, fresh):
+        for k in episodes:
+            steps = list(rollout(realistic_env, _IntoWalls(), k, fresh_scene=fresh))
+        return np.array([st.info["agent_pose"][0].numpy() for st in steps]), steps[-1].info
+
+    alone, info = poses([3], True)
+    scene = u.scene
+    after, _ = poses([2, 3], True)
+    assert u.scene is not scene and int(info["collisions"]) > 0
+    np.testing.assert_array_equal(alone, after)
+    scene = u.scene
+    poses([3], False)
+    assert u.scene is scene  # without it, a reset in the same scene keeps it
+
+
 def test_noisy_episode_replays_from_a_saved_state(realistic_env):
     env = realistic_env
     env.reset(seed=3, options={"episode_index": 2})

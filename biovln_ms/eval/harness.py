@@ -65,6 +65,7 @@ class EvalConfig:
     noise: str = "ideal"  # a noise preset (biovln_ms.noise.PRESETS)
     robot: str = DEFAULT_ROBOT  # a biovln_ms.robots.ROBOTS id; its own dataset unless ``dataset`` is given
     handoff_dir: str | None = None  # write each successful episode's hand-off here (biovln_ms.eval.handoff)
+    fresh_scene: bool = False  # rebuild the scene at every reset: outcomes independent of a worker's history
 
     def __post_init__(self) -> None:
         robot_spec(self.robot, "robot")
@@ -205,7 +206,7 @@ def _run(index: int) -> dict:
     try:
         positions, headings, clearance, zone2, actions, poses = [], [], [], [], [], []
         found_at, wrong_stops = [], 0  # protocol episodes: the steps of the correct STOPs, the wrong ones
-        for st in rollout(env, policy, index, _W["privileged"]):
+        for st in rollout(env, policy, index, _W["privileged"], cfg["fresh_scene"]):
             pose = st.info["agent_pose"][0].cpu().numpy()
             poses.append([float(v) for v in pose[:3]])
             if st.action is None:
