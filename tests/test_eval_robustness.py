@@ -93,8 +93,8 @@ def test_a_nan_metric_is_an_error_of_its_record_not_a_gap_in_the_mean(ds, tmp_pa
 
     real = harness.rollout
 
-    def nan_spl(env, policy, index, privileged=False):
-        for st in real(env, policy, index, privileged):
+    def nan_spl(env, policy, index, privileged=False, fresh_scene=False):
+        for st in real(env, policy, index, privileged, fresh_scene):
             if st.done and index == 2:
                 st.info = {**st.info, "spl": float("nan")}
             yield st
