@@ -42,8 +42,7 @@ def rollout(
     contacts do not depend on the episodes the env ran before in the same scene (PhysX keeps state across
     resets; the noise presets guide), at 0.3 to 0.75 s per reset on a Hard scene."""
     seed = episode_seed(env.unwrapped.source.episodes[episode_index])
-    options = {"episode_index": episode_index, **({"reconfigure": True} if fresh_scene else {})}
-    obs, info = env.reset(seed=seed, options=options)
+    obs, info = env.reset(seed=seed, options={"episode_index": episode_index, "reconfigure": fresh_scene})
     episode_info = env.unwrapped.episode_info(0, privileged=privileged)
     policy.reset(episode_info)
     yield Step(None, None, None, obs, info)
