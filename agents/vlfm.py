@@ -9,9 +9,13 @@ The structure of VLFM, with pluggable components:
    v ← (c_old v_old + c s) / (c_old + c), and c_old ← (c_old² + c²) / (c_old + c) (VLFM's fusion).
    Exploration goes to the frontier of highest value (path length breaks ties).
 3. **Detection → object point cloud → navigate and stop**: every ``detect_every`` steps the detector
-   (``biovln_ms.perception.detectors``) gives the target's pixels; they are back-projected with depth
-   into a world point cloud that accumulates. Once the target is seen, the robot goes to the reachable
-   known-free cell nearest to that cloud and stops there (VLFM's PointNav-to-object stage).
+   (``biovln_ms.perception.detectors``) gives the target's pixels; as in VLFM, the mask is eroded
+   (``erode_px``: a pixel at the mask's edge may read the depth of what lies behind or in front) and
+   only the largest cluster of the frame's back-projected points is kept (VLFM uses DBSCAN; here points
+   closer than ``cluster_eps`` are linked and the largest connected set wins), so one stray depth
+   reading cannot move the target. The kept points accumulate into a world point cloud. Once the target
+   is seen, the robot goes to the reachable known-free cell nearest to that cloud and stops there
+   (VLFM's PointNav-to-object stage).
 
 Unlike the frontier baseline, VLFM is never told the goal position: it only knows the target
 category, as in ObjectNav (it reads the head camera's images, the odometry, and the GT detector the
@@ -26,11 +30,27 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy, to_numpy
 from biovln_ms.agents.frontier_map import FREE, Scan, backproject
 from biovln_ms.agents.frontier_planner import Candidate, PlanField
 from biovln_ms.agents.policy import STOP, EpisodeInfo
+
+
+def largest_cluster(points: np.ndarray, eps: float) -> np.ndarray:
+    """The largest set of ``points`` (n, d) connected by links shorter than ``eps`` (single linkage, the
+    density-free case of DBSCAN); ties go to the set holding the earliest point."""
+    if len(points) < 2:
+        return points
+    pairs = cKDTree(points).query_pairs(eps, output_type="ndarray")
+    n = len(points)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, labels = connected_components(graph, directed=False)
+    return points[labels == np.argmax(np.bincount(labels))]
 
 
 class VLFMPolicy(FrontierPolicy):
@@ -45,6 +65,8 @@ class VLFMPolicy(FrontierPolicy):
         score_every: int = 1,
         no_progress_limit: int = 100,
         min_object_points: int = 20,
+        erode_px: int = 3,
+        cluster_eps: float = 0.15,
         params: FrontierParams | None = None,
     ) -> None:
         super().__init__(params)
@@ -55,6 +77,7 @@ class VLFMPolicy(FrontierPolicy):
         self.detect_every, self.score_every = detect_every, score_every
         self.no_progress_limit = no_progress_limit
         self.min_object_points = min_object_points
+        self.erode_px, self.cluster_eps = erode_px, cluster_eps
         self._detector = None
 
     @property
@@ -102,14 +125,21 @@ class VLFMPolicy(FrontierPolicy):
 
     def _detect(self, obs) -> None:
         mask = self._detector.detect(obs, self.category)
+        if self.erode_px:
+            mask = ndimage.binary_erosion(mask, np.ones((2 * self.erode_px + 1,) * 2, bool))
         if not mask.any():
             return
         depth, intrinsic, extrinsic = self._frame(obs)
         v, u = np.nonzero(mask & (depth > 0) & (depth <= self.params.depth_clip))
         if len(v) < self.min_object_points:
             return
-        pick = np.linspace(0, len(v) - 1, min(len(v), 400)).astype(int)  # a bounded, deterministic subsample
+        # about 400 pixels on a regular grid: evenly spread over the object, so its points stay linked
+        stride = math.ceil(math.sqrt(len(v) / 400))
+        pick = (v % stride == 0) & (u % stride == 0)
         pw, _ = backproject(depth[v[pick], u[pick]], u[pick], v[pick], intrinsic, extrinsic)
+        pw = largest_cluster(pw, self.cluster_eps)
+        if len(pw) < self.min_object_points:
+            return
         self.object_points = np.concatenate([self.object_points, pw[:, :2]])[-4000:]
         self.detections += 1
 

@@ -62,6 +62,44 @@ def test_frontier_choice_follows_the_value_map():
     assert np.array_equal(p.choose([near, far], None), far.position)
 
 
+class MaskDetector:
+    name = "mask"
+
+    def __init__(self, mask) -> None:
+        self.mask = mask
+
+    def detect(self, obs, category):
+        return self.mask
+
+
+def _detect_object(erode_px: int, cluster_eps: float) -> np.ndarray:
+    """A 40 x 30 px object 2 m ahead; its mask is 1 px too wide on every side (those pixels read the wall
+    5 m behind) and also covers a 10 x 10 px patch of another thing 3.5 m ahead."""
+    depth = np.full((120, 160), 5.0)
+    depth[40:70, 60:100] = 2.0
+    depth[10:20, 120:130] = 3.5
+    mask = np.zeros_like(depth, bool)
+    mask[39:71, 59:101] = True
+    mask[10:20, 120:130] = True
+    intrinsic = np.array([[100.0, 0, 80], [0, 100.0, 60], [0, 0, 1]])
+    extrinsic = np.eye(4)
+    extrinsic[:3, :3] = [[0, -1, 0], [0, 0, -1], [1, 0, 0]]  # OpenCV camera at the origin, looking along +x
+    from biovln_ms.agents.vlfm import VLFMPolicy
+
+    p = VLFMPolicy(scorer=ConstantScorer(0.5), erode_px=erode_px, cluster_eps=cluster_eps)
+    p._detector, p.category, p.object_points, p.detections = MaskDetector(mask), "x", np.zeros((0, 2)), 0
+    p._frame = lambda obs: (depth, intrinsic, extrinsic)
+    p._detect(None)
+    return p.object_points
+
+
+def test_object_cloud_drops_mask_edges_and_stray_clusters():
+    raw = _detect_object(erode_px=0, cluster_eps=100.0)  # unfiltered: the wall and the patch get in
+    assert raw[:, 0].max() > 4.9 and np.any(np.abs(raw[:, 0] - 3.5) < 0.01)
+    kept = _detect_object(erode_px=3, cluster_eps=0.15)
+    assert len(kept) >= 20 and np.allclose(kept[:, 0], 2.0)  # only the object's own surface
+
+
 def test_gt_detector_reads_the_semantic_sensor():
     import torch
 
