@@ -12,8 +12,13 @@ The structure of VLFM, with pluggable components:
    (``biovln_ms.perception.detectors``) gives the target's pixels; as in VLFM, the mask is eroded
    (``erode_px``: a pixel at the mask's edge may read the depth of what lies behind or in front) and
    only the largest cluster of the frame's back-projected points is kept (VLFM uses DBSCAN; here points
-   closer than ``cluster_eps`` are linked and the largest connected set wins), so one stray depth
-   reading cannot move the target. The kept points accumulate into a world point cloud. Once the target
+   closer than ``cluster_eps`` are linked and the largest connected set wins), so a stray depth reading
+   more than ``cluster_eps`` from the object cannot move the target. The pixels are taken on a regular
+   grid, at most about 400. ``erode_px=0`` and ``cluster_eps=math.inf`` turn the two filters off. Known
+   limits: mask regions narrower than ``2 erode_px + 1`` pixels, or thinner than the grid's stride after
+   erosion, give no points; beyond about 5 m the ``realistic`` depth's steps exceed 0.15 m, so an object's
+   points split into depth layers and only the largest layer is kept. The kept points accumulate into a
+   world point cloud. Once the target
    is seen, the robot goes to the reachable known-free cell nearest to that cloud and stops there
    (VLFM's PointNav-to-object stage).
 
@@ -133,7 +138,7 @@ class VLFMPolicy(FrontierPolicy):
         v, u = np.nonzero(mask & (depth > 0) & (depth <= self.params.depth_clip))
         if len(v) < self.min_object_points:
             return
-        # about 400 pixels on a regular grid: evenly spread over the object, so its points stay linked
+        # at most about 400 pixels on a regular grid: evenly spread over the object, so its points stay linked
         stride = math.ceil(math.sqrt(len(v) / 400))
         pick = (v % stride == 0) & (u % stride == 0)
         pw, _ = backproject(depth[v[pick], u[pick]], u[pick], v[pick], intrinsic, extrinsic)

@@ -73,9 +73,11 @@ class MaskDetector:
 
 
 def _detect_object(erode_px: int, cluster_eps: float) -> np.ndarray:
-    """A 40 x 30 px object 2 m ahead; its mask is 1 px too wide on every side (those pixels read the wall
-    5 m behind) and also covers a 10 x 10 px patch of another thing 3.5 m ahead."""
+    """A 40 x 30 px object 2 m ahead; its mask is 1 px too wide on every side (those pixels read a surface
+    0.1 m behind it, close enough to link with it) and also covers a 10 x 10 px patch of another thing
+    3.5 m ahead."""
     depth = np.full((120, 160), 5.0)
+    depth[39:71, 59:101] = 2.1
     depth[40:70, 60:100] = 2.0
     depth[10:20, 120:130] = 3.5
     mask = np.zeros_like(depth, bool)
@@ -90,14 +92,22 @@ def _detect_object(erode_px: int, cluster_eps: float) -> np.ndarray:
     p._detector, p.category, p.object_points, p.detections = MaskDetector(mask), "x", np.zeros((0, 2)), 0
     p._frame = lambda obs: (depth, intrinsic, extrinsic)
     p._detect(None)
-    return p.object_points
+    return p.object_points[:, 0]  # distance ahead
+
+
+def _has(x: np.ndarray, value: float) -> bool:
+    return bool(np.any(np.abs(x - value) < 0.01))
 
 
 def test_object_cloud_drops_mask_edges_and_stray_clusters():
-    raw = _detect_object(erode_px=0, cluster_eps=100.0)  # unfiltered: the wall and the patch get in
-    assert raw[:, 0].max() > 4.9 and np.any(np.abs(raw[:, 0] - 3.5) < 0.01)
+    raw = _detect_object(erode_px=0, cluster_eps=math.inf)  # unfiltered: the rim and the patch get in
+    assert _has(raw, 2.1) and _has(raw, 3.5)
+    eroded = _detect_object(erode_px=3, cluster_eps=math.inf)  # erosion drops the rim, not the patch
+    assert not _has(eroded, 2.1) and _has(eroded, 3.5)
+    clustered = _detect_object(erode_px=0, cluster_eps=0.15)  # clustering drops the patch; the rim links
+    assert _has(clustered, 2.1) and not _has(clustered, 3.5)
     kept = _detect_object(erode_px=3, cluster_eps=0.15)
-    assert len(kept) >= 20 and np.allclose(kept[:, 0], 2.0)  # only the object's own surface
+    assert len(kept) >= 20 and np.allclose(kept, 2.0)  # only the object's own surface
 
 
 def test_gt_detector_reads_the_semantic_sensor():

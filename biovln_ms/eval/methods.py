@@ -165,7 +165,7 @@ METHODS: dict[str, MethodSpec] = {
         label="VLFM (GT detector)",
         report_order=60,
         paper_key="VLFM",
-        options=("detector", "scorer", "detect_every", "score_every"),
+        options=("detector", "scorer", "detect_every", "score_every", "erode_px", "cluster_eps"),
         report_note=_VLFM_NOTE,
     ),
     "bc": MethodSpec(
