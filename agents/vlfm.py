@@ -18,9 +18,8 @@ The structure of VLFM, with pluggable components:
    limits: mask regions narrower than ``2 erode_px + 1`` pixels, or thinner than the grid's stride after
    erosion, give no points; beyond about 5 m the ``realistic`` depth's steps exceed 0.15 m, so an object's
    points split into depth layers and only the largest layer is kept. The kept points accumulate into a
-   world point cloud. Once the target
-   is seen, the robot goes to the reachable known-free cell nearest to that cloud and stops there
-   (VLFM's PointNav-to-object stage).
+   world point cloud. Once the target is seen, the robot goes to the reachable known-free cell nearest
+   to that cloud and stops there (VLFM's PointNav-to-object stage).
 
 Unlike the frontier baseline, VLFM is never told the goal position: it only knows the target
 category, as in ObjectNav (it reads the head camera's images, the odometry, and the GT detector the
@@ -130,10 +129,10 @@ class VLFMPolicy(FrontierPolicy):
 
     def _detect(self, obs) -> None:
         mask = self._detector.detect(obs, self.category)
+        if not mask.any():  # the usual frame: nothing to erode
+            return
         if self.erode_px:
             mask = ndimage.binary_erosion(mask, np.ones((2 * self.erode_px + 1,) * 2, bool))
-        if not mask.any():
-            return
         depth, intrinsic, extrinsic = self._frame(obs)
         v, u = np.nonzero(mask & (depth > 0) & (depth <= self.params.depth_clip))
         if len(v) < self.min_object_points:
@@ -141,7 +140,8 @@ class VLFMPolicy(FrontierPolicy):
         # at most about 400 pixels on a regular grid: evenly spread over the object, so its points stay linked
         stride = math.ceil(math.sqrt(len(v) / 400))
         pick = (v % stride == 0) & (u % stride == 0)
-        pw, _ = backproject(depth[v[pick], u[pick]], u[pick], v[pick], intrinsic, extrinsic)
+        v, u = v[pick], u[pick]
+        pw, _ = backproject(depth[v, u], u, v, intrinsic, extrinsic)
         pw = largest_cluster(pw, self.cluster_eps)
         if len(pw) < self.min_object_points:
             return
