@@ -123,7 +123,7 @@ class FrontierPolicy(Policy):
     """Nearest-frontier exploration to the goal; the target rules (:class:`TargetRules`) are its methods."""
 
     name = "frontier"
-    obs_mode = "rgbd"
+    obs_mode = "depth"  # the head camera's depth only: no colour is read back from the renderer
 
     def __init__(self, params: FrontierParams | None = None) -> None:
         self.params = params or FrontierParams()

@@ -70,9 +70,10 @@ class OccupancyMap:
         return self.origin + (rc[..., ::-1] + 0.5) * self.res
 
     def _grow_bbox(self, rc: np.ndarray) -> None:
-        if len(rc):
-            self.lo = np.minimum(self.lo, rc.min(0))
-            self.hi = np.maximum(self.hi, rc.max(0) + 1)
+        if len(rc):  # per column: a reduction along an (N, 2) array's first axis is slow
+            r, c = rc[:, 0], rc[:, 1]
+            self.lo = np.minimum(self.lo, [r.min(), c.min()])
+            self.hi = np.maximum(self.hi, [r.max() + 1, c.max() + 1])
 
     def integrate(
         self,
@@ -135,8 +136,8 @@ class OccupancyMap:
         lo = self.log_odds
         flat = lo.reshape(-1)
         for rc, step in ((free_rc, MISS), (hit_rc, HIT)):
-            if len(rc):
-                cells = np.unique(rc[:, 0] * self.n + rc[:, 1])  # each cell once
+            if len(rc):  # each cell once: a repeated index writes the same value again
+                cells = rc[:, 0] * self.n + rc[:, 1]
                 flat[cells] = np.clip(flat[cells] + step, -LOG_ODDS_LIMIT, LOG_ODDS_LIMIT)
         touched = np.concatenate([free_rc, hit_rc]) if len(hit_rc) else free_rc
         r, c = touched.T

@@ -24,7 +24,7 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 from scipy import ndimage
-from scipy.sparse import coo_matrix
+from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from biovln_ms.agents.frontier_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap
@@ -32,7 +32,7 @@ from biovln_ms.agents.frontier_params import FrontierParams
 
 CROP_PAD = 2  # cells kept around the observed part of the map, so that its border cells have neighbours
 ESCAPE_INFLATE = 2  # cells: obstacle growth for planning while boxed in by the full growth
-_NEIGHBOURS = [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)]
+_NEIGHBOURS = [(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)]  # row-major order
 
 
 class Candidate(NamedTuple):
@@ -73,20 +73,17 @@ class PlanField:
         trav = (g == FREE) & ~occ
         s = np.clip(occ_map.cell(start_xy) - lo, 0, np.array(g.shape) - 1)
         trav[s[0], s[1]] = True  # the robot's own cell
-        index = -np.ones(g.shape, int)
-        index[trav] = np.arange(trav.sum())
-        rows, cols, wts = [], [], []
-        ys, xs = np.nonzero(trav)
-        for dy, dx in _NEIGHBOURS:
-            y2, x2 = ys + dy, xs + dx
-            ok = (y2 >= 0) & (y2 < g.shape[0]) & (x2 >= 0) & (x2 < g.shape[1])
-            ok[ok] &= trav[y2[ok], x2[ok]]
-            rows.append(index[ys[ok], xs[ok]])
-            cols.append(index[y2[ok], x2[ok]])
-            wts.append(np.full(ok.sum(), math.hypot(dy, dx)))
         n = int(trav.sum())
-        edges = (np.concatenate(rows), np.concatenate(cols))
-        graph = coo_matrix((np.concatenate(wts), edges), shape=(n, n)).tocsr()
+        h, w = g.shape
+        padded = np.full((h + 2, w + 2), -1)  # graph node of each cell, -1 elsewhere and off the crop
+        padded[1:-1, 1:-1][trav] = np.arange(n)
+        index = padded[1:-1, 1:-1]
+        # each node's neighbours, in ascending node order (row-major numbering): CSR rows with sorted indices
+        neighbours = np.stack([padded[1 + y : h + 1 + y, 1 + x : w + 1 + x][trav] for y, x in _NEIGHBOURS], 1)
+        edge = neighbours >= 0
+        weights = np.broadcast_to([math.hypot(y, x) for y, x in _NEIGHBOURS], edge.shape)[edge]
+        graph = csr_matrix((weights, neighbours[edge], np.r_[0, np.cumsum(edge.sum(1))]), shape=(n, n))
+        graph.has_sorted_indices = True
         dist, pred = dijkstra(graph, indices=index[s[0], s[1]], return_predecessors=True)
         return cls(occ_map, lo, g, trav, index, dist, pred)
 
@@ -198,26 +195,27 @@ class FrontierPlanner:
         if field.occ_map.seen is not None:  # the ground under the base that no frame has seen is no frontier
             lo, hi = field.lo, field.lo + np.array(field.grid.shape)
             frontier &= field.occ_map.seen[lo[0] : hi[0], lo[1] : hi[1]]
-        labels, k = ndimage.label(frontier, structure=eight)
-        reachable = field.reachable()
+        labels, _ = ndimage.label(frontier, structure=eight)
+        cells = np.argwhere(frontier)  # row-major
         tile = max(1, round(2 * p.cluster_radius / field.occ_map.res))
+        keys = cells // tile  # a group wider than the cluster diameter is split into tiles of it
+        # tiles in the order (group label, tile row, tile column), each tile's cells row-major
+        tiles = np.c_[labels[cells[:, 0], cells[:, 1]], keys]
+        order = np.lexsort((np.arange(len(cells)), tiles[:, 2], tiles[:, 1], tiles[:, 0]))
+        cells, tiles = cells[order], tiles[order]
+        starts = np.flatnonzero(np.r_[True, (tiles[1:] != tiles[:-1]).any(1)])
+        reachable = field.reachable()[cells[:, 0], cells[:, 1]]
         out = []
-        for lab in range(1, k + 1):
-            cells = np.argwhere(labels == lab)
-            keys = cells // tile  # a group wider than the cluster diameter is split into tiles of it
-            for key in np.unique(keys, axis=0):
-                part = cells[(keys == key).all(1)]
-                if len(part) < p.min_frontier_cells:
-                    continue
-                reach = part[reachable[part[:, 0], part[:, 1]]]
-                if not len(reach):
-                    continue
-                d = field.dist[field.index[reach[:, 0], reach[:, 1]]]
-                best = int(np.argmin(d))
-                world = field.occ_map.centre(reach[best] + field.lo)
-                if any(np.linalg.norm(world - b) < p.cluster_radius for b in self.banned):
-                    continue
-                out.append(Candidate(float(d[best]) * field.occ_map.res, world, len(part)))
+        for a, b in zip(starts, np.r_[starts[1:], len(cells)]):
+            if b - a < p.min_frontier_cells or not reachable[a:b].any():
+                continue
+            reach = cells[a:b][reachable[a:b]]
+            d = field.dist[field.index[reach[:, 0], reach[:, 1]]]
+            best = int(np.argmin(d))
+            world = field.occ_map.centre(reach[best] + field.lo)
+            if any(np.linalg.norm(world - t) < p.cluster_radius for t in self.banned):
+                continue
+            out.append(Candidate(float(d[best]) * field.occ_map.res, world, int(b - a)))
         return out
 
 

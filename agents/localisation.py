@@ -304,7 +304,8 @@ class Localiser:
         padded = np.pad(field, pad).ravel()
         at = (np.clip(row, -m - 1, h + m) + pad) * (w + 2 * pad) + np.clip(col, -m - 1, w + m) + pad
         moves = shift * (steps[:, None] * (w + 2 * pad) + steps[None, :])  # (dy, dx) as flat offsets
-        score = padded.take(at[:, None, None, :] + moves[None, :, :, None]).mean(-1)  # (A, dy, dx)
+        # (A, dy, dx): one heading at a time, so that each gather's indices stay in cache
+        score = np.stack([padded.take(a + moves[:, :, None]).mean(-1) for a in at])
         t = steps * shift * res
         a, i, j = self._pick(weight * score, dth[:, None, None], t[None, :, None], t[None, None, :])
         off = np.array([t[j], t[i], dth[a]])  # (dx, dy, dth) from the prediction

@@ -170,7 +170,7 @@ def _init_worker(cfg: dict) -> None:
         from biovln_ms.learning.recorder import TrajectoryRecorder
 
         recorder = TrajectoryRecorder(cfg["record_dir"], cfg.get("record_mode", "full"))
-        if recorder.needs_images and obs_mode == "none":
+        if recorder.needs_images and obs_mode in ("none", "depth"):  # demonstrations keep RGB-D
             obs_mode = "rgbd"
     env = gym.make(
         cfg["env_id"],

@@ -17,7 +17,7 @@ class MethodSpec:
     """One method: how to build and run it, and how reports, paper comparisons and the CLI name it."""
 
     factory: Callable
-    obs_mode: str  # what the policy reads: "none" for privileged oracles, "rgbd" for mapping methods
+    obs_mode: str  # what the policy reads: "none" for privileged oracles, "depth" for the frontier methods
     description: str
     label: str  # display name in tables, plots and help (e.g. "VLFM (GT detector)")
     report_order: int  # position of its rows in the report's tables and plots (ascending)
@@ -34,7 +34,7 @@ class MethodSpec:
     def recordable(self) -> bool:
         """`biovln-ms record` runs it as is: nothing to preflight (checkpoint, API key), the benchmark env,
         RGB-D at most."""
-        return self.preflight is None and self.env_id is None and self.obs_mode in ("none", "rgbd")
+        return self.preflight is None and self.env_id is None and self.obs_mode in ("none", "depth", "rgbd")
 
 
 def _llm_preflight(**_) -> None:
@@ -143,7 +143,7 @@ METHODS: dict[str, MethodSpec] = {
     ),
     "frontier": MethodSpec(
         _lazy("frontier", "FrontierPolicy"),
-        "rgbd",
+        "depth",
         "depth-only occupancy grid, nearest-frontier exploration",
         label="Frontier",
         report_order=30,
@@ -151,7 +151,7 @@ METHODS: dict[str, MethodSpec] = {
     ),
     "llm_frontier": MethodSpec(
         _lazy("llm_frontier", "LLMFrontierPolicy"),
-        "rgbd",
+        "depth",
         "frontier + LLM choice among near-equidistant frontiers",
         label="LLM-Frontier",
         report_order=40,
@@ -192,7 +192,7 @@ METHODS: dict[str, MethodSpec] = {
     ),
     "protocol_frontier": MethodSpec(
         _lazy("protocol_frontier", "ProtocolFrontierPolicy"),
-        "rgbd",
+        "depth",
         "frontier, given each sub-goal's position in turn",
         label="Protocol Frontier",
         report_order=120,
