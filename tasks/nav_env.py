@@ -37,6 +37,7 @@ from biovln_ms.scene.rules import floor_polygon, scene_navigation
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, MeasureSet, StepState
 from biovln_ms.metrics.protocol_measures import check_protocol_options
 from biovln_ms.noise import actuation_errors, resolve_noise
+from biovln_ms.render.camera_shaders import head_camera_shader
 from biovln_ms.render.lighting import lighting_preset
 from biovln_ms.robots import DEFAULT_ROBOT, ROBOTS, robot_spec
 from biovln_ms.sensor_noise import DepthNoise, RGBNoise, frame_keys
@@ -132,8 +133,8 @@ class BioVLNNavEnv(BaseEnv):
     @property
     def _default_sensor_configs(self):
         c, visual = self.cfg, self.obs_mode_struct.visual
-        # ManiSkill's fast "minimal" shader gives rgb, depth, segmentation; normals and albedo need "default"
-        shader = "default" if visual.normal or visual.albedo else "minimal"
+        # ManiSkill's "minimal" pack when colour is read, normals and albedo need "default", else depth only
+        shader = head_camera_shader(visual.rgb, visual.normal, visual.albedo)
         return [
             CameraConfig(
                 "head",
@@ -144,7 +145,7 @@ class BioVLNNavEnv(BaseEnv):
                 0.05,
                 c.camera_far,
                 mount=self.agent.camera_link,
-                shader_pack=shader,
+                shader_config=shader,
             )
         ]
 
