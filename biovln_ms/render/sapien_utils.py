@@ -85,10 +85,12 @@ def vulkan_device_label() -> str:
 
 
 def raw_camera_rate(env, frames: int) -> float:
-    """Frames/s of the env's head camera rendered by SAPIEN alone (update_render + take_picture + colour
-    and position/segmentation read-back): the reference the benchmarks divide by."""
+    """Frames/s of the env's head camera rendered by SAPIEN alone (update_render + take_picture + the
+    read-back of every picture its shader pack makes: colour and position/segmentation, or the latter
+    alone for the depth-only pack): the reference the benchmarks divide by."""
     u = env.unwrapped
-    cams = u.scene.sensors["head"].camera._render_cameras
+    head = u.scene.sensors["head"]
+    cams, pictures = head.camera._render_cameras, list(head.config.shader_config.texture_names)
     for _ in range(3):
         u.scene.update_render()
         for c in cams:
@@ -98,6 +100,6 @@ def raw_camera_rate(env, frames: int) -> float:
         u.scene.update_render()
         for c in cams:
             c.take_picture()
-            c.get_picture("Color")
-            c.get_picture("PositionSegmentation")
+            for picture in pictures:
+                c.get_picture(picture)
     return frames / (time.perf_counter() - t)
