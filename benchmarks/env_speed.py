@@ -118,10 +118,10 @@ def main() -> None:
         rows.append((label, rate, raw))
         noise_seconds[label] = spent[0] / (steps + 10)  # per step, the 10 warm-up steps included
         env.close()
-    print(f"{'mode':<32} {'env steps/s':>12} {'raw SAPIEN frames/s':>20} {'ratio':>7}")
+    print(f"{'mode':<44} {'env steps/s':>12} {'raw SAPIEN frames/s':>20} {'ratio':>7}")
     for label, rate, raw in rows:
         print(
-            f"{label:<32} {rate:12.0f} {raw if raw else float('nan'):20.0f} "
+            f"{label:<44} {rate:12.0f} {raw if raw else float('nan'):20.0f} "
             f"{rate / raw if raw else float('nan'):7.2f}"
         )
     end_to_end = rows[0][1] / rows[1][1] - 1  # another path, other views: see time_noise_work

@@ -37,7 +37,7 @@ from biovln_ms.scene.rules import floor_polygon, scene_navigation
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, MeasureSet, StepState
 from biovln_ms.metrics.protocol_measures import check_protocol_options
 from biovln_ms.noise import actuation_errors, resolve_noise
-from biovln_ms.render.camera_shaders import head_camera_shader
+from biovln_ms.render.camera_shaders import head_camera_shader, use_depth_only_format
 from biovln_ms.render.lighting import lighting_preset
 from biovln_ms.robots import DEFAULT_ROBOT, ROBOTS, robot_spec
 from biovln_ms.sensor_noise import DepthNoise, RGBNoise, frame_keys
@@ -134,7 +134,7 @@ class BioVLNNavEnv(BaseEnv):
     def _default_sensor_configs(self):
         c, visual = self.cfg, self.obs_mode_struct.visual
         # ManiSkill's "minimal" pack when colour is read, normals and albedo need "default", else depth only
-        shader = head_camera_shader(visual.rgb, visual.normal, visual.albedo)
+        shader = head_camera_shader(visual)
         return [
             CameraConfig(
                 "head",
@@ -148,6 +148,12 @@ class BioVLNNavEnv(BaseEnv):
                 shader_config=shader,
             )
         ]
+
+    def _setup_sensors(self, options: dict) -> None:
+        """ManiSkill's, with the picture format of the depth-only pack set first: the head camera (the task's
+        sensor) is the first camera made, and SAPIEN fixes its format then."""
+        use_depth_only_format()
+        super()._setup_sensors(options)
 
     @property
     def _default_human_render_camera_configs(self):
