@@ -21,6 +21,10 @@ before):
   env's own sim config and with ``sim_config={"spacing": 50}`` (sub-scenes 50 m apart).
 * ``render``: batched RGB-D at 128x128 and 640x480 on num_envs = 4: the sensor data has the batch
   dimension, the sub-envs' images differ; a montage goes to ``DIR/render_check.png``.
+* ``depth_pack``: the depth-only shader pack (``biovln_ms.render.camera_shaders``) on this machine's
+  renderer: depth and segmentation of ``depth+segmentation`` against the minimal pack's
+  (``rgb+depth+segmentation``) over one episode's steps with the same actions at 640x480 (physx_cpu,
+  num_envs = 1, rendered by the GPU; needs no PhysX GPU library), and both step rates.
 * ``cpu_ref``: the same env on ``physx_cpu`` (num_envs = 1): state-only, and RGB-D 128x128 rendered by the
   GPU (needs no PhysX GPU library), and PickCube-v1 on the CPU.
 * ``lighting``: the frame cost of the lighting presets (issue 18 item 1), ``quality`` against ``fast`` at
@@ -58,6 +62,7 @@ SECTIONS = (
     "pickcube",
     "equivalence",
     "render",
+    "depth_pack",
     "cpu_ref",
     "lighting",
 )
@@ -535,6 +540,41 @@ def render_check(results: Results, sizes: Sizes) -> None:
         print(f"[gpu_speed] montage: {type(e).__name__}: {e}")
 
 
+def depth_pack_check(sizes: Sizes) -> dict:
+    """The depth-only pack's depth and segmentation against the minimal pack's, frame by frame (same
+    episode, same actions), and the step rate of each (physx_cpu, one sub-env, this machine's renderer)."""
+    import torch
+
+    actions = [1, 1, 2, 1, 3, 3, 1, 2]
+    frames, out = {}, {}
+    for mode in ("rgb+depth+segmentation", "depth+segmentation"):
+        env = make_nav(1, mode, True, (640, 480))
+        try:
+            obs, _ = env.reset(seed=0, options={"episode_index": 3})
+            seen = []
+            for a in actions:
+                head = obs["sensor_data"]["head"]
+                seen.append((head["depth"].clone(), head["segmentation"].clone()))
+                obs, *_ = env.step(a)
+            frames[mode] = seen
+            t, k = time.perf_counter(), 0
+            while k < sizes.steps and time.perf_counter() - t < sizes.budget_s / 4:
+                env.step(actions[k % len(actions)])
+                k += 1
+            sync()
+            out[f"{mode}_steps_per_s"] = round(k / (time.perf_counter() - t), 1)
+            out[f"{mode}_shader"] = env.unwrapped._sensors["head"].config.shader_config.shader_pack
+        finally:
+            env.close()
+    ref, new = frames["rgb+depth+segmentation"], frames["depth+segmentation"]
+    out["depth_dtype"] = str(new[0][0].dtype)
+    out["depth_identical"] = all(torch.equal(a[0], b[0]) for a, b in zip(ref, new))
+    out["segmentation_identical"] = all(torch.equal(a[1], b[1]) for a, b in zip(ref, new))
+    out["depth_pixels_differing"] = int(sum(int((a[0] != b[0]).sum()) for a, b in zip(ref, new)))
+    out["depth_max_diff_mm"] = max(int((a[0].int() - b[0].int()).abs().max()) for a, b in zip(ref, new))
+    return out
+
+
 def save_montage(tiles: list[np.ndarray], path: Path) -> None:
     """One row per resolution (sub-envs side by side), each image scaled to 160 px high."""
     if not tiles:
@@ -616,6 +656,8 @@ def run_section(name: str, results: Results, sizes: Sizes) -> None:
         guarded(results, "equivalence", "spacing_50", batched_replay, cpu, sizes, sim_config={"spacing": 50})
     elif name == "render":
         render_check(results, sizes)
+    elif name == "depth_pack":
+        guarded(results, "depth_pack", "640x480", depth_pack_check, sizes)
     elif name == "cpu_ref":
         cpu = Sizes(smoke=True)
         cpu.steps, cpu.warmup, cpu.budget_s = (10, 2, 10.0) if sizes.smoke else (300, 10, 30.0)
@@ -737,6 +779,19 @@ def markdown(data: dict) -> str:
                     f"{e.get('sub_envs_differ', '–')}; {e['steps_per_s']} steps/s"
                 )
             elif isinstance(e, dict) and k != "blocked":
+                lines.append(f"- {k}: {_fig(e)}")
+    dp = data.get("depth_pack")
+    if dp:
+        lines += ["", "## Depth-only shader pack against the minimal pack (640x480, physx_cpu, N = 1)", ""]
+        for k, e in dp.items():
+            if isinstance(e, dict) and "depth_identical" in e:
+                lines.append(
+                    f"- {k}: depth identical {e['depth_identical']} ({e['depth_pixels_differing']} pixels "
+                    f"differ, at most {e['depth_max_diff_mm']} mm; {e['depth_dtype']}), segmentation "
+                    f"identical {e['segmentation_identical']}; steps/s "
+                    f"{e['depth+segmentation_steps_per_s']} against {e['rgb+depth+segmentation_steps_per_s']}"
+                )
+            else:
                 lines.append(f"- {k}: {_fig(e)}")
     lt = data.get("lighting")
     if lt:
