@@ -765,34 +765,43 @@ def markdown(data: dict) -> str:
         c = eq.get("cpu_episodes")
         if isinstance(c, dict) and "error" in c:
             lines.append(f"- cpu episodes: {_fig(c)}")
-    rd = data.get("render")
-    if rd:
-        lines += ["", "## Batched rendering", ""]
-        if "blocked" in rd:
-            lines.append(f"blocked: {rd['blocked']}")
-        for k, e in rd.items():
-            if isinstance(e, dict) and "rgb_shape" in e:
-                lines.append(
-                    f"- {k}: rgb {e['rgb_shape']} {e['rgb_dtype']} on {e['rgb_device']}, "
-                    f"depth {e['depth_shape']}; "
-                    f"batch dimension {e['batch_dimension']}, not blank {e['not_blank']}, sub-envs differ "
-                    f"{e.get('sub_envs_differ', '–')}; {e['steps_per_s']} steps/s"
-                )
+
+    def bullets(section: str, title: str, field: str, line) -> None:
+        """A section's entries as a list: ``line(key, entry)`` for a measured entry (one with ``field``),
+        its error otherwise, and the section's blocker if it has one."""
+        sec = data.get(section)
+        if not sec:
+            return
+        lines.extend(["", f"## {title}", ""])
+        if "blocked" in sec:
+            lines.append(f"blocked: {sec['blocked']}")
+        for k, e in sec.items():
+            if isinstance(e, dict) and field in e:
+                lines.append(line(k, e))
             elif isinstance(e, dict) and k != "blocked":
                 lines.append(f"- {k}: {_fig(e)}")
-    dp = data.get("depth_pack")
-    if dp:
-        lines += ["", "## Depth-only shader pack against the minimal pack (640x480, physx_cpu, N = 1)", ""]
-        for k, e in dp.items():
-            if isinstance(e, dict) and "depth_identical" in e:
-                lines.append(
-                    f"- {k}: depth identical {e['depth_identical']} ({e['depth_pixels_differing']} pixels "
-                    f"differ, at most {e['depth_max_diff_mm']} mm; {e['depth_dtype']}), segmentation "
-                    f"identical {e['segmentation_identical']}; steps/s "
-                    f"{e['depth+segmentation_steps_per_s']} against {e['rgb+depth+segmentation_steps_per_s']}"
-                )
-            else:
-                lines.append(f"- {k}: {_fig(e)}")
+
+    bullets(
+        "render",
+        "Batched rendering",
+        "rgb_shape",
+        lambda k, e: (
+            f"- {k}: rgb {e['rgb_shape']} {e['rgb_dtype']} on {e['rgb_device']}, depth {e['depth_shape']}; "
+            f"batch dimension {e['batch_dimension']}, not blank {e['not_blank']}, sub-envs differ "
+            f"{e.get('sub_envs_differ', '–')}; {e['steps_per_s']} steps/s"
+        ),
+    )
+    bullets(
+        "depth_pack",
+        "Depth-only shader pack against the minimal pack (640x480, physx_cpu, N = 1)",
+        "depth_identical",
+        lambda k, e: (
+            f"- {k}: depth identical {e['depth_identical']} ({e['depth_pixels_differing']} pixels differ, "
+            f"at most {e['depth_max_diff_mm']} mm; {e['depth_dtype']}), segmentation identical "
+            f"{e['segmentation_identical']}; steps/s {e['depth+segmentation_steps_per_s']} against "
+            f"{e['rgb+depth+segmentation_steps_per_s']}"
+        ),
+    )
     lt = data.get("lighting")
     if lt:
         lines += [
