@@ -962,16 +962,16 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
     from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.topdown import draw_map
 
+    pol = FrontierPolicy()
     env = gym.make(
         "BioVLN-OpFace-v0",
         split=rec["split"],
         dataset=dataset,
-        obs_mode="rgbd",
+        obs_mode=pol.obs_mode,
         sim_backend="physx_cpu",
         render_backend="cpu",
     )
     try:
-        pol = FrontierPolicy()
         traj = []
         for st in rollout(env, pol, rec["index"]):
             traj.append(st.info["agent_pose"][0, :2].cpu().numpy())
