@@ -548,7 +548,7 @@ def depth_pack_check(sizes: Sizes) -> dict:
     actions = [1, 1, 2, 1, 3, 3, 1, 2]
     frames, out = {}, {}
     for mode in ("rgb+depth+segmentation", "depth+segmentation"):
-        env = make_nav(1, mode, True, (640, 480))
+        env = make_nav(1, mode, sizes.smoke, (640, 480), sim_backend="physx_cpu")
         try:
             obs, _ = env.reset(seed=0, options={"episode_index": 3})
             seen = []

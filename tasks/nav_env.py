@@ -133,8 +133,7 @@ class BioVLNNavEnv(BaseEnv):
     @property
     def _default_sensor_configs(self):
         c, visual = self.cfg, self.obs_mode_struct.visual
-        # ManiSkill's "minimal" pack when colour is read, normals and albedo need "default", else depth only
-        shader = head_camera_shader(visual)
+        shader = head_camera_shader(visual)  # the pack follows what is observed (render.camera_shaders)
         return [
             CameraConfig(
                 "head",
