@@ -16,6 +16,7 @@ errors. The noisy target goes to the physics, so walls still stop the robot.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -28,6 +29,8 @@ from biovln_ms.errors import BioVLNError
 TRUNCATION = 3.0  # sigmas
 _NORMAL = NormalDist()  # the standard normal (stdlib: the Blender add-on's Python has no scipy)
 _UNIFORM_LO, _UNIFORM_HI = _NORMAL.cdf(-TRUNCATION), _NORMAL.cdf(TRUNCATION)  # the truncation in u
+#: the actuation noise stream: a sub-env's move at a step draws from (episode seed, NOISE_STREAM, step)
+NOISE_STREAM = 0x6E6F6973
 
 
 class NoiseConfigError(BioVLNError):
@@ -44,8 +47,12 @@ class TruncatedGaussian:
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """(n, k) samples by inverse CDF (one uniform per value, so the stream is easy to replay)."""
         u = rng.uniform(_UNIFORM_LO, _UNIFORM_HI, (n, len(self.mean)))
-        z = np.array([[_NORMAL.inv_cdf(x) for x in row] for row in u.tolist()])
-        return np.asarray(self.mean) + np.sqrt(np.asarray(self.variance)) * z
+        return np.array([self.values(row) for row in u.tolist()]).reshape(n, len(self.mean))
+
+    def values(self, u: list[float]) -> list[float]:
+        """The values of one sample from its uniforms ``u`` (one per component, in the truncated range):
+        ``mean + sqrt(variance) * inv_cdf(u)``."""
+        return [m + math.sqrt(v) * _NORMAL.inv_cdf(x) for m, v, x in zip(self.mean, self.variance, u)]
 
 
 @dataclass(frozen=True)
@@ -65,18 +72,24 @@ LOCOBOT_TURN = MotionNoise(
 )
 
 
+def actuation_uniforms(episode_seed: int, first_step: int, count: int) -> list[list[float]]:
+    """The three uniforms (in the truncated range; position's two, then heading's) of each move at steps
+    ``first_step`` to ``first_step + count - 1`` of an episode, from
+    ``default_rng([episode_seed, NOISE_STREAM, step])``: stateless, so a replay from any saved state draws
+    the same noise."""
+    seeds = ([episode_seed, NOISE_STREAM, step] for step in range(first_step, first_step + count))
+    return [np.random.default_rng(s).uniform(_UNIFORM_LO, _UNIFORM_HI, 3).tolist() for s in seeds]
+
+
 def actuation_errors(
-    rng: np.random.Generator, forward: float, turn: float, multiplier: float
+    u: list[float], forward: float, turn: float, multiplier: float
 ) -> tuple[float, float, float]:
-    """(along, across, heading) errors of one commanded move (``forward`` m, ``turn`` rad) of one robot."""
+    """(along, across, heading) errors of one commanded move (``forward`` m, ``turn`` rad) of one robot,
+    from its three uniforms ``u`` (:func:`actuation_uniforms`)."""
     model = LOCOBOT_FORWARD if forward > 0 else LOCOBOT_TURN
-    along, across = model.position.sample(rng, 1)[0] * multiplier
-    heading = model.heading.sample(rng, 1)[0, 0] * multiplier
-    return (
-        float(along if forward >= 0 else -along),
-        float(across),
-        float(heading if turn >= 0 else -heading),
-    )
+    along, across = (x * multiplier for x in model.position.values(u[:2]))
+    heading = model.heading.values(u[2:])[0] * multiplier
+    return (along if forward >= 0 else -along), across, (heading if turn >= 0 else -heading)
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Sensor noise for camera observations: Gaussian RGB noise and a structured-light depth model.
 
-Pure torch + NumPy (no simulator import), batched over sub-envs, on the device of the input images.
+Pure torch, NumPy and Numba (no simulator import), batched over sub-envs, on the device of the input images.
 
 Two models, each built once per camera resolution (and seed):
 
@@ -23,22 +23,24 @@ whole noise budget. Both models therefore draw their standard-normal samples onc
 per-frame arithmetic uses them, and a frame takes a window of the bank at an offset hashed from
 ``(seed, key)`` (SplitMix64):
 
-* RGB: three uint8 banks (a lower and an upper clamp bound and a wrapping step, see :class:`RGBNoise`),
-  windows at pixel granularity: ``(bank_frames - 1) * H * W + 1`` of them (0.9 M at 640x480);
+* RGB: the int16 steps ``round(255 sigma z)`` (see :class:`RGBNoise`), windows at pixel granularity:
+  ``(bank_frames - 1) * H * W + 1`` of them (0.9 M at 640x480);
 * depth, disparity noise: float32, pixel-granular windows, as many;
-* depth, pixel jitter: int32 absolute read positions (border clamping baked in), windows at row
-  granularity: ``(bank_frames - 1) * H + 1`` jitter patterns (1441 at 480 rows), drawn independently of the
-  disparity window.
+* depth, pixel jitter: whole-pixel (row, column) shifts (border clamping baked into the column), windows at
+  row granularity: ``(bank_frames - 1) * H + 1`` jitter patterns (1441 at 480 rows), drawn independently of
+  the disparity window.
 
 Two frames share noise structure only as shifted copies of the same bank; within a frame all samples are
-distinct draws. Memory at 640x480 with 4 bank frames: RGB 14.7 MB (RGBA-layout banks; 11.1 MB more if
-contiguous RGB images come too) and no work buffer; depth 9.8 MB of banks plus 4.3 MB of work buffers.
-Per frame the models run a few in-place passes and gathers (no fresh random numbers, no full-size
-allocation but the returned image; RGB in place on the image when ``out`` is the input, as in the env):
-see ``benchmarks/sensor_noise.py`` for the cost per frame. On a GPU the whole batch goes through one set
-of kernels.
+distinct draws. No fresh random numbers per frame.
 
-A DepthNoise keeps work buffers: one instance must not be called from two threads at once.
+On the CPU each batch goes through one fused kernel per model (:mod:`biovln_ms.sensor_noise_kernels`,
+compiled by Numba), which keeps the banks compact: RGB steps as int8 (RGBA layout, the rare steps beyond
++-127 listed apart), shifts as int8 pairs; 12.3 MB at 640x480 with 4 bank frames. Both work in place when
+``out`` is the input, as in the env. On other devices the whole batch goes through torch kernels, the same
+arithmetic pass by pass (equal bit for bit; the tests check it on CPU tensors), from banks laid out for
+them (three uint8 RGB banks, int32 read positions) and with work buffers (4.3 MB per 640x480 depth image):
+one instance must not be called from two threads at once there. ``benchmarks/sensor_noise.py`` gives the
+cost per frame.
 """
 
 from __future__ import annotations
@@ -56,7 +58,6 @@ _M64 = (1 << 64) - 1
 _RGB_STREAM = 0x52474221
 _SHIFT_STREAM = 0x4A495454
 _DISP_STREAM = 0x44495350
-_CPU = torch.device("cpu")
 
 
 def _mix(x: int) -> int:
@@ -100,15 +101,26 @@ def frame_keys(episodes, steps) -> np.ndarray:
     ``episodes`` and ``steps`` broadcast (ints or arrays). Collision-free for ``0 <= episode < 2**31`` and
     ``0 <= step < 2**32``; the models hash the key with their seed, so neighbouring keys give unrelated noise.
     """
-    e, s = np.broadcast_arrays(np.asarray(episodes, dtype=np.int64), np.asarray(steps, dtype=np.int64))
-    if (e < 0).any() or (e >= 1 << 31).any() or (s < 0).any() or (s >= 1 << 32).any():
+    e, s = np.asarray(episodes), np.asarray(steps)
+    few = max(e.size, s.size) <= 64 and e.ndim <= 1 and s.ndim <= 1
+    if few and (e.size == s.size or 1 in (e.size, s.size)):  # Python ints: faster on a few envs
+        ev, sv = e.reshape(-1).tolist(), s.reshape(-1).tolist()
+        n = max(len(ev), len(sv))
+        pairs = list(zip(ev * n if len(ev) == 1 else ev, sv * n if len(sv) == 1 else sv))
+        if any(a >> 31 or b >> 32 for a, b in pairs):  # a bit above the range, or a negative number's sign
+            raise ValueError("frame_keys needs 0 <= episode < 2**31 and 0 <= step < 2**32")
+        return np.array([a << 32 | b for a, b in pairs], dtype=np.int64)
+    e, s = e.astype(np.int64), s.astype(np.int64)
+    if ((e >> 31) | (s >> 32)).any():
         raise ValueError("frame_keys needs 0 <= episode < 2**31 and 0 <= step < 2**32")
     return ((e << 32) | s).reshape(-1)
 
 
 def _key_list(keys, n: int | None) -> list[int]:
     """``keys`` (an int, a sequence, an integer array or tensor) as ``n`` Python ints (any number if None)."""
-    if isinstance(keys, (int, np.integer)) and not isinstance(keys, bool):
+    if isinstance(keys, np.ndarray) and keys.dtype == np.int64 and keys.ndim == 1:  # what frame_keys gives
+        out = keys.tolist()
+    elif isinstance(keys, (int, np.integer)) and not isinstance(keys, bool):
         out = [int(keys)]
     else:
         if isinstance(keys, torch.Tensor):
@@ -148,9 +160,20 @@ def _windows(bank: torch.Tensor, size: int, offsets: list[int]) -> torch.Tensor:
     return bank.unfold(0, size, 1)[win]
 
 
+_KERNEL_DTYPES = (torch.int16, torch.int32, torch.int64, torch.float32, torch.float64)  # NumPy has them
+
+
+def _kernels():
+    """The fused CPU kernels (:mod:`biovln_ms.sensor_noise_kernels`), imported on first use: Numba's import
+    costs a third of a second, which an env without image noise does not pay."""
+    from biovln_ms import sensor_noise_kernels
+
+    return sensor_noise_kernels
+
+
 def _batched(img: torch.Tensor) -> bool:
-    """CPU: one image at a time, so the bank windows are views and the work buffers one frame (cache
-    sized); other devices: the whole batch in one set of kernels (gathered windows)."""
+    """CPU: one image at a time through a fused kernel (the bank windows are views); other devices: the
+    whole batch in one set of torch kernels (gathered windows)."""
     return img.device.type != "cpu"
 
 
@@ -172,6 +195,14 @@ def _rgba_base(img: torch.Tensor) -> torch.Tensor | None:
     return img.as_strided((n, h, w, 4), (s0, 4 * w, 4, 1))
 
 
+def _kernel_bank(steps: torch.Tensor) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The RGB kernel's bank of int16 ``steps``: int8 in two's complement (as uint8), saturated at +-127,
+    and the positions (sorted) and values of the steps beyond."""
+    wide = (steps.abs() > 127).nonzero().reshape(-1)
+    n8 = steps.clamp(-127, 127).to(torch.int8).view(torch.uint8)
+    return n8.numpy(), wide.numpy(), steps[wide].numpy()
+
+
 @dataclass(eq=False)
 class RGBNoise:
     """Gaussian noise on uint8 RGB images ``(N, H, W, 3)`` (ManiSkill's ``obs["sensor_data"][cam]["rgb"]``).
@@ -180,9 +211,10 @@ class RGBNoise:
     channel and ``sigma`` the standard deviation on the [0, 1] intensity scale (Habitat's Gaussian noise
     model; the PointNav 2020 challenge used ``sigma = 0.1``). As ``rgb`` is an integer,
     ``round(rgb + 255 sigma z) = rgb + round(255 sigma z)``: integer steps ``n``, clipped to +-255 (which
-    saturate any pixel anyway, so no output changes). A frame costs two uint8 passes and no temporary:
+    saturate any pixel anyway, so no output changes). Computed with no temporary:
     ``clip(rgb + n, 0, 255) = clip(rgb, max(-n, 0), 255 - max(n, 0)) + n``, whose sum stays in [0, 255], so
-    a clamp between two bounds banks then a wrapping add of ``n mod 256`` (a third bank) is exact.
+    a clamp between two bounds banks then a wrapping add of ``n mod 256`` (a third bank) is exact: one fused
+    uint8 pass on the CPU, two torch passes elsewhere.
 
     ``__call__(rgb, keys)``: the noise of image ``i`` is a function of ``(seed, keys[i])`` only (module
     docstring), whatever the memory layout: a contiguous image and a 3-channel view of an RGBA image (what
@@ -210,25 +242,38 @@ class RGBNoise:
             z = _standard_normal(int(self.seed), _RGB_STREAM, (self.bank_frames * self.frame_pixels, 4))
             steps = z.mul_(255.0 * self.sigma).round_().clamp_(-255, 255).to(torch.int16)
             steps[:, 3] = 0  # alpha passes through
-            # clip(x + n, 0, 255) = clip(x, max(-n, 0), 255 - max(n, 0)) + n, the sum never leaving [0, 255]:
-            # so a clamp between two uint8 bounds, then a wrapping uint8 add of n mod 256
-            lo, hi = (-steps).clamp_(min=0), 255 - steps.clamp(min=0)
-            banks = torch.stack((lo, hi, steps.remainder(256))).to(torch.uint8)
-            self._banks[(_CPU, 4)] = banks.reshape(3, -1)
-            self._bank(torch.device(self.device), 4)
+            self._banks[("numpy", 4)] = _kernel_bank(steps.reshape(-1))
+            if torch.device(self.device).type != "cpu":
+                self._bank(torch.device(self.device), 4)
+
+    def _steps(self, channels: int) -> torch.Tensor:
+        """The int16 steps ``n`` laid out as RGBA (4) or RGB (3) pixels: the same samples, pixel for pixel
+        (rebuilt from the kernel's RGBA bank, the one kept)."""
+        n8, wide, wide_steps = self._banks[("numpy", 4)]
+        steps = torch.from_numpy(n8).view(torch.int8).to(torch.int16)
+        steps[torch.from_numpy(wide)] = torch.from_numpy(wide_steps)
+        return steps if channels == 4 else steps.view(-1, 4)[:, :3].reshape(-1)
 
     def _bank(self, device: torch.device, channels: int) -> torch.Tensor:
-        """The ``(3, pixels * channels)`` uint8 banks (lower bound, upper bound, wrapping step) laid out as
-        RGBA (4) or RGB (3) pixels: the same samples, pixel for pixel."""
+        """The torch path's ``(3, bytes)`` uint8 banks: ``clip(x + n, 0, 255) = clip(x, max(-n, 0), 255 -
+        max(n, 0)) + n``, the sum never leaving [0, 255], so a clamp between two bounds (lower, upper), then a
+        wrapping add of ``n mod 256`` (step)."""
         bank = self._banks.get((device, channels))
         if bank is None:
-            if channels == 3:
-                rgba = self._banks[(_CPU, 4)].view(3, -1, 4)
-                bank = rgba[..., :3].contiguous().reshape(3, -1).to(device)
-            else:
-                bank = self._banks[(_CPU, 4)].to(device)
+            steps = self._steps(channels)
+            lo, hi = (-steps).clamp_(min=0), 255 - steps.clamp(min=0)
+            bank = torch.stack((lo, hi, steps.remainder(256))).to(torch.uint8).to(device)
             self._banks[(device, channels)] = bank
         return bank
+
+    def _numpy_banks(self, channels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The CPU kernel's bank (made once): ``n`` as int8 in two's complement (uint8 bytes), saturated at
+        +-127, and the positions (sorted) and values of the rare steps beyond (``|n| > 127`` is a 5-sigma
+        draw at ``sigma = 0.1``): a third of the three banks' bytes, so a third of the memory traffic."""
+        banks = self._banks.get(("numpy", channels))
+        if banks is None:
+            banks = self._banks[("numpy", channels)] = _kernel_bank(self._steps(channels))
+        return banks
 
     def offsets(self, keys) -> list[int]:
         """The bank offset of each key, in pixels (what selects a frame's noise)."""
@@ -252,6 +297,8 @@ class RGBNoise:
         if out is None:
             dst = torch.empty(src.shape, dtype=torch.uint8, device=rgb.device)
             out = dst if channels == 3 else dst[..., :3]
+        elif out is rgb:
+            dst = src
         else:
             if not isinstance(out, torch.Tensor) or out.shape != rgb.shape or out.dtype != torch.uint8:
                 raise ValueError("out must be a uint8 tensor of the input's shape")
@@ -262,17 +309,18 @@ class RGBNoise:
                 )
         if n == 0:
             return out
-        lo, hi, step = self._bank(rgb.device, channels)
         size = self.frame_pixels * channels
         offs = [o * channels for o in _offsets(int(self.seed), _RGB_STREAM, keys, self.n_offsets)]
         if _batched(rgb):
+            lo, hi, step = self._bank(rgb.device, channels)
             windows = [_windows(b, size, offs).view(src.shape) for b in (lo, hi, step)]
             torch.clamp(src, min=windows[0], max=windows[1], out=dst).add_(windows[2])
         else:
-            for i, o in enumerate(offs):
-                shape = src[i : i + 1].shape
-                lo_i, hi_i, step_i = (b[o : o + size].view(shape) for b in (lo, hi, step))
-                torch.clamp(src[i : i + 1], min=lo_i, max=hi_i, out=dst[i : i + 1]).add_(step_i)
+            if dst is not src:
+                dst.copy_(src)  # the kernel works in place
+            images = dst.as_strided((n, size), (dst.stride(0), 1)).numpy()  # each image contiguous
+            bank, wide, wide_steps = self._numpy_banks(channels)
+            _kernels().rgb_frames(images, bank, wide, wide_steps, np.asarray(offs, dtype=np.int64))
         return out
 
 
@@ -352,25 +400,30 @@ class DepthNoise:
             raise ValueError("focal_px * baseline_m / (disparity_step_px * min_depth_m) must be < 2**24")
         seed = int(self.seed)
         p = self.pad
-        if p:
-            # jitter[Y * W + x]: where bank pixel (Y, x) reads, in an image stack with p replicated rows
-            # above and below: row Y + p + dy, column x + dx clamped to the image
-            dy, dx = _standard_normal(seed, _SHIFT_STREAM, (2, B * H, W)).mul_(self.sigma_shift_px)
-            dy, dx = dy.round_().clamp_(-p, p), dx.round_().clamp_(-p, p)
-            rows = torch.arange(B * H).reshape(-1, 1) + p + dy
-            cols = (torch.arange(W).reshape(1, -1) + dx).clamp_(0, W - 1)
-            jitter = (rows * W + cols).to(torch.int32).reshape(-1)
-        else:
-            jitter = torch.zeros(0, dtype=torch.int32)
+        if p > 127:
+            raise ValueError(f"sigma_shift_px must be <= 25 (shifts of 127 px), got {self.sigma_shift_px:g}")
+        # the shift of bank pixel (Y, x): it reads row Y + dy, column x + dx (dx keeps it in the image), as
+        # int8 pairs: half the bytes of int32 read positions
+        dy, dx = _standard_normal(seed, _SHIFT_STREAM, (2, B * H, W)).mul_(self.sigma_shift_px)
+        dy, dx = dy.round_().clamp_(-p, p), dx.round_().clamp_(-p, p)
+        dx = (torch.arange(W).reshape(1, -1) + dx).clamp_(0, W - 1) - torch.arange(W)
+        self._banks["shifts"] = torch.stack((dy, dx), dim=-1).to(torch.int8).reshape(-1, 2)
         disp = _standard_normal(seed, _DISP_STREAM, (B * H * W,))
-        disp.mul_(self.sigma_disparity_px / self.disparity_step_px).add_(0.5)
-        self._banks[_CPU] = (jitter, disp)
-        self._banks_on(torch.device(self.device))
+        self._banks["disp"] = disp.mul_(self.sigma_disparity_px / self.disparity_step_px).add_(0.5)
+        if torch.device(self.device).type != "cpu":
+            self._banks_on(torch.device(self.device))
 
     def _banks_on(self, device: torch.device) -> tuple[torch.Tensor, torch.Tensor]:
+        """The torch path's banks on ``device``: jitter as int32 read positions into a stack of bank images
+        with ``pad`` replicated rows above and below (``(Y + pad + dy) W + x + dx``), and the disparity
+        noise."""
         banks = self._banks.get(device)
         if banks is None:
-            banks = self._banks[device] = tuple(t.to(device) for t in self._banks[_CPU])
+            W, p = self.width, self.pad
+            shifts = self._banks["shifts"].to(torch.int32).reshape(-1, W, 2)
+            rows = torch.arange(shifts.shape[0]).reshape(-1, 1) + p + shifts[..., 0]
+            jitter = (rows * W + torch.arange(W) + shifts[..., 1]).reshape(-1) if p else shifts[:0, 0, 0]
+            banks = self._banks[device] = (jitter.to(device), self._banks["disp"].to(device))
         return banks
 
     def depth_lut(self, dtype: torch.dtype, device: torch.device | str = "cpu") -> torch.Tensor:
@@ -411,32 +464,80 @@ class DepthNoise:
         out = _check_out(out, depth)
         if n == 0:
             return out
-        jitter, disp = self._banks_on(depth.device)
+        seed = int(self.seed)
+        rows = _offsets(seed, _SHIFT_STREAM, keys, self.n_row_offsets)
+        offs = _offsets(seed, _DISP_STREAM, keys, self.n_offsets)
         lut = self.depth_lut(depth.dtype, depth.device)
-        rows, offs = self.offsets(keys)
         if _batched(depth):
+            jitter, disp = self._banks_on(depth.device)
             self._batch(depth, jitter, rows, _windows(disp, self.frame_size, offs), lut, out)
         else:
-            for i in range(n):
-                noise = disp[offs[i] : offs[i] + self.frame_size]
-                self._single(depth[i], jitter, rows[i], noise, lut, out[i])
+            self._frames(depth, rows, offs, lut, out)
         return out
 
-    def _plan(self, device: torch.device, n: int | None, dtype: torch.dtype) -> dict:
-        """Work buffers, per ``dtype`` of the depth copy (int16 mm stays int16, anything else float32): for
-        one image at a time (``n`` None) a stack of ``bank_frames`` images' rows plus padding, so the jitter
-        window reads it without index arithmetic; for a batch of ``n``, one padded image each."""
+    def _frames(self, depth, rows, offs, lut, out) -> None:
+        """The CPU path: the batch in one fused kernel (:func:`~biovln_ms.sensor_noise_kernels.depth_frames`).
+        Integer millimetres other than int16 and floating metres other than float32 are read as float32,
+        as the torch path reads them; a result dtype NumPy lacks goes through lut indices."""
+        floating = depth.dtype.is_floating_point
+        z = depth if depth.dtype in (torch.int16, torch.float32) else depth.to(torch.float32)
+        direct = out.dtype in _KERNEL_DTYPES  # out has the input's dtype
+        z = z.contiguous()  # the kernel may write over it (out is depth): it reads each row first
+        q = np.float32(self.q_scale if floating else self.q_scale * 1000.0)  # k = q / z, z in m or mm
+        table = lut.numpy() if direct else np.arange(self.k_max + 1, dtype=np.int32)
+        dst = out if direct else torch.empty(out.shape, dtype=torch.int32)
+        n, H, W = depth.shape[0], self.height, self.width
+        shifts, disp = self._numpy_banks()
+        _kernels().depth_frames(
+            z.view(n, H * W).numpy(),
+            shifts,
+            np.asarray(rows, dtype=np.int64),
+            self.pad,
+            disp,
+            np.asarray(offs, dtype=np.int64),
+            q,
+            self.k_max,
+            table,
+            *(self._arithmetic_lut(out.dtype) if direct else (0, 0, np.float32(0.0))),
+            dst.view(n, H, W).numpy(),
+        )
+        if not direct:
+            torch.index_select(lut, 0, dst.view(-1), out=out.view(-1))
+
+    def _arithmetic_lut(self, dtype: torch.dtype) -> tuple[int, int, np.float32]:
+        """``(near, far, mm)``: ``depth_lut(dtype)[k] = rint(mm / k)`` for ``near <= k <= far`` and 0
+        elsewhere, computed in float32, if that holds at every ``k`` (the kernel then computes instead of
+        looking up; it holds for int16 millimetres), else ``(0, 0, 0)``."""
+        key = ("arithmetic", dtype)
+        if key not in self._luts:
+            self._luts[key] = (0, 0, np.float32(0.0))
+            lut = self.depth_lut(dtype).numpy() if dtype in (torch.int16, torch.int32) else None
+            nonzero = np.flatnonzero(lut) if lut is not None else []
+            if len(nonzero) and nonzero[-1] - nonzero[0] + 1 == len(nonzero):
+                near, far, mm = int(nonzero[0]), int(nonzero[-1]), np.float32(self.q_scale * 1000.0)
+                k = np.arange(self.k_max + 1, dtype=np.float32)
+                with np.errstate(divide="ignore"):
+                    formula = np.where((k >= near) & (k <= far), np.rint(mm / k), 0.0).astype(lut.dtype)
+                if np.array_equal(formula, lut):
+                    self._luts[key] = (near, far, mm)
+        return self._luts[key]
+
+    def _numpy_banks(self) -> tuple[np.ndarray, np.ndarray]:
+        """The CPU kernel's banks (pixel shifts as int8 pairs, disparity noise) as NumPy arrays (views)."""
+        return self._banks["shifts"].numpy(), self._banks["disp"].numpy()
+
+    def _plan(self, device: torch.device, n: int, dtype: torch.dtype) -> dict:
+        """Work buffers of the batched path for ``n`` images, per ``dtype`` of the depth copy (int16 mm stays
+        int16, anything else float32): one image each with ``pad`` replicated rows above and below."""
         plan = self._plans.get((device, n, dtype))
         if plan is None:
             H, W, p = self.height, self.width, self.pad
-            rows = self.bank_frames * H + 2 * p if n is None else H + 2 * p
-            m = n or 1
-            if m * rows * W >= 1 << 31:
-                raise ValueError(f"a batch of {m} {H}x{W} depth images is too large for int32 indices")
-            v = torch.empty(m * H * W, dtype=torch.float32, device=device)  # disparity, in steps
+            if n * (H + 2 * p) * W >= 1 << 31:
+                raise ValueError(f"a batch of {n} {H}x{W} depth images is too large for int32 indices")
+            v = torch.empty(n * H * W, dtype=torch.float32, device=device)  # disparity, in steps
             plan = self._plans[(device, n, dtype)] = {
-                "stack": torch.empty((m, rows, W), dtype=dtype, device=device) if p else None,
-                "z": torch.empty(m * H * W, dtype=dtype, device=device) if p else None,  # jittered depth
+                "stack": torch.empty((n, H + 2 * p, W), dtype=dtype, device=device) if p else None,
+                "z": torch.empty(n * H * W, dtype=dtype, device=device) if p else None,  # jittered depth
                 "v": v,
                 "q": v.view(torch.int32),  # the lut index, converted in place
                 True: torch.tensor(self.q_scale, dtype=torch.float32, device=device),  # z in metres
@@ -444,29 +545,17 @@ class DepthNoise:
             }
         return plan
 
-    def _single(self, depth, jitter, row, noise, lut, out) -> None:
-        """One ``(H, W, 1)`` image on the CPU: the jitter window is a view of the bank (no copy)."""
-        H, W, p = self.height, self.width, self.pad
-        plan = self._plan(depth.device, None, torch.int16 if depth.dtype == torch.int16 else torch.float32)
-        if p:
-            img = plan["stack"][0, row : row + H + 2 * p]  # this frame's padded image in the stack
-            img[p : p + H].copy_(depth[..., 0])
-            img[:p].copy_(img[p : p + 1].expand(p, W))  # replicated rows: reads past the edge clamp
-            img[p + H :].copy_(img[p + H - 1 : p + H].expand(p, W))
-            z = torch.index_select(plan["stack"].view(-1), 0, jitter[row * W : (row + H) * W], out=plan["z"])
-        else:
-            z, noise = depth[..., 0], noise.view(H, W)
-        self._measure(z, plan, noise, depth.dtype.is_floating_point, lut, out.view(-1))
-
     def _batch(self, depth, jitter, rows, noise, lut, out) -> None:
-        """The whole batch in one set of kernels (GPU): the same reads as :meth:`_single`, by index."""
+        """The whole batch in one set of kernels (other devices than the CPU): the reads and arithmetic of
+        :meth:`_frames`, pass by pass."""
         n = depth.shape[0]
         H, W, p = self.height, self.width, self.pad
-        plan = self._plan(depth.device, n, torch.int16 if depth.dtype == torch.int16 else torch.float32)
+        dtype = torch.int16 if depth.dtype == torch.int16 else torch.float32
+        plan = self._plan(depth.device, n, dtype)
         if p:
             img = plan["stack"]
             img[:, p : p + H].copy_(depth[..., 0])
-            img[:, :p].copy_(img[:, p : p + 1].expand(n, p, W))
+            img[:, :p].copy_(img[:, p : p + 1].expand(n, p, W))  # replicated rows: reads past the edge clamp
             img[:, p + H :].copy_(img[:, p + H - 1 : p + H].expand(n, p, W))
             shift = [i * (H + 2 * p) * W - r * W for i, r in enumerate(rows)]  # bank row r -> image i
             idx = _windows(jitter, H * W, [r * W for r in rows])
@@ -474,12 +563,8 @@ class DepthNoise:
             z = torch.index_select(img.view(-1), 0, idx.view(-1), out=plan["z"])
             noise = noise.reshape(-1)
         else:
-            z, noise = depth[..., 0], noise.view(n, H, W)
-        self._measure(z, plan, noise, depth.dtype.is_floating_point, lut, out.view(-1))
-
-    def _measure(self, z, plan, noise, floating: bool, lut, out) -> None:
-        """Disparity with noise, quantisation and range limit of the (jittered) depth ``z``, into ``out``."""
-        v = plan["v"]
+            z, noise = depth[..., 0].to(dtype), noise.view(n, H, W)
+        floating, v = depth.dtype.is_floating_point, plan["v"]
         # k = q_scale / z + the bank's noise (+ 1/2): inf at z = 0 (no hit), negative for z < 0, both
         # land on lut entries holding 0
         torch.addcdiv(noise, plan[floating], z, out=v.view(noise.shape))
@@ -488,4 +573,4 @@ class DepthNoise:
         v.clamp_(0, self.k_max)
         q = plan["q"]
         q.copy_(v)  # float -> int32 in place; truncation = floor for v >= 0, the bank's + 1/2 rounds
-        torch.index_select(lut, 0, q, out=out)
+        torch.index_select(lut, 0, q, out=out.view(-1))

@@ -36,7 +36,7 @@ from biovln_ms.geometry.motion import SweptMotion
 from biovln_ms.scene.rules import floor_polygon, scene_navigation
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, MeasureSet, StepState
 from biovln_ms.metrics.protocol_measures import check_protocol_options
-from biovln_ms.noise import actuation_errors, resolve_noise
+from biovln_ms.noise import actuation_errors, actuation_uniforms, resolve_noise
 from biovln_ms.render.camera_shaders import head_camera_shader, use_depth_only_format
 from biovln_ms.render.lighting import lighting_preset
 from biovln_ms.robots import DEFAULT_ROBOT, ROBOTS, robot_spec
@@ -54,9 +54,9 @@ SIM_BACKENDS = ("auto", "cpu", "physx_cpu", "gpu", "cuda", "physx_cuda")  # Mani
 RENDER_BACKENDS = ("auto", "cpu", "sapien_cpu", "gpu", "cuda", "sapien_cuda", "none")
 #: a move that ends farther than this (m) from its target was blocked (``noise.sliding=False``)
 SLIDE_TOLERANCE = 0.01
-#: the noise stream of a sub-env at a step is seeded by (episode seed, NOISE_STREAM, step): stateless, so a
-#: replay from any saved state draws the same noise
-NOISE_STREAM = 0x6E6F6973
+#: steps of actuation noise drawn at once per sub-env: a generator's first draw after a render costs ten
+#: times the next ones (cold caches), so the draws of the next steps come with it (the same numbers)
+ACTUATION_CHUNK = 32
 #: the image noise banks' seed; a frame's noise is chosen by (episode seed, step) (biovln_ms.sensor_noise)
 IMAGE_NOISE_SEED = 0x696D67
 #: the follow camera of ``render()``: behind and above the robot, looking at a point ahead of it
@@ -216,6 +216,7 @@ class BioVLNNavEnv(BaseEnv):
         self._objectgoal = np.zeros((self.num_envs, len(self.category_names)), np.float32)
         self._done = np.zeros(self.num_envs, dtype=bool)  # the episode has ended
         self._actuation_error = np.zeros((self.num_envs, 3))  # the last step's (along, across, heading)
+        self._uniform_chunks: dict[int, tuple] = {}  # sub-env -> ((episode seed, first step), uniforms)
         self._frozen = self._done.copy()  # ... already before the current step
 
     def close(self):
@@ -344,12 +345,24 @@ class BioVLNNavEnv(BaseEnv):
         """Actuation noise (``biovln_ms.noise``): the executed (along, across, turn) of each sub-env's move,
         drawn from its episode seed and step (STOP and ended episodes move exactly: not at all)."""
         err = np.zeros((len(forward), 3))
-        steps = self._elapsed_steps.cpu().numpy()
-        for i in np.flatnonzero(acting & ((forward > 0) | (turn != 0))).tolist():
-            rng = np.random.default_rng([int(self._episode_seed[i]), NOISE_STREAM, int(steps[i])])
-            err[i] = actuation_errors(rng, forward[i], turn[i], self.cfg.noise.actuation)
+        moving = np.flatnonzero(acting & ((forward > 0) | (turn != 0))).tolist()
+        if moving:
+            steps = self._elapsed_steps.tolist()
+            for i in moving:
+                u = self._actuation_uniforms(i, steps[i])
+                err[i] = actuation_errors(u, float(forward[i]), float(turn[i]), self.cfg.noise.actuation)
         self._actuation_error = err
         return forward + err[:, 0], err[:, 1], turn + err[:, 2]
+
+    def _actuation_uniforms(self, i: int, step: int) -> list[float]:
+        """Sub-env ``i``'s actuation uniforms at ``step`` (:func:`~biovln_ms.noise.actuation_uniforms`),
+        drawn ``ACTUATION_CHUNK`` steps at a time and kept per sub-env."""
+        seed, first = int(self._episode_seed[i]), step - step % ACTUATION_CHUNK
+        chunk = self._uniform_chunks.get(i)
+        if chunk is None or chunk[0] != (seed, first):
+            chunk = ((seed, first), actuation_uniforms(seed, first, ACTUATION_CHUNK))
+            self._uniform_chunks[i] = chunk
+        return chunk[1][step - first]
 
     def _put_back(self, rows: list[int], poses: np.ndarray) -> None:
         """Sub-envs ``rows`` stand at ``poses`` (their rows), at rest."""

@@ -20,6 +20,7 @@ from biovln_ms.noise import (
     NoiseConfigError,
     TruncatedGaussian,
     actuation_errors,
+    actuation_uniforms,
     resolve_noise,
 )
 
@@ -73,14 +74,24 @@ def test_truncated_gaussian_statistics():
 
 
 def test_actuation_errors_follow_the_commanded_move():
-    rng = np.random.default_rng(1)
-    fwd = np.array([actuation_errors(rng, 0.25, 0.0, 1.0) for _ in range(20_000)])
+    u = actuation_uniforms(1, 0, 20_000)  # one episode's draws, step after step
+    fwd = np.array([actuation_errors(x, 0.25, 0.0, 1.0) for x in u])
     np.testing.assert_allclose(fwd.mean(0), [0.017, 0.042, 0.031], atol=0.004)
-    right = np.array([actuation_errors(rng, 0.0, -0.5, 1.0) for _ in range(20_000)])
+    right = np.array([actuation_errors(x, 0.0, -0.5, 1.0) for x in u])
     np.testing.assert_allclose(right.mean(0), [0.001, 0.005, -0.043], atol=0.004)
-    half = np.array([actuation_errors(rng, 0.0, 0.5, 0.5) for _ in range(20_000)])
+    half = np.array([actuation_errors(x, 0.0, 0.5, 0.5) for x in u])
     np.testing.assert_allclose(half.std(0), 0.5 * right.std(0), rtol=0.05)
     assert LOCOBOT_FORWARD.heading.variance == (0.026,) and LOCOBOT_TURN.position.mean == (0.001, 0.005)
+
+
+def test_actuation_uniforms_are_stateless_and_chunks_agree():
+    """A step's draws depend on (episode seed, step) only: drawn alone, in a chunk or from another start."""
+    whole = actuation_uniforms(5, 0, 40)
+    assert actuation_uniforms(5, 17, 1)[0] == whole[17]
+    assert actuation_uniforms(5, 32, 8) == whole[32:]
+    assert actuation_uniforms(6, 17, 1)[0] != whole[17]
+    lo, hi = min(min(x) for x in whole), max(max(x) for x in whole)
+    assert 0.0013 < lo and hi < 0.9987  # inside the 3-sigma truncation
 
 
 def _run(env, actions, seed=7, episode=0):

@@ -226,7 +226,8 @@ def test_depth_same_key_same_noise_batch_of_three(depth_noise):
 
 
 def test_batched_path_equals_per_image_path(monkeypatch, rgb_noise, depth_noise):
-    """The GPU code path (one set of kernels for the batch, bank windows gathered) on CPU tensors."""
+    """The GPU code path (one set of torch kernels for the batch, bank windows gathered) on CPU tensors
+    against the CPU path (one fused kernel per image)."""
     g = torch.Generator().manual_seed(2)
     rgb = torch.randint(0, 256, (3, H, W, 3), dtype=torch.uint8, generator=g)
     z = torch.randint(0, 12000, (3, H, W, 1), dtype=torch.int16, generator=g)
@@ -239,6 +240,61 @@ def test_batched_path_equals_per_image_path(monkeypatch, rgb_noise, depth_noise)
     assert torch.equal(rgb_noise(rgba[..., :3], keys), ref[0])
     assert torch.equal(depth_noise(z, keys), ref[1])
     assert torch.equal(depth_noise(zf, keys), ref[2])
+
+
+@pytest.mark.parametrize("sigma", [0.1, 0.3, 1.0])
+def test_fused_rgb_kernel_equals_the_torch_passes_with_wide_steps(monkeypatch, sigma):
+    """The CPU kernel keeps steps as int8 and sets the few beyond +-127 (5 sigma at 0.1; 10 % at 0.3, 90 %
+    at 1.0) after its pass: bit for bit the torch path's result, in both layouts, in place or not."""
+    model = RGBNoise(H, W, sigma=sigma, seed=8)
+    _, wide, _ = model._numpy_banks(4)
+    assert (len(wide) > 0) == (sigma > 0.1)
+    g = torch.Generator().manual_seed(3)
+    rgba = torch.randint(0, 256, (3, H, W, 4), dtype=torch.uint8, generator=g)
+    rgba[0] = 0
+    rgba[1] = 255
+    keys = [0, 5, 1 << 35]
+    fused = model(rgba[..., :3], keys)
+    contiguous = model(rgba[..., :3].contiguous(), keys)
+    in_place = rgba.clone()
+    model(in_place[..., :3], keys, out=in_place[..., :3])
+    monkeypatch.setattr(sn, "_batched", lambda img: True)
+    passes = model(rgba[..., :3].contiguous(), keys)
+    assert torch.equal(fused, passes) and torch.equal(contiguous, passes)
+    assert torch.equal(in_place[..., :3], passes) and torch.equal(in_place[..., 3], rgba[..., 3])
+
+
+def awkward_depth(dtype: torch.dtype, n: int = 2) -> torch.Tensor:
+    """Depth with holes (0), far pixels beyond the range, and for floating dtypes NaN, +-inf, -1 and -0."""
+    g = torch.Generator().manual_seed(7)
+    mm = torch.randint(0, 15000, (n, H, W, 1), generator=g)
+    mm[mm < 2000] = 0
+    if not dtype.is_floating_point:
+        return mm.to(dtype)
+    z = (mm.double() / 1000).to(dtype)
+    flat = z.view(-1)
+    flat[::97], flat[::89], flat[::83], flat[::79] = float("nan"), float("inf"), -1.0, -0.0
+    flat[::71] = float("-inf")
+    return z
+
+
+@pytest.mark.parametrize("shift", [0.5, 0.0, 1.2])
+@pytest.mark.parametrize("dtype", [torch.int16, torch.int32, torch.float32, torch.float64, torch.float16])
+def test_fused_cpu_kernel_equals_the_torch_passes(monkeypatch, shift, dtype):
+    """Bit for bit, for every depth dtype (read as int16 or float32), with and without pixel jitter (pad 0,
+    1 and 3 rows), on holes, far pixels, NaN and infinities; in place (``out`` the input) too."""
+    model = DepthNoise(H, W, focal_px=F, seed=4, sigma_shift_px=shift)
+    z, keys = awkward_depth(dtype), [11, -3]
+    fused = model(z, keys)
+    in_place = z.clone()
+    assert model(in_place, keys, out=in_place) is in_place
+    strided = torch.cat([z, z], dim=3)[..., :1]  # not contiguous
+    monkeypatch.setattr(sn, "_batched", lambda img: True)
+    passes = model(z, keys)
+    assert fused.dtype == dtype and not fused.isnan().any()  # NaN reads as no reading (0)
+    assert torch.equal(fused, passes) and torch.equal(in_place, fused)
+    monkeypatch.undo()
+    assert torch.equal(model(strided, keys), fused)
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
@@ -298,6 +354,8 @@ def test_bad_inputs_are_value_errors(rgb_noise, depth_noise):
         RGBNoise(H, W, bank_frames=2)
     with pytest.raises(ValueError, match="focal_px"):
         DepthNoise(H, W, focal_px=0.0)
+    with pytest.raises(ValueError, match="sigma_shift_px must be <= 25"):
+        DepthNoise(H, W, focal_px=F, sigma_shift_px=30.0)
     with pytest.raises(ValueError, match="max_depth_m"):
         DepthNoise(H, W, focal_px=F, min_depth_m=2.0, max_depth_m=1.0)
     with pytest.raises(ValueError, match="overflows"):
