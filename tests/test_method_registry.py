@@ -108,6 +108,17 @@ def test_registry_fields_are_consistent():
         *(k for a, b, _ in paper.TABLE16 for k in (a, b)),
     }
     assert rows <= set(keys)
+    # the privileged methods' obs_mode (the others': tests/test_observation_boundary.py builds them)
+    from biovln_ms.agents.oracle import OraclePolicy
+    from biovln_ms.agents.protocol_oracle import ProtocolOraclePolicy
+    from biovln_ms.agents.zone3_oracle import Zone3OraclePolicy
+
+    for name, cls in (
+        ("oracle", OraclePolicy),
+        ("zone3_oracle", Zone3OraclePolicy),
+        ("protocol_oracle", ProtocolOraclePolicy),
+    ):
+        assert METHODS[name].obs_mode == cls().obs_mode, name
 
 
 def test_a_registered_method_reaches_the_reports_tables(dataset, tmp_path, monkeypatch):

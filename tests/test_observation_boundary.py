@@ -140,6 +140,7 @@ def test_non_privileged_methods_run_from_observations_alone(tmp_path, dataset, g
     assert set(policies) | {"a2c", "sac"} == {m for m, s in METHODS.items() if not s.privileged}
     for name, policy in policies.items():
         spec = METHODS[name]
+        assert policy.obs_mode == spec.obs_mode, f"{name}: the registry and the policy disagree on obs_mode"
         env = gym.make(
             spec.env_id or "BioVLN-OpFace-v0",
             split="protocol_val" if spec.env_id == "BioVLN-Protocol-v0" else "ms_val",
