@@ -38,8 +38,9 @@ compiled by Numba), which keeps the banks compact: RGB steps as int8 (RGBA layou
 +-127 listed apart), shifts as int8 pairs; 12.3 MB at 640x480 with 4 bank frames. Both work in place when
 ``out`` is the input, as in the env. On other devices the whole batch goes through torch kernels, the same
 arithmetic pass by pass (equal bit for bit; the tests check it on CPU tensors), from banks laid out for
-them (three uint8 RGB banks, int32 read positions) and with work buffers (4.3 MB per 640x480 depth image):
-one instance must not be called from two threads at once there. ``benchmarks/sensor_noise.py`` gives the
+them (three uint8 RGB banks, int32 read positions) and with work buffers (2.5 MB per 640x480 int16 depth
+image, 3.7 MB for float): one instance must not be called from two threads at once there. A 3-channel
+contiguous RGB input adds a 3.7 MB bank in that layout. ``benchmarks/sensor_noise.py`` gives the
 cost per frame.
 """
 
@@ -160,7 +161,8 @@ def _windows(bank: torch.Tensor, size: int, offsets: list[int]) -> torch.Tensor:
     return bank.unfold(0, size, 1)[win]
 
 
-_KERNEL_DTYPES = (torch.int16, torch.int32, torch.int64, torch.float32, torch.float64)  # NumPy has them
+#: depth dtypes the kernel writes directly (its lookup table in that dtype); others go through lut indices
+_KERNEL_DTYPES = (torch.int16, torch.int32, torch.int64, torch.float32, torch.float64)
 
 
 def _kernels():
@@ -172,8 +174,8 @@ def _kernels():
 
 
 def _batched(img: torch.Tensor) -> bool:
-    """CPU: one image at a time through a fused kernel (the bank windows are views); other devices: the
-    whole batch in one set of torch kernels (gathered windows)."""
+    """CPU: the batch through a fused kernel (bank windows are slices); other devices: the whole batch in
+    one set of torch kernels (gathered windows)."""
     return img.device.type != "cpu"
 
 
@@ -211,10 +213,10 @@ class RGBNoise:
     channel and ``sigma`` the standard deviation on the [0, 1] intensity scale (Habitat's Gaussian noise
     model; the PointNav 2020 challenge used ``sigma = 0.1``). As ``rgb`` is an integer,
     ``round(rgb + 255 sigma z) = rgb + round(255 sigma z)``: integer steps ``n``, clipped to +-255 (which
-    saturate any pixel anyway, so no output changes). Computed with no temporary:
-    ``clip(rgb + n, 0, 255) = clip(rgb, max(-n, 0), 255 - max(n, 0)) + n``, whose sum stays in [0, 255], so
-    a clamp between two bounds banks then a wrapping add of ``n mod 256`` (a third bank) is exact: one fused
-    uint8 pass on the CPU, two torch passes elsewhere.
+    saturate any pixel anyway, so no output changes). On the CPU one fused uint8 pass adds ``n`` with
+    saturation (:func:`~biovln_ms.sensor_noise_kernels.rgb_frames`); elsewhere two torch passes with no
+    temporary: ``clip(rgb + n, 0, 255) = clip(rgb, max(-n, 0), 255 - max(n, 0)) + n``, whose sum stays in
+    [0, 255], so a clamp between two bound banks then a wrapping add of ``n mod 256`` (a third bank).
 
     ``__call__(rgb, keys)``: the noise of image ``i`` is a function of ``(seed, keys[i])`` only (module
     docstring), whatever the memory layout: a contiguous image and a 3-channel view of an RGBA image (what
@@ -351,9 +353,10 @@ class DepthNoise:
     Computed as ``k = trunc(clip(f b / (disparity_step z) + n_d sigma_disparity / disparity_step + 1/2,
     0, k_max))`` (the bank holds the shifted, scaled ``n_d``) and ``z' = lut[k]`` (:meth:`depth_lut`).
     ``__call__(depth, keys)``: the noise of image ``i`` is a function of ``(seed, keys[i])`` only. The
-    jitter bank holds absolute read positions (border clamping baked in), so a frame's jitter window starts
-    at a whole bank row: ``(bank_frames - 1) * H + 1`` jitter patterns, combined with
-    ``(bank_frames - 1) * H * W + 1`` independently chosen disparity-noise windows.
+    jitter bank holds each pixel's whole-pixel (row, column) shift (the column clamp baked in), and a
+    frame's jitter window starts at a whole bank row: ``(bank_frames - 1) * H + 1`` jitter patterns,
+    combined with ``(bank_frames - 1) * H * W + 1`` independently chosen disparity-noise windows. Depths are
+    read as int16 millimetres or float32 (other dtypes are converted first).
     """
 
     height: int
@@ -401,7 +404,8 @@ class DepthNoise:
         seed = int(self.seed)
         p = self.pad
         if p > 127:
-            raise ValueError(f"sigma_shift_px must be <= 25 (shifts of 127 px), got {self.sigma_shift_px:g}")
+            shift = self.sigma_shift_px
+            raise ValueError(f"sigma_shift_px must be <= 25.4 (shifts up to 127 px), got {shift:g}")
         # the shift of bank pixel (Y, x): it reads row Y + dy, column x + dx (dx keeps it in the image), as
         # int8 pairs: half the bytes of int32 read positions
         dy, dx = _standard_normal(seed, _SHIFT_STREAM, (2, B * H, W)).mul_(self.sigma_shift_px)
@@ -449,9 +453,12 @@ class DepthNoise:
 
     def offsets(self, keys) -> tuple[list[int], list[int]]:
         """``(jitter bank rows, disparity-noise offsets)`` of each key: where its two windows start."""
-        k, seed = _key_list(keys, None), int(self.seed)
-        rows = _offsets(seed, _SHIFT_STREAM, k, self.n_row_offsets)
-        return rows, _offsets(seed, _DISP_STREAM, k, self.n_offsets)
+        return self._windows_of(_key_list(keys, None))
+
+    def _windows_of(self, keys: list[int]) -> tuple[list[int], list[int]]:
+        seed = int(self.seed)
+        rows = _offsets(seed, _SHIFT_STREAM, keys, self.n_row_offsets)
+        return rows, _offsets(seed, _DISP_STREAM, keys, self.n_offsets)
 
     def __call__(self, depth: torch.Tensor, keys, out: torch.Tensor | None = None) -> torch.Tensor:
         """Noisy copy of ``depth`` (``(N, H, W, 1)``, integer mm or floating m), one key per image. ``out``
@@ -464,9 +471,7 @@ class DepthNoise:
         out = _check_out(out, depth)
         if n == 0:
             return out
-        seed = int(self.seed)
-        rows = _offsets(seed, _SHIFT_STREAM, keys, self.n_row_offsets)
-        offs = _offsets(seed, _DISP_STREAM, keys, self.n_offsets)
+        rows, offs = self._windows_of(keys)
         lut = self.depth_lut(depth.dtype, depth.device)
         if _batched(depth):
             jitter, disp = self._banks_on(depth.device)

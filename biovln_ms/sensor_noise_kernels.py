@@ -6,7 +6,7 @@ what the models' torch path computes in several passes (the torch path runs on o
 compiled on first use and cached on disk (Numba's ``cache=True``: the package's ``__pycache__``, or the
 user's cache directory where that is not writable). ``error_model="numpy"``: a division by zero gives an
 infinity, as in torch, instead of raising. The loops are written for LLVM to vectorise: slices instead of
-offset arithmetic, selects instead of branches, and no output that overlaps an input.
+offset arithmetic and selects instead of branches; an in-place loop reads and writes only the one array.
 """
 
 from __future__ import annotations
@@ -54,7 +54,8 @@ def depth_frames(depth, shifts, rows, pad, disp, offsets, q, k_max, lut, near, f
     rows; image ``n``'s window starts at bank row ``rows[n]``. Pixel ``(y, x)`` reads ``(y + dy, x + dx)``,
     the row clamped to the image near its top and bottom edges. ``pad == 0``: no jitter.
 
-    Row by row, in three loops (read, arithmetic, lookup) of which the arithmetic one is vectorised. Output
+    Row by row: a read loop, then the arithmetic and the lookup (two loops, the arithmetic one vectorised;
+    one vectorised loop when the lookup is arithmetic). Output
     row ``y`` goes to memory once no later row reads input row ``y`` (after row ``y + pad``), through a ring
     of ``pad + 1`` rows, so ``out`` may be ``depth``."""
     height, width = out.shape[1], out.shape[2]

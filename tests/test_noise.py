@@ -2,6 +2,7 @@
 env under noise: sensors without GPS+compass, deterministic noise that replays from a saved state, and
 moves that do not slide along walls."""
 
+import hashlib
 import math
 
 import gymnasium as gym
@@ -74,14 +75,23 @@ def test_truncated_gaussian_statistics():
 
 
 def test_actuation_errors_follow_the_commanded_move():
-    u = actuation_uniforms(1, 0, 20_000)  # one episode's draws, step after step
-    fwd = np.array([actuation_errors(x, 0.25, 0.0, 1.0) for x in u])
+    u = actuation_uniforms(1, 0, 60_000)  # one episode's draws, step after step: three sets of moves
+    fwd = np.array([actuation_errors(x, 0.25, 0.0, 1.0) for x in u[:20_000]])
     np.testing.assert_allclose(fwd.mean(0), [0.017, 0.042, 0.031], atol=0.004)
-    right = np.array([actuation_errors(x, 0.0, -0.5, 1.0) for x in u])
+    right = np.array([actuation_errors(x, 0.0, -0.5, 1.0) for x in u[20_000:40_000]])
     np.testing.assert_allclose(right.mean(0), [0.001, 0.005, -0.043], atol=0.004)
-    half = np.array([actuation_errors(x, 0.0, 0.5, 0.5) for x in u])
+    half = np.array([actuation_errors(x, 0.0, 0.5, 0.5) for x in u[40_000:]])
     np.testing.assert_allclose(half.std(0), 0.5 * right.std(0), rtol=0.05)
     assert LOCOBOT_FORWARD.heading.variance == (0.026,) and LOCOBOT_TURN.position.mean == (0.001, 0.005)
+
+
+def test_actuation_noise_is_the_noise_of_earlier_versions():
+    """A digest of 40 moves' errors recorded with the code before the chunked draws (commit c24c505)."""
+    u = actuation_uniforms(123456, 0, 40)
+    moves = [(0.25, 0.0), (0.0, 0.5236), (0.0, -0.5236)]
+    errors = [e for step in range(40) for e in actuation_errors(u[step], *moves[step % 3], 0.5)]
+    digest = hashlib.sha256(np.array(errors).tobytes()).hexdigest()
+    assert digest == "c510f8f78923971f6f9be0755121f2486739dab4ca67f458ba3e8cd152ffc5bb"
 
 
 def test_actuation_uniforms_are_stateless_and_chunks_agree():
