@@ -373,6 +373,7 @@ class DepthNoise:
     device: str | torch.device = "cpu"
     _banks: dict = field(init=False, repr=False, default_factory=dict)
     _luts: dict = field(init=False, repr=False, default_factory=dict)
+    _lut_formulas: dict = field(init=False, repr=False, default_factory=dict)  # dtype -> (near, far, mm)
     _plans: dict = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -487,7 +488,7 @@ class DepthNoise:
         floating = depth.dtype.is_floating_point
         z = depth if depth.dtype in (torch.int16, torch.float32) else depth.to(torch.float32)
         direct = out.dtype in _KERNEL_DTYPES  # out has the input's dtype
-        z = z.contiguous()  # the kernel may write over it (out is depth): it reads each row first
+        z = z.contiguous()  # the kernel reads whole rows; out may still be this tensor (its ring of rows)
         q = np.float32(self.q_scale if floating else self.q_scale * 1000.0)  # k = q / z, z in m or mm
         table = lut.numpy() if direct else np.arange(self.k_max + 1, dtype=np.int32)
         dst = out if direct else torch.empty(out.shape, dtype=torch.int32)
@@ -513,9 +514,8 @@ class DepthNoise:
         """``(near, far, mm)``: ``depth_lut(dtype)[k] = rint(mm / k)`` for ``near <= k <= far`` and 0
         elsewhere, computed in float32, if that holds at every ``k`` (the kernel then computes instead of
         looking up; it holds for int16 millimetres), else ``(0, 0, 0)``."""
-        key = ("arithmetic", dtype)
-        if key not in self._luts:
-            self._luts[key] = (0, 0, np.float32(0.0))
+        if dtype not in self._lut_formulas:
+            self._lut_formulas[dtype] = (0, 0, np.float32(0.0))
             lut = self.depth_lut(dtype).numpy() if dtype in (torch.int16, torch.int32) else None
             nonzero = np.flatnonzero(lut) if lut is not None else []
             if len(nonzero) and nonzero[-1] - nonzero[0] + 1 == len(nonzero):
@@ -524,8 +524,8 @@ class DepthNoise:
                 with np.errstate(divide="ignore"):
                     formula = np.where((k >= near) & (k <= far), np.rint(mm / k), 0.0).astype(lut.dtype)
                 if np.array_equal(formula, lut):
-                    self._luts[key] = (near, far, mm)
-        return self._luts[key]
+                    self._lut_formulas[dtype] = (near, far, mm)
+        return self._lut_formulas[dtype]
 
     def _numpy_banks(self) -> tuple[np.ndarray, np.ndarray]:
         """The CPU kernel's banks (pixel shifts as int8 pairs, disparity noise) as NumPy arrays (views)."""
