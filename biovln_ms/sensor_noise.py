@@ -35,13 +35,13 @@ distinct draws. No fresh random numbers per frame.
 
 On the CPU each batch goes through one fused kernel per model (:mod:`biovln_ms.sensor_noise_kernels`,
 compiled by Numba), which keeps the banks compact: RGB steps as int8 (RGBA layout, the rare steps beyond
-+-127 listed apart), shifts as int8 pairs; 12.3 MB at 640x480 with 4 bank frames. Both work in place when
-``out`` is the input, as in the env. On other devices the whole batch goes through torch kernels, the same
-arithmetic pass by pass (equal bit for bit; the tests check it on CPU tensors), from banks laid out for
-them (three uint8 RGB banks, int32 read positions) and with work buffers (2.5 MB per 640x480 int16 depth
-image, 3.7 MB for float): one instance must not be called from two threads at once there. A 3-channel
-contiguous RGB input adds a 3.7 MB bank in that layout. ``benchmarks/sensor_noise.py`` gives the
-cost per frame.
++-127 listed apart), each pixel's shift as a one-byte code (two bytes beyond 7 rows of jitter); 11.1 MB at
+640x480 with 4 bank frames. Both work in place when ``out`` is the input, as in the env. On other devices
+the whole batch goes through torch kernels, the same arithmetic pass by pass (equal bit for bit; the tests
+check it on CPU tensors), from banks laid out for them (three uint8 RGB banks, int32 read positions) and
+with work buffers (2.5 MB per 640x480 int16 depth image, 3.7 MB for float): one instance must not be
+called from two threads at once there. A 3-channel contiguous RGB input adds a 3.7 MB bank in that layout.
+``benchmarks/sensor_noise.py`` gives the cost per frame.
 """
 
 from __future__ import annotations
@@ -374,6 +374,7 @@ class DepthNoise:
     _banks: dict = field(init=False, repr=False, default_factory=dict)
     _luts: dict = field(init=False, repr=False, default_factory=dict)
     _lut_formulas: dict = field(init=False, repr=False, default_factory=dict)  # dtype -> (near, far, mm)
+    _kernel_args: dict = field(init=False, repr=False, default_factory=dict)  # dtype -> _kernel_args_of
     _plans: dict = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -407,14 +408,19 @@ class DepthNoise:
         if p > 127:
             shift = self.sigma_shift_px
             raise ValueError(f"sigma_shift_px must be <= 25.4 (shifts up to 127 px), got {shift:g}")
-        # the shift of bank pixel (Y, x): it reads row Y + dy, column x + dx (dx keeps it in the image), as
-        # int8 pairs: half the bytes of int32 read positions
+        # the shift of bank pixel (Y, x): it reads row Y + dy, column x + dx (dx keeps it in the image), as a
+        # code (dy + p) (2p + 1) + dx + p: one byte per pixel up to p = 7 (sigma_shift_px 1.4), else two
         dy, dx = _standard_normal(seed, _SHIFT_STREAM, (2, B * H, W)).mul_(self.sigma_shift_px)
         dy, dx = dy.round_().clamp_(-p, p), dx.round_().clamp_(-p, p)
         dx = (torch.arange(W).reshape(1, -1) + dx).clamp_(0, W - 1) - torch.arange(W)
-        self._banks["shifts"] = torch.stack((dy, dx), dim=-1).to(torch.int8).reshape(-1, 2)
+        side = 2 * p + 1
+        codes = ((dy + p) * side + dx + p).to(torch.int32).reshape(-1).numpy()
+        self._shift_codes = codes.astype(np.uint8 if side * side <= 256 else np.uint16)
+        dys, dxs = np.divmod(np.arange(side * side, dtype=np.int32), side)
+        self._shift_table = (dys - p, dxs - p, (dys - p) * W + dxs - p)  # dy, dx and dy W + dx of each code
         disp = _standard_normal(seed, _DISP_STREAM, (B * H * W,))
         self._banks["disp"] = disp.mul_(self.sigma_disparity_px / self.disparity_step_px).add_(0.5)
+        self._disp = self._banks["disp"].numpy()  # the CPU kernel's view
         if torch.device(self.device).type != "cpu":
             self._banks_on(torch.device(self.device))
 
@@ -425,9 +431,10 @@ class DepthNoise:
         banks = self._banks.get(device)
         if banks is None:
             W, p = self.width, self.pad
-            shifts = self._banks["shifts"].to(torch.int32).reshape(-1, W, 2)
-            rows = torch.arange(shifts.shape[0]).reshape(-1, 1) + p + shifts[..., 0]
-            jitter = (rows * W + torch.arange(W) + shifts[..., 1]).reshape(-1) if p else shifts[:0, 0, 0]
+            codes = torch.from_numpy(self._shift_codes.astype(np.int32)).reshape(-1, W)
+            dy, dx = codes // (2 * p + 1) - p, codes % (2 * p + 1) - p
+            rows = torch.arange(codes.shape[0]).reshape(-1, 1) + p + dy
+            jitter = (rows * W + torch.arange(W) + dx).reshape(-1) if p else codes[:0, 0]
             banks = self._banks[device] = (jitter.to(device), self._banks["disp"].to(device))
         return banks
 
@@ -473,42 +480,50 @@ class DepthNoise:
         if n == 0:
             return out
         rows, offs = self._windows_of(keys)
-        lut = self.depth_lut(depth.dtype, depth.device)
         if _batched(depth):
             jitter, disp = self._banks_on(depth.device)
+            lut = self.depth_lut(depth.dtype, depth.device)
             self._batch(depth, jitter, rows, _windows(disp, self.frame_size, offs), lut, out)
         else:
-            self._frames(depth, rows, offs, lut, out)
+            self._frames(depth, rows, offs, out)
         return out
 
-    def _frames(self, depth, rows, offs, lut, out) -> None:
+    def _frames(self, depth, rows, offs, out) -> None:
         """The CPU path: the batch in one fused kernel (:func:`~biovln_ms.sensor_noise_kernels.depth_frames`).
         Integer millimetres other than int16 and floating metres other than float32 are read as float32,
         as the torch path reads them; a result dtype NumPy lacks goes through lut indices."""
-        floating = depth.dtype.is_floating_point
+        q, lookup, direct = self._kernel_args.get(depth.dtype) or self._kernel_args_of(depth.dtype)
         z = depth if depth.dtype in (torch.int16, torch.float32) else depth.to(torch.float32)
-        direct = out.dtype in _KERNEL_DTYPES  # out has the input's dtype
         z = z.contiguous()  # the kernel reads whole rows; out may still be this tensor (its ring of rows)
-        q = np.float32(self.q_scale if floating else self.q_scale * 1000.0)  # k = q / z, z in m or mm
-        table = lut.numpy() if direct else np.arange(self.k_max + 1, dtype=np.int32)
         dst = out if direct else torch.empty(out.shape, dtype=torch.int32)
         n, H, W = depth.shape[0], self.height, self.width
-        shifts, disp = self._numpy_banks()
         _kernels().depth_frames(
             z.view(n, H * W).numpy(),
-            shifts,
+            self._shift_codes,
+            *self._shift_table,
             np.asarray(rows, dtype=np.int64),
             self.pad,
-            disp,
+            self._disp,
             np.asarray(offs, dtype=np.int64),
             q,
             self.k_max,
-            table,
-            *(self._arithmetic_lut(out.dtype) if direct else (0, 0, np.float32(0.0))),
+            *lookup,
             dst.view(n, H, W).numpy(),
         )
         if not direct:
-            torch.index_select(lut, 0, dst.view(-1), out=out.view(-1))
+            torch.index_select(self.depth_lut(depth.dtype), 0, dst.view(-1), out=out.view(-1))
+
+    def _kernel_args_of(self, dtype: torch.dtype) -> tuple:
+        """The depth kernel's per-dtype arguments (made once per dtype): ``q`` (``k = q / z``, z in m or mm),
+        the lookup (``lut`` and the arithmetic form, :meth:`_arithmetic_lut`) and whether the kernel writes
+        the result directly (``dtype`` in ``_KERNEL_DTYPES``) or lut indices."""
+        q = np.float32(self.q_scale if dtype.is_floating_point else self.q_scale * 1000.0)
+        if dtype in _KERNEL_DTYPES:
+            lookup = (self.depth_lut(dtype).numpy(), *self._arithmetic_lut(dtype))
+        else:
+            lookup = (np.arange(self.k_max + 1, dtype=np.int32), 0, 0, np.float32(0.0))
+        args = self._kernel_args[dtype] = (q, lookup, dtype in _KERNEL_DTYPES)
+        return args
 
     def _arithmetic_lut(self, dtype: torch.dtype) -> tuple[int, int, np.float32]:
         """``(near, far, mm)``: ``depth_lut(dtype)[k] = rint(mm / k)`` for ``near <= k <= far`` and 0
@@ -526,10 +541,6 @@ class DepthNoise:
                 if np.array_equal(formula, lut):
                     self._lut_formulas[dtype] = (near, far, mm)
         return self._lut_formulas[dtype]
-
-    def _numpy_banks(self) -> tuple[np.ndarray, np.ndarray]:
-        """The CPU kernel's banks (pixel shifts as int8 pairs, disparity noise) as NumPy arrays (views)."""
-        return self._banks["shifts"].numpy(), self._banks["disp"].numpy()
 
     def _plan(self, device: torch.device, n: int, dtype: torch.dtype) -> dict:
         """Work buffers of the batched path for ``n`` images, per ``dtype`` of the depth copy (int16 mm stays

@@ -42,7 +42,7 @@ def rgb_frames(images, bank, wide, wide_steps, offsets):
 
 
 @njit(cache=True, error_model="numpy")
-def depth_frames(depth, shifts, rows, pad, disp, offsets, q, k_max, lut, near, far, mm, out):
+def depth_frames(depth, codes, dys, dxs, moves, rows, pad, disp, offsets, q, k_max, lut, near, far, mm, out):
     """:class:`~biovln_ms.sensor_noise.DepthNoise` on each image of ``depth`` (``(N, H * W)``, int16 mm or
     float32) into ``out`` (``(N, H, W)``, the dtype of ``lut``; it may be ``depth`` itself): the jittered
     read ``z``, ``v = disp[offsets[n] + i] + q / z`` in float32, clamped to ``[0, k_max]`` (NaN and -inf
@@ -50,9 +50,10 @@ def depth_frames(depth, shifts, rows, pad, disp, offsets, q, k_max, lut, near, f
     vectorised instead: ``out = rint(mm / k)`` for ``near <= k <= far``, else 0 (the caller checked that
     this reproduces ``lut`` at every ``k``; it does for int16 millimetres).
 
-    ``shifts`` (int8 ``(bank pixels, 2)``): the bank's (row, column) shift of each pixel, at most ``pad``
-    rows; image ``n``'s window starts at bank row ``rows[n]``. Pixel ``(y, x)`` reads ``(y + dy, x + dx)``,
-    the row clamped to the image near its top and bottom edges. ``pad == 0``: no jitter.
+    ``codes`` (uint8 or uint16, one per bank pixel): the bank's (row, column) shift of each pixel as a code
+    ``c`` into ``dys[c]``, ``dxs[c]`` (at most ``pad`` rows) and ``moves[c] = dys[c] * W + dxs[c]``; image
+    ``n``'s window starts at bank row ``rows[n]``. Pixel ``(y, x)`` reads ``(y + dy, x + dx)``, the row
+    clamped to the image near its top and bottom edges. ``pad == 0``: no jitter.
 
     Row by row: a read loop, then the arithmetic and the lookup (two loops, the arithmetic one vectorised;
     one vectorised loop when the lookup is arithmetic). Output
@@ -71,14 +72,14 @@ def depth_frames(depth, shifts, rows, pad, disp, offsets, q, k_max, lut, near, f
                 for x in range(width):
                     z[x] = img[first + x]
             else:
-                r = shifts[start + first : start + first + width]
+                c = codes[start + first : start + first + width]
                 if pad <= y < height - pad:
                     for x in range(width):
-                        z[x] = img[np.uintp(first + r[x, 0] * width + x + r[x, 1])]
+                        z[x] = img[np.uintp(first + x + moves[c[x]])]
                 else:
                     for x in range(width):
-                        y_read = min(max(y + r[x, 0], 0), height - 1)
-                        z[x] = img[np.uintp(y_read * width + x + r[x, 1])]
+                        y_read = min(max(y + dys[c[x]], 0), height - 1)
+                        z[x] = img[np.uintp(y_read * width + x + dxs[c[x]])]
             d = disp[offsets[n] + first : offsets[n] + first + width]
             slot = ring[y % (pad + 1)]
             if y > pad:

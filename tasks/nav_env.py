@@ -447,21 +447,23 @@ class BioVLNNavEnv(BaseEnv):
 
     def _camera_params_in_base_frame(self, params: dict) -> None:
         """Without GPS+compass the cameras' extrinsics are given relative to the robot's base (the mount,
-        as a robot knows it), not the world: world-frame extrinsics would tell the pose."""
+        as a robot knows it), not the world: world-frame extrinsics would tell the pose
+        (:mod:`biovln_ms.geometry.base_frame`)."""
+        from biovln_ms.geometry import base_frame  # Numba's import (0.3 s) only where it is used
+
         pose = self._measures["agent_pose"]  # this step's pose, already read from the joints
-        x, y, c, s = pose[:, 0], pose[:, 1], np.cos(pose[:, 2]), np.sin(pose[:, 2])
-        base2world = np.zeros((len(pose), 4, 4))
-        base2world[:, 0, 0], base2world[:, 0, 1], base2world[:, 1, 0], base2world[:, 1, 1] = c, -s, s, c
-        base2world[:, :2, 3], base2world[:, 2, 2], base2world[:, 3, 3] = pose[:, :2], 1.0, 1.0
-        world2base = base2world.transpose(0, 2, 1).copy()  # a planar rigid motion's inverse: R^T, -R^T t
-        world2base[:, 3, :2] = 0.0
-        world2base[:, 0, 3], world2base[:, 1, 3] = -(c * x + s * y), s * x - c * y
         for cam in params.values():
-            dtype, device = cam["extrinsic_cv"].dtype, cam["extrinsic_cv"].device
-            b2w = torch.from_numpy(base2world).to(device=device, dtype=dtype)
-            cam["extrinsic_cv"] = cam["extrinsic_cv"] @ b2w  # world -> camera, applied to base points
-            w2b = torch.from_numpy(world2base).to(device=device, dtype=dtype)
-            cam["cam2world_gl"] = w2b @ cam["cam2world_gl"]  # camera -> base
+            ext, c2w = cam["extrinsic_cv"], cam["cam2world_gl"]
+            if ext.device.type == "cpu" and ext.dtype == c2w.dtype == torch.float32:
+                cam["extrinsic_cv"], cam["cam2world_gl"] = torch.empty_like(ext), torch.empty_like(c2w)
+                base_frame.camera_params_in_base_frame(
+                    pose, ext.numpy(), c2w.numpy(), cam["extrinsic_cv"].numpy(), cam["cam2world_gl"].numpy()
+                )
+            else:
+                b2w, w2b = (
+                    torch.from_numpy(m).to(ext.device, ext.dtype) for m in base_frame.base_transforms(pose)
+                )
+                cam["extrinsic_cv"], cam["cam2world_gl"] = ext @ b2w, w2b @ c2w
 
     def _apply_image_noise(self, head: dict) -> None:
         """The noise config's RGB and depth noise on the head camera's images (in place), keyed by each

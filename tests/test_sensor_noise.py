@@ -279,12 +279,14 @@ def awkward_depth(dtype: torch.dtype, n: int = 2) -> torch.Tensor:
     return z
 
 
-@pytest.mark.parametrize("shift", [0.5, 0.0, 1.2])
+@pytest.mark.parametrize("shift", [0.5, 0.0, 1.2, 2.0])
 @pytest.mark.parametrize("dtype", [torch.int16, torch.int32, torch.float32, torch.float64, torch.float16])
 def test_fused_cpu_kernel_equals_the_torch_passes(monkeypatch, shift, dtype):
     """Bit for bit, for every depth dtype (read as int16 or float32), with and without pixel jitter (pad 0,
-    1 and 3 rows), on holes, far pixels, NaN and infinities; in place (``out`` the input) too."""
+    3, 6 and 10 rows: one-byte shift codes, and two-byte ones beyond 7 rows), on holes, far pixels, NaN and
+    infinities; in place (``out`` the input) too."""
     model = DepthNoise(H, W, focal_px=F, seed=4, sigma_shift_px=shift)
+    assert model._shift_codes.dtype == (np.uint8 if model.pad <= 7 else np.uint16)
     z, keys = awkward_depth(dtype), [11, -3]
     fused = model(z, keys)
     in_place = z.clone()
