@@ -1,4 +1,5 @@
-"""A pose estimate without GPS+compass for a policy that keeps no map of its own (BC under ``realistic``).
+"""A pose estimate without GPS+compass for a policy that keeps no map of its own (BC and the SB3 policies
+under ``realistic``).
 
 The frontier agent's scheme (:mod:`~biovln_ms.agents.frontier`, :mod:`~biovln_ms.agents.localisation`) as a
 module of its own: in the episode frame (origin at the start pose, x along the start heading), dead
@@ -16,7 +17,7 @@ import math
 import numpy as np
 
 from biovln_ms.agents.frontier import camera_offset, goal_from_sensor, head_depth, to_numpy
-from biovln_ms.agents.frontier_map import OccupancyMap
+from biovln_ms.agents.frontier_map import OCCUPIED, OccupancyMap
 from biovln_ms.agents.frontier_params import FrontierParams
 from biovln_ms.agents.localisation import (
     Localiser,
@@ -68,6 +69,15 @@ class EpisodeOdometry:
         )
         self.poses.append(pose)
         return pose
+
+    def clearance(self, xy, cap: float = 2.0) -> float:
+        """The distance from ``xy`` (episode frame) to the nearest cell its map holds as an obstacle, at most
+        ``cap`` m (what the RL state vector's clearance reads, walls included)."""
+        rc = self.map.disc_cells(np.asarray(xy, float), cap)
+        hits = rc[self.map.grid[rc[:, 0], rc[:, 1]] == OCCUPIED]
+        if not len(hits):
+            return cap
+        return min(cap, float(np.min(np.linalg.norm(self.map.centre(hits) - np.asarray(xy, float), axis=1))))
 
     def pointgoal(self) -> tuple[float, float]:
         """(rho, phi): the goal's distance and bearing (counter-clockwise from the heading) from the last

@@ -71,46 +71,49 @@ def time_noise_work(env) -> list[float]:
     return spent
 
 
-def same_path_overhead(steps: int, block: int = 20) -> tuple[float, int]:
+def same_path_overhead(steps: int, block: int = 20) -> float:
     """End to end on one path: ``ideal`` against the ``realistic`` preset's sensing (RGB and depth noise, no
     GPS+compass, so base-frame extrinsics) with exact, sliding motion, at 640x480 RGB-D. Both robots take the
-    same actions, hence the same path and the same views (checked). Blocks of ``block`` steps alternate
-    between the two envs (which goes first alternating too) and the result is the median over block pairs
-    of the sensing block's time over the ideal one's, minus 1, so a burst of machine noise in one block
-    does not decide it. Returns that and the steps timed per env."""
+    same actions, hence the same path and the same views (checked after every block, outside the timing).
+    Blocks of ``block`` steps alternate between the two envs (which goes first alternating too) and the
+    result is the median over block pairs of the sensing block's time over the ideal one's, minus 1, so a
+    burst of machine noise in one block does not decide it."""
     sensing = {"preset": "realistic", "actuation": 0.0, "sliding": True}
-    envs = [
-        gym.make(
-            "BioVLN-OpFace-v0",
-            split="ms_val",
-            obs_mode="rgbd",
-            camera_width=640,
-            camera_height=480,
-            noise=noise,
-            **CPU,
-        )
-        for noise in ("ideal", sensing)
-    ]
-    for env in envs:
-        env.reset(seed=0, options={"episode_index": 0})
-    actions = np.random.default_rng(0).integers(1, 4, steps).tolist()
-    ratios = []
-    for start in range(0, steps, block):
-        spent = [0.0, 0.0]
-        for i in (0, 1) if (start // block) % 2 == 0 else (1, 0):
-            t = time.perf_counter()
-            for a in actions[start : start + block]:
-                _, _, term, trunc, _ = envs[i].step(a)
-                if bool(term) or bool(trunc):
-                    envs[i].reset()
-            spent[i] = time.perf_counter() - t
-        ratios.append(spent[1] / spent[0])
-    poses = [env.unwrapped._measures["agent_pose"] for env in envs]
-    if not np.array_equal(*poses):
-        raise RuntimeError("the ideal and sensing-only envs took different paths; the comparison is void")
-    for env in envs:
-        env.close()
-    return float(np.median(ratios)) - 1, steps
+    envs = []
+    try:
+        for noise in ("ideal", sensing):
+            envs.append(
+                gym.make(
+                    "BioVLN-OpFace-v0",
+                    split="ms_val",
+                    obs_mode="rgbd",
+                    camera_width=640,
+                    camera_height=480,
+                    noise=noise,
+                    **CPU,
+                )
+            )
+            envs[-1].reset(seed=0, options={"episode_index": 0})
+        actions = np.random.default_rng(0).integers(1, 4, steps).tolist()
+        ratios = []
+        for start in range(0, steps, block):
+            spent = [0.0, 0.0]
+            for i in (0, 1) if (start // block) % 2 == 0 else (1, 0):
+                t = time.perf_counter()
+                for a in actions[start : start + block]:
+                    _, _, term, trunc, _ = envs[i].step(a)
+                    if bool(term) or bool(trunc):
+                        envs[i].reset()
+                spent[i] = time.perf_counter() - t
+            ratios.append(spent[1] / spent[0])
+            if not np.array_equal(*(env.unwrapped._measures["agent_pose"] for env in envs)):
+                raise RuntimeError(
+                    "the ideal and sensing-only envs took different paths; the comparison is void"
+                )
+        return float(np.median(ratios)) - 1
+    finally:
+        for env in envs:
+            env.close()
 
 
 def step_rate(env, steps: int) -> float:
@@ -176,7 +179,8 @@ def main() -> None:
         f"realistic noise: its work costs {100 * overhead:.1f} % of an ideal 640x480 RGB-D step "
         f"(budget <= 5 %); end to end (another path) {100 * end_to_end:+.1f} %"
     )
-    sensing, sensing_steps = same_path_overhead(args.steps * 4)
+    sensing_steps = args.steps * 4
+    sensing = same_path_overhead(sensing_steps)
     print(f"realistic's sensing on the ideal path, end to end (interleaved): {100 * sensing:+.1f} %")
 
     # Resets: same scene vs new scene (state obs, so the timing is the env's, not a frame's).

@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from biovln_ms.noise import NoiseConfig, NoiseConfigError
+from biovln_ms.noise import NoiseConfig
 
 #: Per-step info of every variant (paper §4.2) and the episode-end metrics.
 STEP_MEASURES = (
@@ -27,10 +27,14 @@ STEP_MEASURES = (
 END_MEASURES = ("spl", "soft_spl", "mcr", "vrt", "steps", "path_length")
 #: The sensors of the benchmark env (Habitat's PointNav/ObjectNav sensors; see ``biovln_ms.agents.policy``).
 NAV_SENSORS = ("gps", "compass", "pointgoal_with_gps_compass", "objectgoal")
-#: What GPS+compass gives, and what replaces each without it (None: nothing)
-GPS_COMPASS_SENSORS = {"gps": None, "compass": None, "pointgoal_with_gps_compass": "pointgoal"}
-#: sensors that are the robot's pose and have no pose-free stand-in (the paper's RL state vector)
-POSE_SENSORS = {"rl_state"}
+#: What GPS+compass gives, and what replaces each without it (None: nothing). The paper's RL state vector is
+#: the robot's pose too: without it the goal comes once, as for the others; a policy keeps its own estimate
+GPS_COMPASS_SENSORS = {
+    "gps": None,
+    "compass": None,
+    "pointgoal_with_gps_compass": "pointgoal",
+    "rl_state": "pointgoal",
+}
 #: Info of the protocol (multi-goal) variants: the current goal and per-goal state, every step
 #: (``biovln_ms.metrics.protocol_measures``, docs/guides/protocols.md) ...
 PROTOCOL_STEP_MEASURES = (
@@ -105,13 +109,6 @@ class NavTaskConfig:
         ``pointgoal`` in the start frame) and the observation loses the base odometry."""
         if noise.gps_compass:
             return replace(self, noise=noise)
-        if POSE_SENSORS & set(self.sensors):
-            raise NoiseConfigError(
-                f"sensor {', '.join(sorted(POSE_SENSORS & set(self.sensors)))} is the robot's pose, and "
-                f"noise '{noise.name}' has no GPS+compass",
-                field="noise.gps_compass",
-                fix="keep the pose: noise={'preset': '" + noise.name + "', 'gps_compass': True}",
-            )
         sensors = tuple(
             dict.fromkeys(
                 GPS_COMPASS_SENSORS.get(s, s) for s in self.sensors if GPS_COMPASS_SENSORS.get(s, s)
@@ -148,6 +145,7 @@ class TaskSpec:
     control_mode: str  # "discrete" or "continuous"
     robot_radius: float  # m, the robot's body
     noise: NoiseConfig = field(default_factory=NoiseConfig)  # what is noisy and what the robot senses
+    position_scale: float = NavTaskConfig.position_scale  # m: the RL state vector's positions are over this
 
 
 @dataclass(frozen=True)

@@ -454,8 +454,10 @@ class BioVLNNavEnv(BaseEnv):
         pose = self._measures["agent_pose"]  # this step's pose, already read from the joints
         for cam in params.values():
             ext, c2w = cam["extrinsic_cv"], cam["cam2world_gl"]
-            if ext.device.type == "cpu" and ext.dtype == c2w.dtype == torch.float32:
-                cam["extrinsic_cv"], cam["cam2world_gl"] = torch.empty_like(ext), torch.empty_like(c2w)
+            cpu = ext.device.type == "cpu" and ext.dtype == c2w.dtype == torch.float32
+            if cpu and len(pose) == ext.shape[0] == c2w.shape[0]:
+                cam["extrinsic_cv"] = torch.empty(ext.shape, dtype=ext.dtype)
+                cam["cam2world_gl"] = torch.empty(c2w.shape, dtype=c2w.dtype)
                 base_frame.camera_params_in_base_frame(
                     pose, ext.numpy(), c2w.numpy(), cam["extrinsic_cv"].numpy(), cam["cam2world_gl"].numpy()
                 )
@@ -588,6 +590,7 @@ class BioVLNNavEnv(BaseEnv):
             self.control_mode,
             self.agent.radius,
             c.noise,
+            c.position_scale,
         )
 
     def episode_info(self, i: int = 0, privileged: bool = False) -> EpisodeInfo:

@@ -12,6 +12,7 @@ import numpy as np
 import torch
 
 from biovln_ms.metrics.measures import wrap_angle
+from biovln_ms.rl_state import rl_state_vector
 from biovln_ms.task_config import NavTaskConfig
 
 
@@ -89,21 +90,8 @@ def objectgoal(x: SensorInputs) -> np.ndarray:
 
 @register_sensor("rl_state")
 def rl_state(x: SensorInputs) -> np.ndarray:
-    """The paper's RL observation: position / s, heading as (cos, sin), goal / s, the goal in the robot
-    frame / s and min(clearance, 2) / 2, with s = ``position_scale`` (4 m)."""
-    s = x.cfg.position_scale
-    local = _rotate(x.goal - x.pose[:, :2], x.pose[:, 2])
-    yaw = x.pose[:, 2]
-    return np.concatenate(
-        [
-            x.pose[:, :2] / s,
-            np.stack([np.cos(yaw), np.sin(yaw)], 1),
-            x.goal / s,
-            local / s,
-            (np.minimum(x.clearance, 2.0) / 2.0)[:, None],
-        ],
-        axis=1,
-    ).astype(np.float32)
+    """The paper's RL observation (:func:`biovln_ms.rl_state.rl_state_vector`) from the robot's pose."""
+    return rl_state_vector(x.pose, x.goal, x.clearance, x.cfg.position_scale)
 
 
 def semantic_category(segmentation: torch.Tensor, lookup: torch.Tensor) -> torch.Tensor:

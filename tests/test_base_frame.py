@@ -17,7 +17,7 @@ def _torch_path(pose, ext, c2w):
 
 
 def _kernel(pose, ext, c2w):
-    out = torch.empty_like(ext), torch.empty_like(c2w)
+    out = torch.empty(ext.shape), torch.empty(c2w.shape)
     camera_params_in_base_frame(pose, ext.numpy(), c2w.numpy(), out[0].numpy(), out[1].numpy())
     return out
 
@@ -33,6 +33,17 @@ def test_kernel_equals_the_torch_matmul_bit_for_bit(n):
         c2w = torch.from_numpy(rng.normal(0, 3, (n, 4, 4)).astype(np.float32))
         for got, want in zip(_kernel(pose, ext, c2w), _torch_path(pose, ext, c2w)):
             assert np.array_equal(got.numpy().view(np.uint32), want.numpy().view(np.uint32))
+
+
+def test_strided_inputs_give_the_same_bits():
+    rng = np.random.default_rng(7)
+    pose = np.column_stack([rng.uniform(-9, 9, 4), rng.uniform(-9, 9, 4), rng.uniform(-4, 4, 4)])
+    pose_strided = np.repeat(pose, 2, axis=0)[::2]  # every other row of a bigger array
+    ext = torch.from_numpy(rng.normal(0, 3, (4, 4, 3)).astype(np.float32)).transpose(1, 2)
+    c2w = torch.from_numpy(rng.normal(0, 3, (4, 4, 4)).astype(np.float32)).transpose(1, 2)
+    assert not (ext.is_contiguous() or c2w.is_contiguous() or pose_strided.flags.c_contiguous)
+    for got, want in zip(_kernel(pose_strided, ext, c2w), _torch_path(pose, ext, c2w)):
+        assert np.array_equal(got.numpy().view(np.uint32), want.numpy().view(np.uint32))
 
 
 def test_a_mounted_camera_reads_its_mount_whatever_the_pose():

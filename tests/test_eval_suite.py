@@ -7,9 +7,11 @@ import pytest
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.harness import EvalConfig, load_records
+from biovln_ms.eval.methods import method_spec
 from biovln_ms.eval.suite import SUITE_METHODS, SUITE_SPLITS, Suite, plan, run_suite
 from biovln_ms.io_utils import atomic_write_text
-from biovln_ms.noise import NoiseConfigError
+from biovln_ms.noise import NoiseConfigError, resolve_noise
+from biovln_ms.variants import VARIANTS
 
 
 def test_plan_covers_every_method_split_and_preset_and_names_each_skip(monkeypatch):
@@ -26,11 +28,10 @@ def test_plan_covers_every_method_split_and_preset_and_names_each_skip(monkeypat
         "hard_test",
     }
     skipped = {(r.method, r.noise): r.skip for r in runs if r.skip}
-    assert set(skipped) == {("llm_frontier", "ideal"), ("llm_frontier", "realistic"), ("ppo", "realistic")}
+    assert set(skipped) == {("llm_frontier", "ideal"), ("llm_frontier", "realistic")}
     assert "BIOVLN_LLM_API_KEY" in skipped[("llm_frontier", "ideal")]
-    assert "pose" in skipped[("ppo", "realistic")]
-    # bc estimates its pose from its commands and depth without GPS+compass (agents/odometry.py)
-    assert not any(r.skip for r in runs if r.method == "bc")
+    # bc and ppo estimate their pose from their commands and depth without GPS+compass (agents/odometry.py)
+    assert not any(r.skip for r in runs if r.method in ("bc", "ppo"))
 
 
 def test_plan_adds_the_runs_of_the_papers_tables():
@@ -53,9 +54,15 @@ def test_plan_refuses_unknown_names():
         plan(["oracle"], ["ms_val"], ["loud"])
 
 
-def test_a_pose_reading_method_is_refused_without_gps_before_any_worker():
-    with pytest.raises(NoiseConfigError, match="rl_state is the robot's pose"):
-        EvalConfig("ppo", "ms_val", "out", noise="realistic")
+def test_without_gps_the_rl_state_gives_way_to_pointgoal_and_ppo_reads_depth():
+    """The RL state vector is the robot's pose: without GPS+compass the RL variant gives the start-frame
+    ``pointgoal`` instead, and PPO runs on depth for its own pose estimate (agents/sb3_policy.py)."""
+    cfg = VARIANTS["BioVLN-OpFace-RL-v0"].with_noise(resolve_noise("realistic"))
+    assert cfg.sensors == ("pointgoal", "objectgoal")
+    ppo = method_spec("ppo")
+    assert (ppo.obs_mode_under(True), ppo.obs_mode_under(False)) == ("state", "depth")
+    assert method_spec("frontier").obs_mode_under(False) == method_spec("frontier").obs_mode
+    EvalConfig("ppo", "ms_val", "out", noise="realistic")  # accepted before any worker starts
 
 
 def test_suite_runs_resumes_and_logs(held_out_dataset, tmp_path, monkeypatch):

@@ -141,6 +141,8 @@ def test_non_privileged_methods_run_from_observations_alone(tmp_path, dataset, g
     for name, policy in policies.items():
         spec = METHODS[name]
         assert policy.obs_mode == spec.obs_mode, f"{name}: the registry and the policy disagree on obs_mode"
+        without = getattr(policy, "obs_mode_without_gps", None)
+        assert without == spec.obs_mode_without_gps, f"{name}: they disagree on obs_mode without GPS"
         env = gym.make(
             spec.env_id or "BioVLN-OpFace-v0",
             split="protocol_val" if spec.env_id == "BioVLN-Protocol-v0" else "ms_val",
@@ -161,6 +163,35 @@ def test_non_privileged_methods_run_from_observations_alone(tmp_path, dataset, g
             assert not _holds_env(policy), f"{name} keeps a reference to the env"
         finally:
             env.close()
+
+
+def test_ppo_without_gps_acts_on_its_own_pose_estimate(tmp_path, dataset, guarded):
+    """Under ``realistic`` the RL variant gives no RL state vector (it is the pose): PPO builds it from its
+    estimate, reading depth, the start-frame ``pointgoal`` and ``objectgoal`` only."""
+    policy, spec = _policies(tmp_path, dataset)["ppo"], METHODS["ppo"]
+    env = gym.make(
+        spec.env_id,
+        split="ms_val",
+        dataset=str(dataset),
+        obs_mode=spec.obs_mode_under(False),
+        camera_width=96,
+        camera_height=72,
+        noise="realistic",
+        **spec.env_kwargs,
+        **CPU,
+    )
+    try:
+        steps, keys = 0, set()
+        for st in rollout(env, policy, 0):
+            keys |= set(st.obs["extra"])
+            steps += 1
+            if steps > STEPS:
+                break
+        assert keys == {"pointgoal", "objectgoal"} and steps > 1
+        stats = policy.episode_stats()
+        assert len(stats["pose_estimates"]) == steps - 1 and not _holds_env(policy)
+    finally:
+        env.close()
 
 
 def test_only_oracles_get_the_read_only_privileged_view(dataset):

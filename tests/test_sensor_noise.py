@@ -352,6 +352,24 @@ def test_noise_is_the_noise_of_earlier_versions():
     assert h.hexdigest() == "d1880f9298b02e88b2eac0a41581f19ffffc377277a0b92a1dd3d93295aef12c"
 
 
+def test_wide_jitter_is_the_noise_of_earlier_versions():
+    """As above for jitter of 7 rows (the last one-byte shift codes: sigma_shift_px 1.4), 8 and 10 rows
+    (two-byte codes), recorded with commit 55b3ab9, which stored the shifts as int8 pairs."""
+    rng = np.random.default_rng(2024)
+    mm = rng.integers(0, 12000, (2, 48, 64, 1))
+    mm[mm < 1500] = 0
+    z16 = torch.from_numpy(mm.astype(np.int16))
+    zf = torch.from_numpy((mm / 1000).astype(np.float32))
+    keys = [3, 1 << 40]
+    h = hashlib.sha256()
+    for shift in (1.4, 1.41, 2.0):
+        depth = DepthNoise(48, 64, focal_px=50.0, seed=11, sigma_shift_px=shift)
+        assert depth._shift_codes.dtype == (np.uint8 if shift == 1.4 else np.uint16)
+        h.update(depth(z16, keys).numpy().tobytes())
+        h.update(depth(zf, keys).numpy().tobytes())
+    assert h.hexdigest() == "b2c5336e33797925f1c7ee52cadd368e00e31bcaa02a5cec205d654ded274a7b"
+
+
 def test_frame_keys():
     keys = frame_keys([0, 0, 1], [0, 1, 0])
     assert keys.dtype == np.int64 and len(set(keys.tolist())) == 3

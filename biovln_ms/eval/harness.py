@@ -165,7 +165,7 @@ def _init_worker(cfg: dict) -> None:
     spec = method_spec(cfg["method"])
     w, h = cfg["camera"]
     recorder = None
-    obs_mode = spec.obs_mode
+    obs_mode = spec.obs_mode_under(resolve_noise(cfg.get("noise", "ideal")).gps_compass)
     if cfg.get("record_dir"):
         from biovln_ms.learning.recorder import TrajectoryRecorder
 

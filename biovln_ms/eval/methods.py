@@ -28,7 +28,13 @@ class MethodSpec:
     env_id: str | None = None  # the env variant it must run on (None: the benchmark env)
     env_kwargs: dict = field(default_factory=dict)  # extra gym.make arguments (e.g. a control mode)
     report_note: str = ""  # why its numbers differ from the paper's, for the report (when it has runs)
-    needs_gps_compass: str | None = None  # why it cannot run without GPS+compass (None: it can)
+    obs_mode_without_gps: str | None = None  # what it reads without GPS+compass, where that differs
+
+    def obs_mode_under(self, gps_compass: bool) -> str:
+        """The observation mode it runs with, with GPS+compass or without (its pose estimate may need more,
+        as PPO's needs depth)."""
+        without = self.obs_mode_without_gps
+        return self.obs_mode if gps_compass or without is None else without
 
     @property
     def recordable(self) -> bool:
@@ -95,7 +101,7 @@ def _sb3_spec(algo: str, control_mode: str, report_order: int) -> MethodSpec:
         options=("checkpoint", "deterministic"),
         env_id=RL_ENV,
         env_kwargs={"control_mode": control_mode},
-        needs_gps_compass="its observation (the paper's RL state vector) is the robot's pose",
+        obs_mode_without_gps="depth",  # for its pose estimate (agents/sb3_policy.py)
     )
 
 

@@ -10,9 +10,7 @@ time (the time of a resumed run adds up over its sessions; a run whose results w
 time afresh); ``<out>/suite.md`` is that as a table.
 
 Runs that cannot be made are skipped with their reason in both files, never silently: LLM-Frontier
-without an endpoint (``BIOVLN_LLM_API_KEY`` unset), and a method that needs GPS+compass
-(``MethodSpec.needs_gps_compass``: PPO, whose observation, the paper's RL state vector, is the robot's pose)
-under a preset without it.
+without an endpoint (``BIOVLN_LLM_API_KEY`` unset).
 """
 
 from __future__ import annotations
@@ -66,16 +64,15 @@ class SuiteRun:
         return f"{self.method}{env}/{self.split}/{self.noise}"
 
 
-def skip_reason(method: str, noise: str) -> str | None:
-    """Why ``method`` cannot run under ``noise`` here (None: it can)."""
+def skip_reason(method: str) -> str | None:
+    """Why ``method`` cannot run here (None: it can): its preflight's error (the learned methods' is their
+    checkpoint, which the suite trains)."""
     spec = method_spec(method)
     if spec.preflight is not None and method not in LEARNED:
         try:
             spec.preflight()
         except BioVLNError as e:
             return e.message
-    if not resolve_noise(noise).gps_compass and spec.needs_gps_compass:
-        return f"{spec.needs_gps_compass}; no GPS+compass here"
     return None
 
 
@@ -90,12 +87,13 @@ def plan(
         resolve_noise(n)
     runs = []
     for m in methods:  # a method's runs together, so the cheap methods finish first
+        why = skip_reason(m)
         if METHODS[m].env_id == PROTOCOL_ENV:  # lab protocols: the protocol splits, ideal only
-            runs += [SuiteRun(m, s, "ideal", skip_reason(m, "ideal")) for s in PROTOCOL_SPLITS]
+            runs += [SuiteRun(m, s, "ideal", why) for s in PROTOCOL_SPLITS]
             continue
-        runs += [SuiteRun(m, s, n, skip_reason(m, n)) for n in noises for s in splits]
+        runs += [SuiteRun(m, s, n, why) for n in noises for s in splits]
         if paper_tables:
-            runs.append(SuiteRun(m, PAPER_SPLIT, "ideal", skip_reason(m, "ideal")))
+            runs.append(SuiteRun(m, PAPER_SPLIT, "ideal", why))
             method, env, paper_splits = CENTROID
             if m == method:
                 runs += [SuiteRun(method, s, "ideal", env_id=env) for s in paper_splits]

@@ -1,1 +1,2 @@
-"""Pure geometry (numpy/shapely, no SAPIEN): the three-zone model, layout and navigation grids."""
+"""Pure geometry (NumPy, shapely and a Numba kernel; no SAPIEN): the three-zone model, layout and
+navigation grids, coordinate frames."""

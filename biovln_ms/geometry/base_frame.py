@@ -7,11 +7,12 @@ For a base at ``(x, y)`` with yaw ``t`` (``c, s = cos t, sin t``), ``base2world 
 dtype. Then ``extrinsic_cv <- extrinsic_cv @ base2world`` (world -> camera, applied to base points) and
 ``cam2world_gl <- world2base @ cam2world_gl`` (camera -> base).
 
-Two implementations, equal bit for bit (``tests/test_base_frame.py``): :func:`base_transforms` with torch's
-batched matmul, for any device, and the fused CPU kernel :func:`camera_params_in_base_frame` (Numba), one
-call instead of some twenty small array operations, which cost far more than their arithmetic right after a
-render has evicted the caches. The kernel reproduces torch's CPU matmul of these small matrices: each
-entry a float32 sum from 0 over ``k`` in order of the float32 products, no fused multiply-add.
+Two implementations, equal bit for bit (``tests/test_base_frame.py``): the transforms of
+:func:`base_transforms` applied with torch's batched matmul (the env does this on other devices), and the
+fused CPU kernel :func:`camera_params_in_base_frame` (Numba), one call instead of some twenty small array
+operations, which cost far more than their arithmetic right after a render has evicted the caches. The
+kernel reproduces torch's CPU matmul of these small matrices: each entry a float32 sum from 0 over ``k`` in
+order of the float32 products, no fused multiply-add.
 """
 
 from __future__ import annotations
