@@ -482,9 +482,10 @@ def benchmark_table(summ) -> list[str]:
         "",
         "`ideal` is the paper's setting; `realistic` adds LoCoBot actuation noise (x0.5), RGB and "
         "structured-light depth noise, no GPS+compass and no sliding along walls (the noise presets guide). "
-        "A method absent under a preset was not run there (PPO reads the robot's pose, which `realistic` "
-        "does not give; LLM-Frontier needs an endpoint). Privileged: reads the simulator's ground truth. "
-        + N_NOTE,
+        "A method absent under a preset was not run there (LLM-Frontier needs an endpoint). Under "
+        "`realistic` the learned methods act on their own pose estimate: BC on the goal's distance and "
+        "bearing from it, PPO on the RL state vector built from it. Privileged: reads the simulator's "
+        "ground truth. " + N_NOTE,
         "",
     ]
     for s in BENCH_SPLITS:
