@@ -376,6 +376,10 @@ class DepthNoise:
     _lut_formulas: dict = field(init=False, repr=False, default_factory=dict)  # dtype -> (near, far, mm)
     _kernel_args: dict = field(init=False, repr=False, default_factory=dict)  # dtype -> _kernel_args_of
     _plans: dict = field(init=False, repr=False, default_factory=dict)
+    # the CPU kernel's banks (made in __post_init__): shift codes, their (dy, dx, dy W + dx), disparity noise
+    _shift_codes: np.ndarray = field(init=False, repr=False)
+    _shift_table: tuple[np.ndarray, np.ndarray, np.ndarray] = field(init=False, repr=False)
+    _disp: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.height < 1 or self.width < 1:
@@ -513,7 +517,7 @@ class DepthNoise:
         if not direct:
             torch.index_select(self.depth_lut(depth.dtype), 0, dst.view(-1), out=out.view(-1))
 
-    def _kernel_args_of(self, dtype: torch.dtype) -> tuple:
+    def _kernel_args_of(self, dtype: torch.dtype) -> tuple[np.float32, tuple, bool]:
         """The depth kernel's per-dtype arguments (made once per dtype): ``q`` (``k = q / z``, z in m or mm),
         the lookup (``lut`` and the arithmetic form, :meth:`_arithmetic_lut`) and whether the kernel writes
         the result directly (``dtype`` in ``_KERNEL_DTYPES``) or lut indices."""
