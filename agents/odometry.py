@@ -71,13 +71,17 @@ class EpisodeOdometry:
         return pose
 
     def clearance(self, xy, cap: float = 2.0) -> float:
-        """The distance from ``xy`` (episode frame) to the nearest cell its map holds as an obstacle, at most
-        ``cap`` m (what the RL state vector's clearance reads, walls included)."""
+        """The distance from ``xy`` (episode frame) to the nearest cell its map holds as an obstacle (with
+        noisy depth, any cell more likely occupied than not, as the matcher reads it), at most ``cap`` m:
+        what the RL state vector's clearance reads, walls included (a map cannot tell them from bodies)."""
         rc = self.map.disc_cells(np.asarray(xy, float), cap)
-        hits = rc[self.map.grid[rc[:, 0], rc[:, 1]] == OCCUPIED]
-        if not len(hits):
+        hit = self.map.grid[rc[:, 0], rc[:, 1]] == OCCUPIED
+        if self.map.log_odds is not None:
+            hit |= self.map.log_odds[rc[:, 0], rc[:, 1]] > 0
+        if not hit.any():
             return cap
-        return min(cap, float(np.min(np.linalg.norm(self.map.centre(hits) - np.asarray(xy, float), axis=1))))
+        d = np.linalg.norm(self.map.centre(rc[hit]) - np.asarray(xy, float), axis=1)
+        return min(cap, float(d.min()))
 
     def pointgoal(self) -> tuple[float, float]:
         """(rho, phi): the goal's distance and bearing (counter-clockwise from the heading) from the last

@@ -91,8 +91,9 @@ class BioVLNNavEnv(BaseEnv):
     ) -> None:
         overrides = {f.name: kwargs.pop(f.name) for f in fields(NavTaskConfig) if f.name in kwargs}
         self.cfg = replace(self.config, **overrides)
-        self.cfg = self.cfg.with_noise(resolve_noise(self.cfg.noise))
         kwargs.setdefault("obs_mode", self.cfg.default_obs_mode)
+        _check_pose_state(self.cfg, resolve_noise(self.cfg.noise), kwargs["obs_mode"])
+        self.cfg = self.cfg.with_noise(resolve_noise(self.cfg.noise))
         if not torch.cuda.is_available():  # ManiSkill's default asks for "sapien_cuda" and warns each make
             kwargs.setdefault("render_backend", "cpu")
         _check_arguments(self.cfg, control_mode, kwargs)
@@ -625,6 +626,18 @@ def _check_episode_kind(
             f"{where} holds {held} episodes, this env runs {runs} ones",
             field="split",
             fix="use the protocol_* splits with BioVLN-Protocol-v0, the others with the single-goal variants",
+        )
+
+
+def _check_pose_state(cfg: NavTaskConfig, noise, obs_mode: str) -> None:
+    """The RL state vector is the robot's pose: without GPS+compass a flat state observation would hold only
+    the start-frame ``pointgoal`` and ``objectgoal``, nothing a policy could act on; refuse it in one line."""
+    if "rl_state" in cfg.sensors and not noise.gps_compass and obs_mode in ("state", "state_dict"):
+        raise BioVLNError(
+            f"sensor rl_state is the robot's pose, and noise '{noise.name}' has no GPS+compass",
+            field="obs_mode",
+            fix="observe depth and keep a pose estimate (obs_mode='depth', as agents/sb3_policy.py does), "
+            "or keep GPS+compass: noise={'preset': '" + noise.name + "', 'gps_compass': True}",
         )
 
 

@@ -319,3 +319,22 @@ def test_frontier_without_gps_localises_by_scan_matching(dataset):
     )
     assert final[0] < final[1] and worst[0] < worst[1]
     assert wins[0] > 0
+
+
+def test_odometry_clearance_reads_the_nearest_mapped_obstacle():
+    """``EpisodeOdometry.clearance`` (the RL state vector's clearance without GPS+compass): the nearest
+    obstacle cell of its map, a cell with more evidence for than against counting under noisy depth,
+    capped."""
+    from biovln_ms.agents.odometry import EpisodeOdometry
+
+    odo = EpisodeOdometry(replace(TASK, noise=PRESETS["realistic"]))
+    odo.map = OccupancyMap(np.zeros(2), 0.05, 20.0, evidence=True)
+    assert odo.clearance((0.0, 0.0)) == 2.0  # nothing mapped: the cap
+    odo.map.mark_occupied((3.0, 0.0))
+    assert odo.clearance((0.0, 0.0)) == 2.0  # beyond the cap
+    odo.map.mark_occupied((1.0, 0.0))
+    assert abs(odo.clearance((0.0, 0.0)) - 1.0) <= 0.05
+    r, c = odo.map.cell((0.0, 0.5))
+    odo.map.log_odds[r, c] = 0.4  # one hit: not yet an obstacle for the planner, but for the clearance
+    assert abs(odo.clearance((0.0, 0.0)) - 0.5) <= 0.05
+    assert abs(odo.clearance((0.0, 1.0)) - 0.5) <= 0.05

@@ -12,6 +12,7 @@ import shapely
 import torch
 
 import biovln_ms  # noqa: F401
+from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.noise import (
     LOCOBOT_FORWARD,
@@ -62,6 +63,14 @@ def test_bad_noise_config_is_one_line(bad, field):
         resolve_noise(bad)
     msg = str(e.value)
     assert "\n" not in msg and f"field '{field}'" in msg and "fix:" in msg
+
+
+def test_the_rl_state_vector_needs_gps_compass_as_a_state_observation():
+    """The RL variant's state is the robot's pose: without GPS+compass a flat state observation is refused
+    in one line (depth observations are fine: PPO then keeps its own estimate, agents/sb3_policy.py)."""
+    with pytest.raises(BioVLNError, match="rl_state is the robot's pose") as e:
+        gym.make("BioVLN-OpFace-RL-v0", noise="realistic", **CPU)
+    assert "obs_mode='depth'" in str(e.value) and "\n" not in str(e.value)
 
 
 def test_truncated_gaussian_statistics():

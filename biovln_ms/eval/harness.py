@@ -71,9 +71,7 @@ class EvalConfig:
         robot_spec(self.robot, "robot")
         if self.env_id is None:
             self.env_id = method_spec(self.method).env_id or DEFAULT_ENV
-        noise = resolve_noise(self.noise)  # one-line errors before any worker starts: an unknown preset,
-        if self.env_id in VARIANTS:  # or a variant whose sensors the preset cannot give
-            VARIANTS[self.env_id].with_noise(noise)
+        resolve_noise(self.noise)  # a one-line error before any worker starts: an unknown preset
 
     @property
     def run_name(self) -> str:
@@ -385,7 +383,8 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
             fix="export hand-offs of a single-goal run, or evaluate the protocol method without "
             "--export-handoff",
         )
-    if cfg.record_dir and cfg.record_mode == "full" and spec.obs_mode == "state":
+    obs_mode = spec.obs_mode_under(resolve_noise(cfg.noise).gps_compass)
+    if cfg.record_dir and cfg.record_mode == "full" and obs_mode == "state":
         raise BioVLNError(
             f"'{cfg.method}' runs on state observations: there are no frames to record",
             field="record_mode",
