@@ -373,7 +373,6 @@ class DepthNoise:
     device: str | torch.device = "cpu"
     _banks: dict = field(init=False, repr=False, default_factory=dict)
     _luts: dict = field(init=False, repr=False, default_factory=dict)
-    _lut_formulas: dict = field(init=False, repr=False, default_factory=dict)  # dtype -> (near, far, mm)
     _kernel_args: dict = field(init=False, repr=False, default_factory=dict)  # dtype -> _kernel_args_of
     _plans: dict = field(init=False, repr=False, default_factory=dict)
     # the CPU kernel's banks (made in __post_init__): shift codes, their (dy, dx, dy W + dx), disparity noise
@@ -435,10 +434,10 @@ class DepthNoise:
         banks = self._banks.get(device)
         if banks is None:
             W, p = self.width, self.pad
-            codes = torch.from_numpy(self._shift_codes.astype(np.int32)).reshape(-1, W)
-            dy, dx = codes // (2 * p + 1) - p, codes % (2 * p + 1) - p
-            rows = torch.arange(codes.shape[0]).reshape(-1, 1) + p + dy
-            jitter = (rows * W + torch.arange(W) + dx).reshape(-1) if p else codes[:0, 0]
+            dys, dxs, _ = self._shift_table  # each code's (dy, dx)
+            dy, dx = (torch.from_numpy(t[self._shift_codes]).reshape(-1, W) for t in (dys, dxs))
+            rows = torch.arange(dy.shape[0]).reshape(-1, 1) + p + dy
+            jitter = (rows * W + torch.arange(W) + dx).reshape(-1) if p else dy[:0, 0]
             banks = self._banks[device] = (jitter.to(device), self._banks["disp"].to(device))
         return banks
 
@@ -532,19 +531,18 @@ class DepthNoise:
     def _arithmetic_lut(self, dtype: torch.dtype) -> tuple[int, int, np.float32]:
         """``(near, far, mm)``: ``depth_lut(dtype)[k] = rint(mm / k)`` for ``near <= k <= far`` and 0
         elsewhere, computed in float32, if that holds at every ``k`` (the kernel then computes instead of
-        looking up; it holds for int16 millimetres), else ``(0, 0, 0)``."""
-        if dtype not in self._lut_formulas:
-            self._lut_formulas[dtype] = (0, 0, np.float32(0.0))
-            lut = self.depth_lut(dtype).numpy() if dtype in (torch.int16, torch.int32) else None
-            nonzero = np.flatnonzero(lut) if lut is not None else []
-            if len(nonzero) and nonzero[-1] - nonzero[0] + 1 == len(nonzero):
-                near, far, mm = int(nonzero[0]), int(nonzero[-1]), np.float32(self.q_scale * 1000.0)
-                k = np.arange(self.k_max + 1, dtype=np.float32)
-                with np.errstate(divide="ignore"):
-                    formula = np.where((k >= near) & (k <= far), np.rint(mm / k), 0.0).astype(lut.dtype)
-                if np.array_equal(formula, lut):
-                    self._lut_formulas[dtype] = (near, far, mm)
-        return self._lut_formulas[dtype]
+        looking up; it holds for int16 millimetres), else ``(0, 0, 0)``. Made once per dtype, through
+        :meth:`_kernel_args_of`."""
+        lut = self.depth_lut(dtype).numpy() if dtype in (torch.int16, torch.int32) else None
+        nonzero = np.flatnonzero(lut) if lut is not None else []
+        if len(nonzero) and nonzero[-1] - nonzero[0] + 1 == len(nonzero):
+            near, far, mm = int(nonzero[0]), int(nonzero[-1]), np.float32(self.q_scale * 1000.0)
+            k = np.arange(self.k_max + 1, dtype=np.float32)
+            with np.errstate(divide="ignore"):
+                formula = np.where((k >= near) & (k <= far), np.rint(mm / k), 0.0).astype(lut.dtype)
+            if np.array_equal(formula, lut):
+                return near, far, mm
+        return 0, 0, np.float32(0.0)
 
     def _plan(self, device: torch.device, n: int, dtype: torch.dtype) -> dict:
         """Work buffers of the batched path for ``n`` images, per ``dtype`` of the depth copy (int16 mm stays

@@ -92,8 +92,9 @@ class BioVLNNavEnv(BaseEnv):
         overrides = {f.name: kwargs.pop(f.name) for f in fields(NavTaskConfig) if f.name in kwargs}
         self.cfg = replace(self.config, **overrides)
         kwargs.setdefault("obs_mode", self.cfg.default_obs_mode)
-        _check_pose_state(self.cfg, resolve_noise(self.cfg.noise), kwargs["obs_mode"])
-        self.cfg = self.cfg.with_noise(resolve_noise(self.cfg.noise))
+        noise = resolve_noise(self.cfg.noise)
+        _check_pose_state(self.cfg, noise, kwargs["obs_mode"])
+        self.cfg = self.cfg.with_noise(noise)
         if not torch.cuda.is_available():  # ManiSkill's default asks for "sapien_cuda" and warns each make
             kwargs.setdefault("render_backend", "cpu")
         _check_arguments(self.cfg, control_mode, kwargs)

@@ -163,7 +163,7 @@ def _init_worker(cfg: dict) -> None:
     spec = method_spec(cfg["method"])
     w, h = cfg["camera"]
     recorder = None
-    obs_mode = spec.obs_mode_under(resolve_noise(cfg.get("noise", "ideal")).gps_compass)
+    obs_mode = cfg["obs_mode"]
     if cfg.get("record_dir"):
         from biovln_ms.learning.recorder import TrajectoryRecorder
 
@@ -396,11 +396,12 @@ def evaluate(cfg: EvalConfig, progress: bool = True, echo=print) -> dict:
         fix="wait for it to finish, or stop it (`kill {pid}`; running this again resumes), "
         "or write elsewhere (--out or --name)",
     ):
-        return _evaluate_locked(cfg, progress, echo)
+        return _evaluate_locked(cfg, obs_mode, progress, echo)
 
 
-def _evaluate_locked(cfg: EvalConfig, progress: bool, echo) -> dict:
-    """``evaluate``'s work, run while holding the run folder's lock."""
+def _evaluate_locked(cfg: EvalConfig, obs_mode: str, progress: bool, echo) -> dict:
+    """``evaluate``'s work, run while holding the run folder's lock; ``obs_mode``: what the method reads
+    under ``cfg``'s noise preset (:meth:`MethodSpec.obs_mode_under`), for the workers' env."""
     from tqdm import tqdm
 
     from biovln_ms.benchmark import dataset_root
@@ -436,7 +437,7 @@ def _evaluate_locked(cfg: EvalConfig, progress: bool, echo) -> dict:
         again = f" ({len(retry)} that errored run again)" if retry else ""
         echo(f"resuming {cfg.run_name} on {cfg.split}: {len(done)} done, {len(todo)} to go{again}")
     workers = max(1, min(cfg.workers or os.cpu_count() or 1, len(todo) or 1))
-    wcfg = {k: v for k, v in asdict(cfg).items()}
+    wcfg = {**asdict(cfg), "obs_mode": obs_mode}  # the workers' env observes what the method reads
     bar = tqdm(
         total=len(episodes), initial=len(done), desc=f"{cfg.run_name} {cfg.split}", disable=not progress
     )
