@@ -98,6 +98,13 @@ def test_suite_runs_resumes_and_logs(held_out_dataset, tmp_path, monkeypatch):
     atomic_write_text(tmp_path / "suite.json", json.dumps(log))
     run_suite(tmp_path, ["random"], echo=lines.append, **args)
     assert Suite(tmp_path).log["runs"]["random/ms_val/ideal"]["seconds"] < 1e6
+    # a run skipped by an earlier version that runs now loses the skip's reason
+    log = Suite(tmp_path).log
+    log["runs"]["oracle/ms_val/ideal"].update(status="skipped", reason="refused then")
+    atomic_write_text(tmp_path / "suite.json", json.dumps(log))
+    run_suite(tmp_path, ["oracle"], echo=lines.append, **args)
+    entry = Suite(tmp_path).log["runs"]["oracle/ms_val/ideal"]
+    assert entry["status"] == "done" and "reason" not in entry
 
 
 def test_cli_checkpoint_option_is_checked(tmp_path):
