@@ -105,6 +105,11 @@ def test_suite_runs_resumes_and_logs(held_out_dataset, tmp_path, monkeypatch):
     run_suite(tmp_path, ["oracle"], echo=lines.append, **args)
     entry = Suite(tmp_path).log["runs"]["oracle/ms_val/ideal"]
     assert entry["status"] == "done" and "reason" not in entry
+    # and a run made before that is skipped now keeps no SR of its own beside the skip
+    suite = Suite(tmp_path)
+    suite._note("oracle/ms_val/ideal", status="skipped", reason="refused now")
+    entry = Suite(tmp_path).log["runs"]["oracle/ms_val/ideal"]
+    assert entry["reason"] == "refused now" and not {"sr", "episodes", "errors"} & set(entry)
 
 
 def test_cli_checkpoint_option_is_checked(tmp_path):

@@ -118,7 +118,8 @@ _BC_NOTE = (
     "takes them when you have them); the paper fine-tuned ImageNet weights at 224 px for up to 500 "
     "epochs on a GPU. The budget of a run is in its `history.json` (the learning guide: the budget of ours). "
     "The benchmark trains it on frontier's recordings of 200 train-split episodes, so that no evaluated "
-    "split is trained on; the paper's BC learned from MS DEV and Two-Room, whose template ours never sees."
+    "split is trained on; the paper's BC learned from MS DEV and Two-Room; ours never sees the Two-Room "
+    "template."
 )
 
 # The one registry: a new method is its policy file plus one entry here.

@@ -118,7 +118,8 @@ class Suite:
     def _note(self, key: str, **fields) -> None:
         entry = self.log["runs"].setdefault(key, {"seconds": 0.0})
         if fields.get("status", entry.get("status")) != entry.get("status"):
-            entry.pop("reason", None)  # a skip's reason does not outlive the skip
+            for stale in set(entry) - {"seconds"}:  # a skip's reason, a run's SR: not beyond their status
+                del entry[stale]
         seconds = fields.pop("seconds", 0.0)
         entry.update(fields, seconds=round(entry["seconds"] + seconds, 1))
         self._save()
