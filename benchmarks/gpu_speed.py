@@ -27,6 +27,12 @@ before):
   num_envs = 1, rendered by the GPU; needs no PhysX GPU library), and both step rates.
 * ``cpu_ref``: the same env on ``physx_cpu`` (num_envs = 1): state-only, and RGB-D 128x128 rendered by the
   GPU (needs no PhysX GPU library), and PickCube-v1 on the CPU.
+* ``ppo``: issue 14 item 4's recipe: Stable-Baselines3 PPO on one batched ``BioVLN-OpFace-RL-v0`` of
+  ``PPO_ENVS`` sub-envs on ``physx_cuda`` (``RLConfig.sim_backend``, ``BatchedVecEnv``) for
+  ``PPO_TIMESTEPS`` steps on the train split, then MS VAL through the harness (CPU workers, as every
+  evaluation): steps/s, wall time, SR. Not in ``run_all.sh``'s default order (it needs a call of its own:
+  ``bash scripts/gpu/run_all.sh meta,ppo``); its run folder (``model.zip``, TensorBoard logs,
+  ``learning_curve.png``) goes to ``DIR/ppo``.
 * ``lighting``: the frame cost of the lighting presets (issue 18 item 1), ``quality`` against ``fast`` at
   640x480 and 128x128, as ``benchmarks/lighting.py`` measures it on the CPU: the env on ``physx_cpu``
   (num_envs = 1, rendered by the GPU; needs no PhysX GPU library) turning in place, ms per ``step`` with its
@@ -65,10 +71,14 @@ SECTIONS = (
     "depth_pack",
     "cpu_ref",
     "lighting",
+    "ppo",
 )
+PPO_ENVS = 256
+PPO_TIMESTEPS = 600_000  # twice the CPU recipe's (benchmarks/rl_learning.py), which reaches 100 % on MS VAL
+PPO_HYPERPARAMS = {"n_steps": 64, "batch_size": 2048}  # 16,384 steps per rollout, 8 minibatches
 LIGHTING_SIZES = ((640, 480), (128, 128))
 LIGHTING_PRESETS = ("fast", "quality")
-NEEDS_PHYSX_GPU = ("state", "state_autoreset", "rgbd", "pickcube", "equivalence", "render")
+NEEDS_PHYSX_GPU = ("state", "state_autoreset", "rgbd", "pickcube", "equivalence", "render", "ppo")
 ENV_ID = "BioVLN-OpFace-v0"
 SPLIT = "ms_val"  # one scene (seed 154), 50 episodes: partial resets never change a sub-env's scene
 
@@ -624,6 +634,33 @@ def lighting_speed(preset: str, size: tuple[int, int], sizes: Sizes) -> dict:
         env.close()
 
 
+def ppo_recipe(sizes: Sizes, out: Path) -> dict:
+    """SB3 PPO on one batched RL env, then MS VAL through the harness (the ``ppo`` section)."""
+    from biovln_ms.eval.learned import train_and_evaluate
+    from biovln_ms.learning.rl import RLConfig
+
+    smoke = sizes.smoke
+    cfg = RLConfig(
+        timesteps=128 if smoke else PPO_TIMESTEPS,
+        n_envs=1 if smoke else PPO_ENVS,  # physx_cpu holds one sub-env
+        sim_backend=backend(smoke)["sim_backend"],
+        eval_split=SPLIT,
+        eval_episodes=2 if smoke else None,
+        hyperparams={"n_steps": 32, "batch_size": 32} if smoke else PPO_HYPERPARAMS,
+    )
+    r = train_and_evaluate(cfg, out / "ppo", echo=print, progress=False)
+    overall = r.eval_summary["overall"]
+    return dict(
+        num_envs=cfg.n_envs,
+        timesteps=r.timesteps,
+        train_minutes=round(r.minutes, 2),
+        steps_per_s=round(r.steps_per_second, 1),
+        train_success_last_100=round(100 * r.final_success_rate, 1),
+        ms_val_sr=round(overall["sr"], 1),
+        ms_val_episodes=overall["episodes"],
+    )
+
+
 # --- the sections ---------------------------------------------------------------------------------------
 def run_section(name: str, results: Results, sizes: Sizes) -> None:
     if name == "meta":
@@ -671,6 +708,8 @@ def run_section(name: str, results: Results, sizes: Sizes) -> None:
         for w, h in LIGHTING_SIZES:
             for preset in LIGHTING_PRESETS:
                 guarded(results, "lighting", f"{preset}_{w}x{h}", lighting_speed, preset, (w, h), light)
+    elif name == "ppo":
+        guarded(results, "ppo", str(PPO_ENVS if not sizes.smoke else 1), ppo_recipe, sizes, results.out)
     else:
         raise SystemExit(f"unknown section {name!r}; known: {', '.join(SECTIONS)}")
 
@@ -800,6 +839,16 @@ def markdown(data: dict) -> str:
             f"at most {e['depth_max_diff_mm']} mm; {e['depth_dtype']}), segmentation identical "
             f"{e['segmentation_identical']}; steps/s {e['depth+segmentation_steps_per_s']} against "
             f"{e['rgb+depth+segmentation_steps_per_s']}"
+        ),
+    )
+    bullets(
+        "ppo",
+        "PPO on one batched RL env (issue 14 item 4)",
+        "ms_val_sr",
+        lambda k, e: (
+            f"- {e['num_envs']} sub-envs: {e['timesteps']:,} steps in {e['train_minutes']} min "
+            f"({e['steps_per_s']:,.0f} steps/s), last-100 training success {e['train_success_last_100']} %; "
+            f"MS VAL SR {e['ms_val_sr']} % over {e['ms_val_episodes']} episodes"
         ),
     )
     lt = data.get("lighting")

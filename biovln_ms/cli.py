@@ -973,6 +973,7 @@ def _train_rl(
     seed: int,
     ray_address: Optional[str],
     dataset: Optional[Path],
+    sim_backend: Optional[str] = None,
 ) -> None:
     from biovln_ms.eval.learned import train_and_evaluate
     from biovln_ms.learning.rl import RLConfig
@@ -984,6 +985,7 @@ def _train_rl(
         split=split,
         seed=seed,
         ray_address=ray_address,
+        sim_backend=sim_backend,
         eval_split=eval_split or None,
         eval_episodes=eval_episodes,
         dataset=str(dataset) if dataset else None,
@@ -1012,8 +1014,25 @@ def _rl_command(algo: str):
             None, help="Envs on Ray actors: 'local', 'auto' or 'ray://host:port'."
         ),
         dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
+        sim_backend: Optional[str] = typer.Option(
+            None,
+            help="One batched env of --n-envs sub-envs on this backend (physx_cuda on a GPU; physx_cpu "
+            "allows one) instead of one process per env.",
+        ),
     ) -> None:
-        _train_rl(algo, timesteps, out, n_envs, split, eval_split, eval_episodes, seed, ray_address, dataset)
+        _train_rl(
+            algo,
+            timesteps,
+            out,
+            n_envs,
+            split,
+            eval_split,
+            eval_episodes,
+            seed,
+            ray_address,
+            dataset,
+            sim_backend,
+        )
 
     command.__doc__ = (
         f"{algo.upper()} with Stable-Baselines3 on the RL env.\n\n{RL_ENV}: TensorBoard logs, checkpoints, "

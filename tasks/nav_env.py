@@ -30,7 +30,13 @@ from biovln_ms.agents.robots import NAV_AGENTS
 from biovln_ms.agents.robots.biovln_base import CONTROL_MODES
 from biovln_ms.benchmark import dataset_root
 from biovln_ms.catalog import load_catalog
-from biovln_ms.episodes.source import DatasetEpisodes, EpisodeCursor, EpisodeSource, GeneratedEpisodes
+from biovln_ms.episodes.source import (
+    EPISODE_OPTIONS,
+    DatasetEpisodes,
+    EpisodeCursor,
+    EpisodeSource,
+    GeneratedEpisodes,
+)
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.motion import SweptMotion
 from biovln_ms.scene.rules import floor_polygon, scene_navigation
@@ -238,9 +244,15 @@ class BioVLNNavEnv(BaseEnv):
             if env_idx is None
             else [int(i) for i in torch.as_tensor(env_idx).reshape(-1)]
         )
+        if env_idx is not None:  # ManiSkill's SB3 wrapper passes NumPy indices; the base env wants a tensor
+            options["env_idx"] = torch.tensor(rows, dtype=torch.int64, device=self.device)
         cursor_seed = seed
+        in_scene = self.num_envs > 1 and env_idx is not None and not EPISODE_OPTIONS & set(options)
         for i in rows:
-            self._episode_index[i] = self.cursor.select(cursor_seed, options)
+            if in_scene:  # a partial reset cannot rebuild a sub-env's scene: its next episode is there
+                self._episode_index[i] = self.cursor.next_in_scene(self._scene_ids[i])
+            else:
+                self._episode_index[i] = self.cursor.select(cursor_seed, options)
             self._episodes[i] = self.source.episodes[self._episode_index[i]]
             cursor_seed = (
                 None  # a seed positions the cursor once; further sub-envs take the episodes after it

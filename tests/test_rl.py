@@ -74,3 +74,31 @@ def test_ray_vec_env_trains_sb3_on_a_local_ray_instance(dataset):
     finally:
         venv.close()
     assert isinstance(venv.action_space, gym.spaces.Discrete)
+
+
+def test_batched_vec_env_resets_finished_sub_envs_in_place_and_trains_sb3(dataset):
+    """One batched env for SB3 (``RLConfig.sim_backend``: N sub-envs on physx_cuda; here 1 on the CPU)."""
+    from stable_baselines3 import PPO
+
+    from biovln_ms.learning.batched_vec_env import BatchedVecEnv
+    from biovln_ms.learning.rl import make_vec_env
+
+    venv = make_vec_env(RLConfig(sim_backend="physx_cpu", n_envs=1, dataset=dataset))
+    try:
+        assert isinstance(venv.venv, BatchedVecEnv)
+        obs = venv.reset()
+        assert obs.shape == (1, *venv.observation_space.shape) and obs.dtype == np.float32
+        obs, rew, done, infos = venv.step(np.array([1]))  # FORWARD: the episode goes on, no info
+        assert not done[0] and infos == [{}] and rew.dtype == np.float32
+        # STOP ends it: reported once (VecMonitor's episode, the task's success, the terminal observation),
+        # and the sub-env is reset in place by a partial reset with NumPy indices, as SB3 wrappers pass
+        obs, rew, done, infos = venv.step(np.array([0]))
+        assert done[0] and infos[0]["episode"]["l"] == 2 and infos[0]["success"] in (0.0, 1.0)
+        assert infos[0]["terminal_observation"].shape == obs.shape[1:]
+        assert not np.array_equal(infos[0]["terminal_observation"], obs[0])  # a new episode's first view
+        assert venv.get_attr("num_envs") == [1]
+        model = PPO("MlpPolicy", venv, n_steps=32, batch_size=32, n_epochs=1, device="cpu")
+        model.learn(64)
+        assert model.num_timesteps >= 64
+    finally:
+        venv.close()

@@ -35,6 +35,10 @@ class EpisodeSource:
         )
 
 
+#: the reset options that name an episode (``EpisodeCursor.select`` consumes them)
+EPISODE_OPTIONS = frozenset({"episode_index", "episode_id"})
+
+
 class EpisodeCursor:
     """Which episode a reset starts (Habitat's episode iterator): dataset order, or (``shuffle``) a fixed
     shuffle that keeps each scene's episodes together, so a scene is rebuilt once per pass, not per
@@ -44,6 +48,8 @@ class EpisodeCursor:
         self.source = source
         self.order = self._shuffled() if shuffle else list(range(len(source)))
         self.position = -1
+        self._scene_order: dict[str, list[int]] = {}  # scene -> its episodes, in this cursor's order
+        self._scene_position: dict[str, int] = {}
 
     def _shuffled(self) -> list[int]:
         rng = np.random.default_rng(0)
@@ -83,6 +89,16 @@ class EpisodeCursor:
         else:
             self.position = (self.position + 1) % len(self.order)
         return self.order[self.position]
+
+    def next_in_scene(self, scene_id: str) -> int:
+        """The next episode of ``scene_id`` in this cursor's order, cycling: a partial reset of a batched
+        env keeps its sub-env's scene (ManiSkill rebuilds scenes only when all sub-envs reset)."""
+        if scene_id not in self._scene_order:
+            episodes = self.source.episodes
+            self._scene_order[scene_id] = [i for i in self.order if episodes[i]["scene_id"] == scene_id]
+        order = self._scene_order[scene_id]
+        k = self._scene_position[scene_id] = (self._scene_position.get(scene_id, -1) + 1) % len(order)
+        return order[k]
 
 
 class DatasetEpisodes(EpisodeSource):

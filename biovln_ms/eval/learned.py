@@ -25,7 +25,7 @@ def train_and_evaluate(
             str(Path(out) / "eval"),
             cfg.dataset,
             cfg.env_id,
-            workers=cfg.n_envs,
+            workers=None if cfg.sim_backend else cfg.n_envs,  # one batched env trained: a worker per core
             max_episodes=cfg.eval_episodes,
             method_kwargs={"checkpoint": str(result.model)},
         ),

@@ -39,6 +39,9 @@ class RLConfig:
     eval_split: str | None = "ms_val"  # evaluated through the harness after training (None: skip)
     eval_episodes: int | None = None
     ray_address: str | None = None  # run the envs on Ray actors ("local", "auto", "ray://host:port")
+    #: one batched env of n_envs sub-envs on this backend (e.g. "physx_cuda"), stepped by BatchedVecEnv;
+    #: None: one env per process
+    sim_backend: str | None = None
     hyperparams: dict = field(default_factory=dict)  # passed to the SB3 constructor (e.g. n_steps, ent_coef)
 
     def defaults(self) -> dict:
@@ -93,21 +96,24 @@ def save_model(model, path: Path) -> Path:
 
 
 def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
-    """SubprocVecEnv (spawn) of ``n_envs`` single-env processes, or a RayVecEnv; wrapped in VecMonitor."""
+    """SubprocVecEnv (spawn) of ``n_envs`` single-env processes, a RayVecEnv, or one batched env of
+    ``n_envs`` sub-envs on ``cfg.sim_backend`` (BatchedVecEnv); wrapped in VecMonitor."""
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
     from biovln_ms.wrappers import make_gym_env
 
     n = n_envs or cfg.n_envs
-    factory = partial(
-        make_gym_env,
-        cfg.env_id,
-        split=cfg.split,
-        dataset=cfg.dataset,
-        control_mode=SB3_CONTROL_MODES[cfg.algo],
-        obs_mode="state",
+    env_kwargs = dict(
+        split=cfg.split, dataset=cfg.dataset, control_mode=SB3_CONTROL_MODES[cfg.algo], obs_mode="state"
     )
-    if cfg.ray_address:
+    factory = partial(make_gym_env, cfg.env_id, **env_kwargs)
+    if cfg.sim_backend:
+        import gymnasium as gym
+
+        from biovln_ms.learning.batched_vec_env import BatchedVecEnv
+
+        venv = BatchedVecEnv(gym.make(cfg.env_id, num_envs=n, sim_backend=cfg.sim_backend, **env_kwargs))
+    elif cfg.ray_address:
         from biovln_ms.learning.ray_vec_env import RayVecEnv
 
         venv = RayVecEnv([factory] * n, address=cfg.ray_address)
@@ -150,7 +156,7 @@ def train_rl(
             "MlpPolicy",
             venv,
             seed=cfg.seed,
-            device="cpu",
+            device="cuda" if cfg.sim_backend in ("physx_cuda", "gpu") else "cpu",
             verbose=0,
             tensorboard_log=str(out / "tb"),
             **cfg.defaults(),

@@ -1,0 +1,27 @@
+"""Which episode a reset starts: the cursor's order; a batched env's partial resets stay in their scene."""
+
+from biovln_ms.episodes.source import EpisodeCursor, EpisodeSource
+
+
+class _Episodes(EpisodeSource):
+    def __init__(self, scenes: dict[str, int]) -> None:
+        self.episodes = [{"scene_id": s, "episode_id": str(k)} for s, n in scenes.items() for k in range(n)]
+
+
+def test_shuffle_keeps_each_scenes_episodes_together_and_is_fixed():
+    source = _Episodes({"a": 3, "b": 4, "c": 2})
+    order = EpisodeCursor(source, shuffle=True).order
+    assert order == EpisodeCursor(source, shuffle=True).order and sorted(order) == list(range(9))
+    scenes = [source.episodes[i]["scene_id"] for i in order]
+    runs = [s for k, s in enumerate(scenes) if k == 0 or s != scenes[k - 1]]
+    assert sorted(runs) == ["a", "b", "c"]  # each scene once: rebuilt once per pass
+
+
+def test_next_in_scene_cycles_through_that_scenes_episodes_in_the_cursors_order():
+    source = _Episodes({"a": 3, "b": 4})
+    cursor = EpisodeCursor(source, shuffle=True)
+    in_b = [i for i in cursor.order if source.episodes[i]["scene_id"] == "b"]
+    assert [cursor.next_in_scene("b") for _ in range(6)] == in_b + in_b[:2]
+    assert cursor.next_in_scene("a") == next(i for i in cursor.order if source.episodes[i]["scene_id"] == "a")
+    # the scene cycles do not move the cursor's own position (the next full reset)
+    assert cursor.select(None, {}) == cursor.order[0]
