@@ -102,3 +102,25 @@ def test_batched_vec_env_resets_finished_sub_envs_in_place_and_trains_sb3(datase
         assert model.num_timesteps >= 64
     finally:
         venv.close()
+
+
+def test_one_batched_sub_env_trains_the_same_model_as_one_env_process(dataset, tmp_path):
+    """On physx_cpu the batched path (one sub-env) steps exactly as the process path: same model bits."""
+    import torch
+
+    from biovln_ms.learning.sb3_safe import load_sb3_model
+
+    weights = []
+    for backend in (None, "physx_cpu"):
+        cfg = RLConfig(
+            timesteps=256,
+            n_envs=1,
+            dataset=dataset,
+            eval_split=None,
+            sim_backend=backend,
+            hyperparams={"n_steps": 128, "batch_size": 64},
+        )
+        r = train_rl(cfg, tmp_path / str(backend), echo=lambda s: None, progress=False)
+        policy = load_sb3_model(r.model, "ppo").policy
+        weights.append(torch.cat([p.detach().flatten() for p in policy.parameters()]))
+    assert torch.equal(weights[0], weights[1])

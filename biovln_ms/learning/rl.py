@@ -109,9 +109,12 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
     factory = partial(make_gym_env, cfg.env_id, **env_kwargs)
     if cfg.sim_backend:
         import gymnasium as gym
+        import torch
 
         from biovln_ms.learning.batched_vec_env import BatchedVecEnv
 
+        if cfg.sim_backend == "physx_cpu":  # one torch thread, as make_gym_env: the process path's bits
+            torch.set_num_threads(1)
         venv = BatchedVecEnv(gym.make(cfg.env_id, num_envs=n, sim_backend=cfg.sim_backend, **env_kwargs))
     elif cfg.ray_address:
         from biovln_ms.learning.ray_vec_env import RayVecEnv
