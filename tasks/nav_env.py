@@ -239,31 +239,32 @@ class BioVLNNavEnv(BaseEnv):
         self._check_open()
         options = dict(options or {})
         env_idx = options.get("env_idx")
-        rows = (
-            range(self.num_envs)
-            if env_idx is None
-            else [int(i) for i in torch.as_tensor(env_idx).reshape(-1)]
-        )
+        rows = range(self.num_envs) if env_idx is None else torch.as_tensor(env_idx).reshape(-1).tolist()
         if env_idx is not None:  # ManiSkill's SB3 wrapper passes NumPy indices; the base env wants a tensor
             options["env_idx"] = torch.tensor(rows, dtype=torch.int64, device=self.device)
-        cursor_seed = seed
+        # a partial reset of a batched env cannot rebuild a sub-env's scene: its next episode is there
+        # (a seed does not move the cursor then); otherwise the cursor's, a seed positioning it once
         in_scene = self.num_envs > 1 and env_idx is not None and not EPISODE_OPTIONS & set(options)
+        chosen, cursor_seed = {}, seed
         for i in rows:
-            if in_scene:  # a partial reset cannot rebuild a sub-env's scene: its next episode is there
-                self._episode_index[i] = self.cursor.next_in_scene(self._scene_ids[i])
+            if in_scene:
+                chosen[i] = self.cursor.next_in_scene(self._scene_ids[i])
             else:
-                self._episode_index[i] = self.cursor.select(cursor_seed, options)
-            self._episodes[i] = self.source.episodes[self._episode_index[i]]
-            cursor_seed = (
-                None  # a seed positions the cursor once; further sub-envs take the episodes after it
+                chosen[i], cursor_seed = self.cursor.select(cursor_seed, options), None
+        episodes = [
+            self.source.episodes[chosen[i]] if i in chosen else e for i, e in enumerate(self._episodes)
+        ]
+        changed = [ep["scene_id"] for ep in episodes] != self._scene_ids
+        if changed and self.num_envs > 1 and env_idx is not None:
+            raise EnvConfigError(
+                "a partial reset cannot change a sub-env's scene on the GPU",
+                field="env_idx",
+                fix="reset all sub-envs (reconfigure), or keep each sub-env's episodes in its scene",
             )
-        if [ep["scene_id"] for ep in self._episodes] != self._scene_ids:
-            if self.num_envs > 1 and env_idx is not None:
-                raise EnvConfigError(
-                    "a partial reset cannot change a sub-env's scene on the GPU",
-                    field="env_idx",
-                    fix="reset all sub-envs (reconfigure), or keep each sub-env's episodes in its scene",
-                )
+        for i, k in chosen.items():
+            self._episode_index[i] = k
+        self._episodes = episodes
+        if changed:
             self._set_scenes()
             options["reconfigure"] = True
         return super().reset(seed=seed, options=options)

@@ -96,7 +96,8 @@ def test_batched_vec_env_resets_finished_sub_envs_in_place_and_trains_sb3(datase
         assert done[0] and infos[0]["episode"]["l"] == 2 and infos[0]["success"] in (0.0, 1.0)
         assert infos[0]["terminal_observation"].shape == obs.shape[1:]
         assert not np.array_equal(infos[0]["terminal_observation"], obs[0])  # a new episode's first view
-        assert venv.get_attr("num_envs") == [1]
+        with pytest.raises(BioVLNError, match="whole batched env"):
+            venv.env_method("reset", indices=[0, 0])
         model = PPO("MlpPolicy", venv, n_steps=32, batch_size=32, n_epochs=1, device="cpu")
         model.learn(64)
         assert model.num_timesteps >= 64
@@ -104,14 +105,17 @@ def test_batched_vec_env_resets_finished_sub_envs_in_place_and_trains_sb3(datase
         venv.close()
 
 
-def test_one_batched_sub_env_trains_the_same_model_as_one_env_process(dataset, tmp_path):
-    """On physx_cpu the batched path (one sub-env) steps exactly as the process path: same model bits."""
+def test_one_batched_sub_env_trains_the_same_model_as_one_env_in_process(dataset, tmp_path):
+    """On physx_cpu the batched path (one sub-env) steps exactly as the one-env path (DummyVecEnv, in
+    process), and takes one torch thread as it does: the same model, bit for bit."""
     import torch
 
     from biovln_ms.learning.sb3_safe import load_sb3_model
 
+    threads = torch.get_num_threads()
+    torch.set_num_threads(2)  # the batched path must set one thread itself (it runs first)
     weights = []
-    for backend in (None, "physx_cpu"):
+    for backend in ("physx_cpu", None):
         cfg = RLConfig(
             timesteps=256,
             n_envs=1,
@@ -123,4 +127,28 @@ def test_one_batched_sub_env_trains_the_same_model_as_one_env_process(dataset, t
         r = train_rl(cfg, tmp_path / str(backend), echo=lambda s: None, progress=False)
         policy = load_sb3_model(r.model, "ppo").policy
         weights.append(torch.cat([p.detach().flatten() for p in policy.parameters()]))
+    torch.set_num_threads(threads)
     assert torch.equal(weights[0], weights[1])
+    with pytest.raises(BioVLNError, match="not on Ray actors"):
+        train_rl(RLConfig(sim_backend="physx_cuda", ray_address="local"), tmp_path)
+
+
+def test_batched_vec_env_rotates_all_sub_envs_on_through_the_split(dataset):
+    """``rotate_every``: every running episode ends as truncated; all sub-envs move to the next episodes."""
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from biovln_ms.learning.batched_vec_env import BatchedVecEnv
+
+    env = gym.make("BioVLN-OpFace-RL-v0", num_envs=1, obs_mode="state", split="train", dataset=dataset)
+    venv = VecMonitor(BatchedVecEnv(env, rotate_every=3), info_keywords=("success",))
+    try:
+        venv.reset()
+        first = env.unwrapped._episode_index[0]
+        for _ in range(2):
+            _, _, done, _ = venv.step(np.array([2]))  # TURN_LEFT: the episode goes on
+            assert not done[0]
+        _, _, done, infos = venv.step(np.array([2]))
+        assert done[0] and infos[0]["TimeLimit.truncated"] and infos[0]["episode"]["l"] == 3
+        assert env.unwrapped._episode_index[0] != first
+    finally:
+        venv.close()

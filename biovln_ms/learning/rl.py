@@ -40,8 +40,11 @@ class RLConfig:
     eval_episodes: int | None = None
     ray_address: str | None = None  # run the envs on Ray actors ("local", "auto", "ray://host:port")
     #: one batched env of n_envs sub-envs on this backend (e.g. "physx_cuda"), stepped by BatchedVecEnv;
-    #: None: one env per process
+    #: None: one env per process. On physx_cpu it sets torch to one thread, as make_gym_env does.
     sim_backend: str | None = None
+    #: batched steps between resets of all sub-envs (BatchedVecEnv.rotate_every; with n_envs > 1), which
+    #: move them on through the split's scenes; the default is the step limit (500)
+    rotate_scenes_every: int | None = 500
     hyperparams: dict = field(default_factory=dict)  # passed to the SB3 constructor (e.g. n_steps, ent_coef)
 
     def defaults(self) -> dict:
@@ -115,7 +118,8 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
 
         if cfg.sim_backend == "physx_cpu":  # one torch thread, as make_gym_env: the process path's bits
             torch.set_num_threads(1)
-        venv = BatchedVecEnv(gym.make(cfg.env_id, num_envs=n, sim_backend=cfg.sim_backend, **env_kwargs))
+        env = gym.make(cfg.env_id, num_envs=n, sim_backend=cfg.sim_backend, **env_kwargs)
+        venv = BatchedVecEnv(env, rotate_every=cfg.rotate_scenes_every if n > 1 else None)
     elif cfg.ray_address:
         from biovln_ms.learning.ray_vec_env import RayVecEnv
 
@@ -153,13 +157,20 @@ def train_rl(
             field="timesteps",
             fix="e.g. --timesteps 200000",
         )
+    if cfg.sim_backend and cfg.ray_address:
+        raise BioVLNError(
+            "a batched env (sim_backend) runs in this process, not on Ray actors",
+            field="sim_backend",
+            fix="drop --ray-address, or --sim-backend",
+        )
     venv = make_vec_env(cfg)
+    device = str(venv.venv.base.device) if cfg.sim_backend else "cpu"  # where the batched env steps
     try:
         model = cls(
             "MlpPolicy",
             venv,
             seed=cfg.seed,
-            device="cuda" if cfg.sim_backend in ("physx_cuda", "gpu") else "cpu",
+            device=device,
             verbose=0,
             tensorboard_log=str(out / "tb"),
             **cfg.defaults(),
