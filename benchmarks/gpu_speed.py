@@ -92,6 +92,7 @@ class Sizes:
         self.autoreset_n = (1,) if smoke else (256,)
         self.rgbd_n = (1,) if smoke else (64, 256)
         self.pickcube_n = 1 if smoke else 1024
+        self.ppo_n = 1 if smoke else PPO_ENVS  # physx_cpu holds one sub-env
         self.render_n = 1 if smoke else 4
         self.episodes = 2 if smoke else 8
         self.random_walk = 30 if smoke else 120  # moves before the final STOP of a random-walk episode
@@ -642,7 +643,7 @@ def ppo_recipe(sizes: Sizes, out: Path) -> dict:
     smoke = sizes.smoke
     cfg = RLConfig(
         timesteps=128 if smoke else PPO_TIMESTEPS,
-        n_envs=1 if smoke else PPO_ENVS,  # physx_cpu holds one sub-env
+        n_envs=sizes.ppo_n,
         sim_backend=backend(smoke)["sim_backend"],
         eval_split=SPLIT,
         eval_episodes=2 if smoke else None,
@@ -709,7 +710,7 @@ def run_section(name: str, results: Results, sizes: Sizes) -> None:
             for preset in LIGHTING_PRESETS:
                 guarded(results, "lighting", f"{preset}_{w}x{h}", lighting_speed, preset, (w, h), light)
     elif name == "ppo":
-        guarded(results, "ppo", str(PPO_ENVS if not sizes.smoke else 1), ppo_recipe, sizes, results.out)
+        guarded(results, "ppo", str(sizes.ppo_n), ppo_recipe, sizes, results.out)
     else:
         raise SystemExit(f"unknown section {name!r}; known: {', '.join(SECTIONS)}")
 

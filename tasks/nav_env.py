@@ -244,7 +244,8 @@ class BioVLNNavEnv(BaseEnv):
             options["env_idx"] = torch.tensor(rows, dtype=torch.int64, device=self.device)
         # a partial reset of a batched env cannot rebuild a sub-env's scene: its next episode is there
         # (a seed does not move the cursor then); otherwise the cursor's, a seed positioning it once
-        in_scene = self.num_envs > 1 and env_idx is not None and not EPISODE_OPTIONS & set(options)
+        partial = self.num_envs > 1 and env_idx is not None
+        in_scene = partial and not EPISODE_OPTIONS & set(options)
         chosen, cursor_seed = {}, seed
         for i in rows:
             if in_scene:
@@ -255,7 +256,7 @@ class BioVLNNavEnv(BaseEnv):
             self.source.episodes[chosen[i]] if i in chosen else e for i, e in enumerate(self._episodes)
         ]
         changed = [ep["scene_id"] for ep in episodes] != self._scene_ids
-        if changed and self.num_envs > 1 and env_idx is not None:
+        if changed and partial:
             raise EnvConfigError(
                 "a partial reset cannot change a sub-env's scene on the GPU",
                 field="env_idx",

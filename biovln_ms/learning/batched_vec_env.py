@@ -25,13 +25,10 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch
+from mani_skill.utils.common import to_numpy
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices
 
 from biovln_ms.errors import BioVLNError
-
-
-def _numpy(x: torch.Tensor | np.ndarray) -> np.ndarray:
-    return x.detach().cpu().numpy() if isinstance(x, torch.Tensor) else np.asarray(x)
 
 
 class BatchedVecEnv(VecEnv):
@@ -53,7 +50,7 @@ class BatchedVecEnv(VecEnv):
         obs, _ = self.env.reset(seed=self._seed)
         self._seed = None  # a seed places the episode cursor once, as SB3's seed() promises
         self.reset_infos = [{} for _ in range(self.num_envs)]
-        return _numpy(obs)
+        return to_numpy(obs)
 
     def seed(self, seed: int | None = None) -> list[int | None]:
         self._seed = seed
@@ -65,14 +62,14 @@ class BatchedVecEnv(VecEnv):
     def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
         actions = torch.as_tensor(self._actions, device=self.base.device)
         obs, reward, terminated, truncated, info = self.env.step(actions)
-        obs = _numpy(obs).copy()
-        terminated, truncated = _numpy(terminated).astype(bool), _numpy(truncated).astype(bool)
+        obs = to_numpy(obs).copy()
+        terminated, truncated = to_numpy(terminated, bool), to_numpy(truncated, bool)
         self._steps += 1
         rotate = bool(self.rotate_every) and self._steps % self.rotate_every == 0
         if rotate:
             truncated = truncated | ~terminated  # every episode ends here: the running ones as truncated
         done = terminated | truncated
-        success = _numpy(info["success"]) if "success" in info else np.zeros(self.num_envs, bool)
+        success = to_numpy(info["success"]) if "success" in info else np.zeros(self.num_envs, bool)
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         finished = np.flatnonzero(done)
         for i in finished:
@@ -82,11 +79,11 @@ class BatchedVecEnv(VecEnv):
                 "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
             }
         if rotate:
-            obs = _numpy(self.env.reset()[0]).copy()  # the split's next episodes and scenes
+            obs = to_numpy(self.env.reset()[0]).copy()  # the split's next episodes and scenes
         elif finished.size:
             fresh, _ = self.env.reset(options={"env_idx": finished})
-            obs[finished] = _numpy(fresh)[finished]
-        return obs, _numpy(reward).astype(np.float32), done, infos
+            obs[finished] = to_numpy(fresh)[finished]
+        return obs, to_numpy(reward, np.float32), done, infos
 
     def close(self) -> None:
         self.env.close()
