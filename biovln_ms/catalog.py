@@ -5,8 +5,10 @@ The data lives in ``assets/catalog.json``; this module validates it and gives ty
 
 from __future__ import annotations
 
+import colorsys
 import hashlib
 import json
+import os
 import re
 from functools import lru_cache
 from pathlib import Path
@@ -27,6 +29,9 @@ from rapidfuzz import process as fuzz_process
 from biovln_ms.errors import CatalogError, describe_validation_error
 from biovln_ms.paths import CATALOG_PATH
 
+#: Environment variable naming a catalog file to use instead of the packaged one (a catalog grown by an
+#: instrument of one's own; ``load_catalog()`` reads it when called without a path).
+CATALOG_ENV = "BIOVLN_CATALOG"
 Face = Literal["+X", "-X", "+Y", "-Y"]
 Placement = Literal["wall", "table_top", "floor", "furniture"]
 Mount = Literal["wall", "table_top", "floor"]
@@ -68,6 +73,13 @@ def name_tokens(text: str) -> tuple[str, ...]:
     return tuple(w.lower() for w in words if w and not w.isdigit())
 
 
+def derived_map_color(name: str) -> str:
+    """A colour for ``name`` on top-down maps when its catalog entry gives none: a hue from the name's
+    SHA-256 at fixed saturation and value, so it is the same on every machine and run."""
+    hue = int.from_bytes(hashlib.sha256(name.encode()).digest()[:2], "big") / 65536
+    return "#" + "".join(f"{round(c * 255):02x}" for c in colorsys.hsv_to_rgb(hue, 0.65, 0.8))
+
+
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -103,6 +115,7 @@ class AssetSpec(_Strict):
     mount_height: float = Field(
         default=0.0, ge=0.0, le=3.0
     )  # lab dressing on a wall: its bottom above the floor
+    map_color: str | None = Field(default=None, pattern=r"^#[0-9a-f]{6}$")  # top-down maps; None: derived
     _zone2_clearance: float | None = PrivateAttr(default=None)  # set by the CatalogFile holding the asset
 
     @field_validator("dimensions")
@@ -159,6 +172,11 @@ class AssetSpec(_Strict):
                     f"interaction: point {list(self.interaction.point)} is not on the {self.face} side"
                 )
         return self
+
+    @property
+    def color(self) -> str:
+        """Its category's colour on top-down maps: ``map_color``, else :func:`derived_map_color`."""
+        return self.map_color or derived_map_color(self.name)
 
     @property
     def face_vector(self) -> np.ndarray | None:
@@ -317,15 +335,16 @@ class Catalog:
 
 
 def load_catalog(path: str | Path | None = None) -> Catalog:
-    """Load and validate a catalog file (default: the packaged ``assets/catalog.json``)."""
+    """Load and validate a catalog file (default: the file ``$BIOVLN_CATALOG`` names, else the packaged
+    ``assets/catalog.json``)."""
     if path is None:
-        return _default_catalog()
+        return _default_catalog(os.environ.get(CATALOG_ENV) or None)
     return _load(Path(path))
 
 
-@lru_cache(maxsize=1)
-def _default_catalog() -> Catalog:
-    return _load(CATALOG_PATH)
+@lru_cache(maxsize=4)
+def _default_catalog(override: str | None = None) -> Catalog:
+    return _load(CATALOG_PATH if override is None else Path(override))
 
 
 def _load(path: Path) -> Catalog:

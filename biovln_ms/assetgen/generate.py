@@ -56,7 +56,7 @@ def build_scene(plan: AssetPlan) -> trimesh.Scene:
         raise AssetError(
             f"no builder for asset '{plan.name}'",
             field="name",
-            fix="add a builder to biovln_ms/assetgen/instruments.py",
+            fix="add a module with an @instrument builder to biovln_ms/assetgen/instruments/",
         )
     sx, sy, sz = plan.dimensions
     across_x = abs(plan.model_face[0]) > 0.5

@@ -14,8 +14,12 @@ non-space character (``"Then, go to room B."`` -> ``then , go to room b .``). Id
 deterministically from the instruction grammar (:mod:`biovln_ms.protocols.instructions`: openings, verbs,
 connectives, relation words, compass words), the room names of the shipped scene templates, single letters
 and digits (room tags), the catalog's names and the purposes of the shipped protocols. A shipped file is
-never rewritten: when those sources change, the next version's file is written beside it
-(``python -m biovln_ms.protocols.vocabulary``) and :data:`VOCABULARY_VERSION` moves to it.
+never rewritten: when the grammar, templates or protocols change, the next version's file is written beside
+it (``python -m biovln_ms.protocols.vocabulary``) and :data:`VOCABULARY_VERSION` moves to it.
+
+The category part follows the catalog instead: the words of the catalog's names that a version's file lacks
+(a new instrument's) get the ids after the file's last token, sorted (:func:`load_vocabulary`). A new
+instrument so needs no new file, and the ids of a file's tokens never change.
 """
 
 from __future__ import annotations
@@ -139,8 +143,8 @@ def decode_text(data) -> str:
     return raw.rstrip(b"\x00").decode("utf-8")
 
 
-def _source_words() -> set[str]:
-    from biovln_ms.catalog import load_catalog
+def _grammar_words() -> set[str]:
+    """The words of the grammar, the templates' room names and the shipped protocols' purposes."""
     from biovln_ms.protocols import instructions as g
     from biovln_ms.protocols.library import load_protocols
     from biovln_ms.scene.templates import get_template, template_names
@@ -148,19 +152,52 @@ def _source_words() -> set[str]:
     texts = [*g.OPENINGS, *g.VERBS, *g.THEN, *g.FINALLY, *(p for p in g.PURPOSE_LINKS if p)]
     texts += [_RELATION_WORDS, *g.COMPASS, *string.ascii_lowercase, *string.digits]
     texts += [g.room_name(r.id) for name in template_names() for r in get_template(name).rooms]
-    texts += [g.spoken(name) for name in load_catalog().names()]
     texts += [v.purpose for p in load_protocols(env=False) for v in p.visits()]
     return {t for text in texts for t in tokenize(text)}
 
 
+def category_words(names: Iterable[str] | None = None) -> set[str]:
+    """The words of category names as instructions say them (default: the catalog's names)."""
+    from biovln_ms.catalog import load_catalog
+    from biovln_ms.protocols.instructions import spoken
+
+    return {
+        t for name in (load_catalog().names() if names is None else names) for t in tokenize(spoken(name))
+    }
+
+
+def _grown(tokens: tuple[str, ...], words: set[str]) -> tuple[str, ...]:
+    """``tokens`` followed by the ``words`` they lack, sorted (their ids follow the last token's)."""
+    return (*tokens, *sorted(words.difference(tokens)))
+
+
 def build_vocabulary(version: int = VOCABULARY_VERSION) -> Vocabulary:
-    """The vocabulary made from the current grammar, templates, catalog and shipped protocols."""
-    return Vocabulary(version, (PAD, UNK, *sorted(_source_words())))
+    """The vocabulary the current grammar, templates, shipped protocols and catalog make: sorted, but for
+    the catalog's words that ``version``'s shipped file lacks, which follow as :func:`load_vocabulary`
+    appends them (a version not written yet holds every catalog word sorted in)."""
+    cats = category_words()
+    held = set(_shipped_vocabulary(version).tokens) if vocabulary_path(version).exists() else cats
+    return Vocabulary(version, _grown((PAD, UNK, *sorted(_grammar_words() | (cats & held))), cats))
+
+
+def load_vocabulary(version: int = VOCABULARY_VERSION) -> Vocabulary:
+    """The shipped vocabulary file of ``version``, grown by the catalog's words the file lacks."""
+    from biovln_ms.catalog import load_catalog
+
+    return _catalog_vocabulary(version, tuple(load_catalog().names()))
 
 
 @cache
-def load_vocabulary(version: int = VOCABULARY_VERSION) -> Vocabulary:
-    """The shipped vocabulary file of ``version``."""
+def _catalog_vocabulary(version: int, names: tuple[str, ...]) -> Vocabulary:
+    shipped = _shipped_vocabulary(version)
+    tokens = _grown(shipped.tokens, category_words(names))
+    if tokens == shipped.tokens:
+        return shipped
+    return Vocabulary(shipped.version, tokens, shipped.max_tokens, shipped.max_text_bytes)
+
+
+@cache
+def _shipped_vocabulary(version: int) -> Vocabulary:
     path = vocabulary_path(version)
     try:
         obj = json.loads(path.read_text(encoding="utf-8"))

@@ -12,29 +12,19 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Circle, FancyArrow, Polygon as MplPolygon  # noqa: E402
 
+from biovln_ms.catalog import load_catalog  # noqa: E402
 from biovln_ms.scene.rules import scene_free_space  # noqa: E402
 from biovln_ms.scene.spec import SceneSpec  # noqa: E402
 
-CATEGORY_COLORS = {
-    "refrigerator": "#3b7dd8",
-    "incubator": "#d8643b",
-    "centrifuge": "#8e44ad",
-    "mini_centrifuge": "#b07cc6",
-    "pipette": "#16a085",
-    "cabinet": "#7f8c3b",
-    "waste_bin": "#e0b000",
-    "biosafety_cabinet": "#2e8b57",
-    "lab_bench": "#6d5a45",
-    "lab_table": "#8a7f72",
-    "fume_hood": "#c0392b",
-    "ultra_low_freezer": "#1f4e9c",
-    "autoclave": "#95a5a6",
-    "thermal_cycler": "#2c7a7b",
-    "microscope": "#34495e",
-    "water_bath": "#2e86c1",
-    "shaker": "#d35400",
-}
 DRESSING_COLOR = "#c8b89a"  # lab dressing: bodies in the way, no zones
+UNKNOWN_COLOR = "#999999"  # a category the catalog lacks
+
+
+def category_color(category: str) -> str:
+    """A category's colour on the map: its catalog entry's (``AssetSpec.color``), so a new instrument
+    brings its own."""
+    catalog = load_catalog()
+    return catalog.get(category).color if category in catalog else UNKNOWN_COLOR
 
 
 def _poly(ax, coords, **kw):
@@ -88,7 +78,7 @@ def draw_map(spec: SceneSpec, ax=None, show_free: bool = True, title: str | None
         )
     for o in [*spec.furniture, *spec.instruments]:
         p = o.placed()
-        color = CATEGORY_COLORS.get(o.category, "#999999")
+        color = category_color(o.category)
         if o.is_goal:
             _poly(
                 ax, p.zone3_corners(), facecolor=color, alpha=0.18, edgecolor=color, lw=1.0, ls="-", zorder=2
