@@ -377,7 +377,7 @@ def cpu_episodes(sizes: Sizes) -> list[dict]:
     but the last two, a seeded random walk ending in STOP for those), success, final pose, steps."""
     import torch
 
-    from biovln_ms.agents.oracle import OraclePolicy
+    from biovln_ms.baselines.oracle import OraclePolicy
 
     env = make_nav(1, "state", smoke=True)
     u = env.unwrapped

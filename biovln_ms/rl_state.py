@@ -1,6 +1,7 @@
 """The paper's RL state vector (the ``rl_state`` sensor of ``BioVLN-OpFace-RL-v0``), as one function of a
 pose, a goal and a clearance: the env computes it from the simulator's pose and clearance, and a policy
-without GPS+compass from its own estimates (``agents/sb3_policy.py``), so both read the same formula."""
+without GPS+compass from its own estimates (``biovln_ms.baselines.sb3_policy``), so both read the same
+formula."""
 
 from __future__ import annotations
 

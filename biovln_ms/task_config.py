@@ -25,7 +25,7 @@ STEP_MEASURES = (
     "strict_success",
 )
 END_MEASURES = ("spl", "soft_spl", "mcr", "vrt", "steps", "path_length")
-#: The sensors of the benchmark env (Habitat's PointNav/ObjectNav sensors; see ``biovln_ms.agents.policy``).
+#: The sensors of the benchmark env (Habitat's PointNav/ObjectNav sensors; see ``baselines.policy``).
 NAV_SENSORS = ("gps", "compass", "pointgoal_with_gps_compass", "objectgoal")
 #: What GPS+compass gives, and what replaces each without it (None: nothing). The paper's RL state vector is
 #: the robot's pose too: without it the goal comes once, as for the others; a policy keeps its own estimate

@@ -9,7 +9,7 @@ Batch-native as ManiSkill's tasks: every sub-env has its own episode and scene b
 per-step state (poses, measures, reward, success) is a tensor with a leading ``num_envs`` dimension,
 and ``_initialize_episode(env_idx)`` resets only the sub-envs named. Measures update once per step
 after the controller ran (``_after_control_step``); ``evaluate()`` only reads them. Policies see the
-sensors of ``NavTaskConfig.sensors`` (see ``biovln_ms.agents.policy``); oracles get a
+sensors of ``NavTaskConfig.sensors`` (see ``biovln_ms.baselines.policy``); oracles get a
 :class:`~biovln_ms.tasks.privileged.PrivilegedView` through :meth:`episode_info`.
 """
 
@@ -651,7 +651,7 @@ def _check_pose_state(cfg: NavTaskConfig, noise, obs_mode: str) -> None:
         raise BioVLNError(
             f"sensor rl_state is the robot's pose, and noise '{noise.name}' has no GPS+compass",
             field="obs_mode",
-            fix="observe depth and keep a pose estimate (obs_mode='depth', as agents/sb3_policy.py does), "
+            fix="observe depth and keep a pose estimate (obs_mode='depth', as baselines/sb3_policy.py does), "
             "or keep GPS+compass: noise={'preset': '" + noise.name + "', 'gps_compass': True}",
         )
 

@@ -92,7 +92,7 @@ def test_corrupt_results_file_is_named(dataset, tmp_path):
 
 
 def test_failing_episode_is_recorded_and_the_run_continues(dataset, tmp_path, monkeypatch):
-    from biovln_ms.agents.oracle import OraclePolicy
+    from biovln_ms.baselines.oracle import OraclePolicy
 
     real = OraclePolicy.reset
 

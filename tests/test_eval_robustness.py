@@ -40,7 +40,7 @@ def ds(held_out_dataset) -> str:
 
 
 def _flaky_oracle(monkeypatch, fail_id: str = "1") -> None:
-    from biovln_ms.agents.oracle import OraclePolicy
+    from biovln_ms.baselines.oracle import OraclePolicy
 
     real = OraclePolicy.reset
 

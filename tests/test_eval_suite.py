@@ -30,7 +30,8 @@ def test_plan_covers_every_method_split_and_preset_and_names_each_skip(monkeypat
     skipped = {(r.method, r.noise): r.skip for r in runs if r.skip}
     assert set(skipped) == {("llm_frontier", "ideal"), ("llm_frontier", "realistic")}
     assert "BIOVLN_LLM_API_KEY" in skipped[("llm_frontier", "ideal")]
-    # bc and ppo estimate their pose from their commands and depth without GPS+compass (agents/odometry.py)
+    # bc and ppo estimate their pose from their commands and depth without GPS+compass
+    # (biovln_ms.baselines.frontier.odometry)
     assert not any(r.skip for r in runs if r.method in ("bc", "ppo"))
 
 
@@ -56,7 +57,8 @@ def test_plan_refuses_unknown_names():
 
 def test_without_gps_the_rl_state_gives_way_to_pointgoal_and_ppo_reads_depth():
     """The RL state vector is the robot's pose: without GPS+compass the RL variant gives the start-frame
-    ``pointgoal`` instead, and PPO runs on depth for its own pose estimate (agents/sb3_policy.py)."""
+    ``pointgoal`` instead, and PPO runs on depth for its own pose estimate
+    (biovln_ms.baselines.sb3_policy)."""
     cfg = VARIANTS["BioVLN-OpFace-RL-v0"].with_noise(resolve_noise("realistic"))
     assert cfg.sensors == ("pointgoal", "objectgoal")
     ppo = method_spec("ppo")

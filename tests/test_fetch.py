@@ -362,7 +362,7 @@ def test_frontier_on_fetch_sees_its_footprint_and_explores(fetch_dataset):
     """Fetch's head camera is 0.16 m ahead of its turning centre, so no depth ray crosses the cells under
     its base: the frontier map frees them from the camera's offset (read from the observed extrinsics), else
     the robot's cell is cut off from what it sees and it STOPs at its first step."""
-    from biovln_ms.agents.frontier import FREE, FrontierPolicy
+    from biovln_ms.baselines.frontier import FREE, FrontierPolicy
     from biovln_ms.eval.rollout import rollout
 
     e = fetch_rgbd(fetch_dataset, 320, 240)
@@ -385,8 +385,8 @@ def test_the_ground_under_the_base_is_free_but_no_frontier_for_a_camera_off_the_
     of the axis: the cylinder's float32 extrinsics). ``integrate(base_xy=...)`` frees the disc the camera
     circles about the turning centre, which no ray crosses; those cells are not ``seen``, so their edge is
     no frontier (else the nearest frontier lies under the robot and it turns to and fro)."""
-    from biovln_ms.agents.frontier import FREE, UNKNOWN, FrontierParams, OccupancyMap, camera_offset
-    from biovln_ms.agents.frontier_planner import FrontierPlanner, PlanField
+    from biovln_ms.baselines.frontier import FREE, UNKNOWN, FrontierParams, OccupancyMap, camera_offset
+    from biovln_ms.baselines.frontier.planner import FrontierPlanner, PlanField
 
     def extrinsic(cam_xy, yaw):  # a level camera looking along yaw, 1 m up (OpenCV: x right, y down, z ahead)
         c, s = math.cos(yaw), math.sin(yaw)

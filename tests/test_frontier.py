@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 
-from biovln_ms.agents.frontier import FREE, OCCUPIED, UNKNOWN, OccupancyMap
+from biovln_ms.baselines.frontier import FREE, OCCUPIED, UNKNOWN, OccupancyMap
 
 
 def _camera(w=160, h=120, hfov=math.radians(79)):
@@ -31,7 +31,7 @@ def test_frontier_reaches_goals_in_the_env():
     import gymnasium as gym
 
     import biovln_ms  # noqa: F401
-    from biovln_ms.agents.frontier import FrontierPolicy
+    from biovln_ms.baselines.frontier import FrontierPolicy
 
     env = gym.make(
         "BioVLN-OpFace-v0",

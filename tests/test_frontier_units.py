@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from biovln_ms.agents.frontier import (
+from biovln_ms.baselines.frontier import (
     FREE,
     OCCUPIED,
     UNKNOWN,
@@ -18,9 +18,9 @@ from biovln_ms.agents.frontier import (
     goal_from_sensor,
     pose_from_odometry,
 )
-from biovln_ms.agents.frontier_control import FrontierController
-from biovln_ms.agents.frontier_planner import FrontierPlanner, Plan, PlanField, boxed_in, goal_if_reachable
-from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EpisodeInfo, TaskSpec
+from biovln_ms.baselines.frontier.control import FrontierController
+from biovln_ms.baselines.frontier.planner import FrontierPlanner, Plan, PlanField, boxed_in, goal_if_reachable
+from biovln_ms.baselines.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EpisodeInfo, TaskSpec
 
 W, H, HFOV, CAM_Z = 160, 120, math.radians(79), 0.88
 TASK = TaskSpec(
@@ -76,7 +76,7 @@ def _render(pose, wall_x: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _obs(pose, goal, wall_x: float) -> dict:
-    """An observation dict shaped as in ``biovln_ms.agents.policy`` (batch of one, torch tensors); the
+    """An observation dict shaped as in ``biovln_ms.baselines.policy`` (batch of one, torch tensors); the
     target on the wall is of the first goal category; ``goal`` None: no goal sensor."""
     depth, target = _render(pose, wall_x)
     depth_mm = np.clip(np.round(depth * 1000), 0, 32767).astype(np.int16)
@@ -325,7 +325,7 @@ class ConstantScorer:
 
 
 def test_vlfm_runs_from_synthetic_observations_without_the_goal_sensor():
-    from biovln_ms.agents.vlfm import VLFMPolicy
+    from biovln_ms.baselines.vlfm import VLFMPolicy
 
     pol = VLFMPolicy(scorer=ConstantScorer())
     actions, pose = _drive(pol, (0.0, 0.0, 0.0), None, wall_x=3.0)
@@ -336,7 +336,7 @@ def test_vlfm_runs_from_synthetic_observations_without_the_goal_sensor():
 def test_evidence_map_clears_a_lone_noisy_hit_and_keeps_a_wall():
     """With a noisy depth sensor the frontier map weighs evidence over frames: a cell hit once and then
     seen through becomes free, a cell hit in three frames is an obstacle, a cell hit twice is not yet."""
-    from biovln_ms.agents.frontier_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap
+    from biovln_ms.baselines.frontier.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap
 
     m = OccupancyMap((0.0, 0.0), 0.05, 4.0, evidence=True)
     wall, ghost, none = m.cell((1.0, 0.0)), m.cell((0.5, 0.5)), np.zeros((0, 2), int)

@@ -228,8 +228,8 @@ def test_malformed_answers_are_counted_failures_never_exceptions(payload_server)
 
 
 def test_policy_falls_back_on_a_raising_client():
-    from biovln_ms.agents.frontier_planner import Candidate
-    from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
+    from biovln_ms.baselines.frontier.planner import Candidate
+    from biovln_ms.baselines.llm_frontier import LLMFrontierPolicy
 
     class Broken:
         def ask(self, system, user, validate):
@@ -261,7 +261,7 @@ def test_limits_from_the_environment(monkeypatch):
 def test_eval_factory_uses_the_persistent_cache(payload_server, monkeypatch, tmp_path):
     """`eval` builds the policy through the registry: a second run of the same prompt (a fresh
     policy, as in a new `eval` process) is answered from the cache."""
-    from biovln_ms.agents.frontier_planner import Candidate
+    from biovln_ms.baselines.frontier.planner import Candidate
     from biovln_ms.eval.methods import METHODS
 
     payload_server.payload = completion({"role": "assistant", "content": '{"choice": 1}'})

@@ -122,8 +122,8 @@ class _Stub:
 
 
 def test_choice_among_near_equidistant_frontiers():
-    from biovln_ms.agents.frontier_planner import Candidate
-    from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
+    from biovln_ms.baselines.frontier.planner import Candidate
+    from biovln_ms.baselines.llm_frontier import LLMFrontierPolicy
 
     cands = [
         Candidate(2.0, np.array([1.0, 1.0]), 20),
@@ -148,7 +148,7 @@ def test_llm_frontier_runs_an_episode_against_the_local_server(server):
     import gymnasium as gym
 
     import biovln_ms  # noqa: F401
-    from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
+    from biovln_ms.baselines.llm_frontier import LLMFrontierPolicy
 
     server.mode = "zero"
     env = gym.make(

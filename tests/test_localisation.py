@@ -1,7 +1,7 @@
-"""Localisation without GPS+compass (``biovln_ms.agents.localisation``): the scan matcher on synthetic maps
-(actuation errors, blocked moves, featureless walls, lookalikes), dead reckoning with the drive's mean
-errors, blocked-move detection, the camera mount, the harness's drift measure, and the frontier baseline
-in the env under the ``realistic`` preset, reading no odometry and no info."""
+"""Localisation without GPS+compass (``biovln_ms.baselines.frontier.localisation``): the scan matcher on
+synthetic maps (actuation errors, blocked moves, featureless walls, lookalikes), dead reckoning with the
+drive's mean errors, blocked-move detection, the camera mount, the harness's drift measure, and the frontier
+baseline in the env under the ``realistic`` preset, reading no odometry and no info."""
 
 import math
 from dataclasses import replace
@@ -9,9 +9,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from biovln_ms.agents.frontier_map import OCCUPIED, OccupancyMap
-from biovln_ms.agents.localisation import Localiser, blocked_ahead, camera_mount, extrinsic_at, motion
-from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, TaskSpec
+from biovln_ms.baselines.frontier.occupancy import OCCUPIED, OccupancyMap
+from biovln_ms.baselines.frontier.localisation import (
+    Localiser,
+    blocked_ahead,
+    camera_mount,
+    extrinsic_at,
+    motion,
+)
+from biovln_ms.baselines.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, TaskSpec
 from biovln_ms.eval.harness import pose_drift
 from biovln_ms.noise import PRESETS
 
@@ -254,7 +260,7 @@ def _episodes(dataset, scan_match: bool, noise="realistic"):
     import gymnasium as gym
 
     import biovln_ms  # noqa: F401
-    from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy
+    from biovln_ms.baselines.frontier import FrontierParams, FrontierPolicy
     from biovln_ms.eval.rollout import rollout
 
     env = gym.make(
@@ -325,7 +331,7 @@ def test_odometry_clearance_reads_the_nearest_mapped_obstacle():
     """``EpisodeOdometry.clearance`` (the RL state vector's clearance without GPS+compass): the nearest
     obstacle cell of its map, a cell with more evidence for than against counting under noisy depth,
     capped."""
-    from biovln_ms.agents.odometry import EpisodeOdometry
+    from biovln_ms.baselines.frontier.odometry import EpisodeOdometry
 
     odo = EpisodeOdometry(replace(TASK, noise=PRESETS["realistic"]))
     odo.map = OccupancyMap(np.zeros(2), 0.05, 20.0, evidence=True)

@@ -109,9 +109,9 @@ def test_registry_fields_are_consistent():
     }
     assert rows <= set(keys)
     # the privileged methods' obs_mode (the others': tests/test_observation_boundary.py builds them)
-    from biovln_ms.agents.oracle import OraclePolicy
-    from biovln_ms.agents.protocol_oracle import ProtocolOraclePolicy
-    from biovln_ms.agents.zone3_oracle import Zone3OraclePolicy
+    from biovln_ms.baselines.oracle import OraclePolicy
+    from biovln_ms.baselines.protocol.oracle import ProtocolOraclePolicy
+    from biovln_ms.baselines.zone3_oracle import Zone3OraclePolicy
 
     for name, cls in (
         ("oracle", OraclePolicy),

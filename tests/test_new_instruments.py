@@ -136,7 +136,7 @@ def test_an_rl_checkpoint_of_the_ten_long_one_hot_is_refused_in_one_line():
 
     from gymnasium import spaces
 
-    from biovln_ms.agents.sb3_policy import SB3Policy
+    from biovln_ms.baselines.sb3_policy import SB3Policy
     from biovln_ms.errors import BioVLNError
 
     policy = object.__new__(SB3Policy)

@@ -67,7 +67,8 @@ def test_bad_noise_config_is_one_line(bad, field):
 
 def test_the_rl_state_vector_needs_gps_compass_as_a_state_observation():
     """The RL variant's state is the robot's pose: without GPS+compass a flat state observation is refused
-    in one line (depth observations are fine: PPO then keeps its own estimate, agents/sb3_policy.py)."""
+    in one line (depth observations are fine: PPO then keeps its own
+    estimate, biovln_ms.baselines.sb3_policy)."""
     with pytest.raises(BioVLNError, match="rl_state is the robot's pose") as e:
         gym.make("BioVLN-OpFace-RL-v0", noise="realistic", **CPU)
     assert "obs_mode='depth'" in str(e.value) and "\n" not in str(e.value)
@@ -251,7 +252,7 @@ def test_sliding_along_walls_on_and_off(sliding):
     env.reset(seed=0, options={"episode_index": 0})
     u = env.unwrapped
     x, y, yaw = _near_wall_pose(env)
-    u._put_back([0], np.array([[x, y, yaw]]))
+    u.agent.controller.put_back([0], np.array([[x, y, yaw]]))
     before = u._pose()[0]
     for _ in range(3):
         info = env.step(1)[4]

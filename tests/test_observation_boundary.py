@@ -22,11 +22,7 @@ STEPS = 12
 
 
 def _is_policy_module(name: str) -> bool:
-    return (
-        name.startswith("biovln_ms.agents")
-        and not name.startswith("biovln_ms.agents.robots")
-        or name.startswith("biovln_ms.perception")
-    )
+    return name.startswith(("biovln_ms.baselines", "biovln_ms.perception"))
 
 
 @pytest.fixture
@@ -81,15 +77,15 @@ def _policies(tmp_path, dataset):
     """Non-privileged policies with what they need: an untrained BC checkpoint and an untrained PPO."""
     from stable_baselines3 import PPO
 
-    from biovln_ms.agents.bc_policy import BCPolicy
-    from biovln_ms.agents.frontier import FrontierPolicy
-    from biovln_ms.agents.llm_frontier import LLMFrontierPolicy
-    from biovln_ms.agents.protocol_frontier import ProtocolFrontierPolicy
-    from biovln_ms.agents.protocol_language import ProtocolLanguagePolicy
-    from biovln_ms.agents.protocol_vlfm import ProtocolVLFMPolicy
-    from biovln_ms.agents.random_policy import RandomPolicy
-    from biovln_ms.agents.sb3_policy import SB3Policy
-    from biovln_ms.agents.vlfm import VLFMPolicy
+    from biovln_ms.baselines.bc_policy import BCPolicy
+    from biovln_ms.baselines.frontier import FrontierPolicy
+    from biovln_ms.baselines.llm_frontier import LLMFrontierPolicy
+    from biovln_ms.baselines.protocol.frontier import ProtocolFrontierPolicy
+    from biovln_ms.baselines.protocol.language import ProtocolLanguagePolicy
+    from biovln_ms.baselines.protocol.vlfm import ProtocolVLFMPolicy
+    from biovln_ms.baselines.random_policy import RandomPolicy
+    from biovln_ms.baselines.sb3_policy import SB3Policy
+    from biovln_ms.baselines.vlfm import VLFMPolicy
     from biovln_ms.learning.bc import ARCH, BCConfig, BCNet
     from biovln_ms.wrappers import make_gym_env
 
@@ -216,7 +212,7 @@ def test_only_oracles_get_the_read_only_privileged_view(dataset):
 
 def test_the_guard_catches_a_policy_reading_env_internals(dataset, guarded):
     """A policy module that reads ``env._measures`` is stopped (so the guard above is real)."""
-    ns = {"__name__": "biovln_ms.agents.cheat"}
+    ns = {"__name__": "biovln_ms.baselines.cheat"}
     exec("def peek(env):\n    return env._measures\n", ns)
     env = gym.make("BioVLN-OpFace-v0", split="ms_val", dataset=str(dataset), obs_mode="none", **CPU)
     try:

@@ -145,7 +145,7 @@ def _client(srv):
 
 
 def test_the_llm_parser_against_a_loopback_server(openai_server):
-    from biovln_ms.agents.protocol_language import LLMInstructionParser
+    from biovln_ms.baselines.protocol.language import LLMInstructionParser
 
     text = "Go to the refrigerator, then visit the centrifuge by the west wall."
     categories = tuple(load_protocols(env=False).categories()) + ("biosafety_cabinet",)
@@ -202,8 +202,8 @@ def test_method_specs_and_the_parser_option(monkeypatch):
 
 # --- the env: what the oracles and the goal sensors see ------------------------------------------------
 def test_the_privileged_view_and_the_goal_sensors_follow_the_current_subgoal(dataset):
-    from biovln_ms.agents.frontier import goal_from_sensor
-    from biovln_ms.agents.protocol_oracle import ProtocolOraclePolicy
+    from biovln_ms.baselines.frontier import goal_from_sensor
+    from biovln_ms.baselines.protocol.oracle import ProtocolOraclePolicy
 
     env = gym.make("BioVLN-Protocol-v0", dataset=dataset, split="protocol_val", obs_mode="state_dict", **CPU)
     try:
@@ -237,9 +237,9 @@ def test_a_robot_boxed_in_beside_an_instrument_plans_its_way_out():
     """A leg starts where the last STOP was, 0.15 m from an instrument's side (a single-goal robot gets there
     beside a wall it saw late): the grown obstacles cover the robot, so with the full growth its own cell is
     all it can reach and it would give up; the planner's escape rule reaches the goal."""
-    from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy
-    from biovln_ms.agents.frontier_map import FREE, OCCUPIED, OccupancyMap
-    from biovln_ms.agents.frontier_planner import FrontierPlanner, PlanField, boxed_in
+    from biovln_ms.baselines.frontier import FrontierParams, FrontierPolicy
+    from biovln_ms.baselines.frontier.occupancy import FREE, OCCUPIED, OccupancyMap
+    from biovln_ms.baselines.frontier.planner import FrontierPlanner, PlanField, boxed_in
 
     params = FrontierParams(robot_radius=0.2)
     occ = OccupancyMap(np.zeros(2), params.resolution, 20.0)
@@ -257,7 +257,7 @@ def test_a_robot_boxed_in_beside_an_instrument_plans_its_way_out():
 
 
 def test_the_oracle_chain_reaches_every_goal(dataset):
-    from biovln_ms.agents.protocol_oracle import ProtocolOraclePolicy
+    from biovln_ms.baselines.protocol.oracle import ProtocolOraclePolicy
 
     env = gym.make("BioVLN-Protocol-v0", dataset=dataset, split="protocol_val", obs_mode="none", **CPU)
     try:
@@ -275,7 +275,7 @@ def test_the_oracle_chain_reaches_every_goal(dataset):
 
 @pytest.mark.slow
 def test_the_frontier_chain_runs_an_episode_end_to_end(dataset):
-    from biovln_ms.agents.protocol_frontier import ProtocolFrontierPolicy
+    from biovln_ms.baselines.protocol.frontier import ProtocolFrontierPolicy
 
     env = gym.make(
         "BioVLN-Protocol-v0", dataset=dataset, split="protocol_val", obs_mode="rgbd", **SMALL, **CPU
@@ -297,7 +297,7 @@ def test_the_frontier_chain_runs_an_episode_end_to_end(dataset):
 @pytest.mark.slow
 def test_the_language_agent_reads_the_instruction_not_the_goal_sensors(dataset):
     """It runs an episode with the goal sensors taken out of its observations, and parses the targets."""
-    from biovln_ms.agents.protocol_language import ProtocolLanguagePolicy
+    from biovln_ms.baselines.protocol.language import ProtocolLanguagePolicy
 
     env = gym.make(
         "BioVLN-Protocol-v0",

@@ -314,7 +314,7 @@ def _goal_heading(goal: dict) -> float:
 
 def test_an_oracle_reaches_every_goal_in_order(env):
     """A scripted oracle: the exact shortest-path follower to each goal in turn, STOP at each."""
-    from biovln_ms.agents.oracle import PointFollower
+    from biovln_ms.baselines.oracle import PointFollower
 
     obs, info = env.reset(options={"episode_index": 0})
     u = env.unwrapped

@@ -175,7 +175,7 @@ def fetch_env(fetch_data):
 
 
 def _oracle_episode(env, index: int) -> list[dict]:
-    from biovln_ms.agents.oracle import OraclePolicy
+    from biovln_ms.baselines.oracle import OraclePolicy
     from biovln_ms.eval.rollout import rollout
 
     return [st.info for st in rollout(env, OraclePolicy(), index, privileged=True)]

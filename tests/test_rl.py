@@ -40,7 +40,7 @@ def test_learned_method_errors(dataset, tmp_path):
     with pytest.raises(BioVLNError, match="needs a checkpoint"):
         evaluate(EvalConfig("ppo", "ms_val", str(tmp_path), dataset, workers=1), progress=False)
     (tmp_path / "x.zip").write_bytes(b"junk")
-    from biovln_ms.agents.sb3_policy import SB3Policy
+    from biovln_ms.baselines.sb3_policy import SB3Policy
 
     with pytest.raises(BioVLNError, match="not a Stable-Baselines3 PPO model"):
         SB3Policy(str(tmp_path / "x.zip"), "ppo")

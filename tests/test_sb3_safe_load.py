@@ -113,7 +113,7 @@ def test_pickled_payload_in_data_is_refused_and_sb3_would_run_it(models, tmp_pat
     with pytest.raises(BioVLNError, match="would import posix.system") as e:
         load_sb3_model(evil, "ppo")
     assert e.value.source == str(evil) and e.value.field == "data._last_obs" and e.value.fix
-    from biovln_ms.agents.sb3_policy import SB3Policy
+    from biovln_ms.baselines.sb3_policy import SB3Policy
 
     with pytest.raises(BioVLNError, match="may not run code"):
         SB3Policy(str(evil), "ppo")

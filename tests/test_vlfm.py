@@ -7,9 +7,9 @@ import string
 import numpy as np
 import pytest
 
-from biovln_ms.agents.frontier import OccupancyMap, Scan
-from biovln_ms.agents.frontier_planner import Candidate
-from biovln_ms.agents.policy import TaskSpec
+from biovln_ms.baselines.frontier import OccupancyMap, Scan
+from biovln_ms.baselines.frontier.planner import Candidate
+from biovln_ms.baselines.policy import TaskSpec
 from biovln_ms.eval.harness import EvalConfig, evaluate, load_records
 from biovln_ms.perception.detectors import GTSegmentationDetector, make_detector
 from biovln_ms.perception.scorers import PerceptionError, make_scorer
@@ -26,7 +26,7 @@ class ConstantScorer:
 
 
 def _policy(value=0.5):
-    from biovln_ms.agents.vlfm import VLFMPolicy
+    from biovln_ms.baselines.vlfm import VLFMPolicy
 
     p = VLFMPolicy(scorer=ConstantScorer(value))
     p.map = OccupancyMap((0.0, 0.0), 0.05, 10.0)
@@ -86,7 +86,7 @@ def _detect_object(erode_px: int, cluster_eps: float) -> np.ndarray:
     intrinsic = np.array([[100.0, 0, 80], [0, 100.0, 60], [0, 0, 1]])
     extrinsic = np.eye(4)
     extrinsic[:3, :3] = [[0, -1, 0], [0, 0, -1], [1, 0, 0]]  # OpenCV camera at the origin, looking along +x
-    from biovln_ms.agents.vlfm import VLFMPolicy
+    from biovln_ms.baselines.vlfm import VLFMPolicy
 
     p = VLFMPolicy(scorer=ConstantScorer(0.5), erode_px=erode_px, cluster_eps=cluster_eps)
     p._detector, p.category, p.object_points, p.detections = MaskDetector(mask), "x", np.zeros((0, 2)), 0

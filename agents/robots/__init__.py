@@ -1,5 +1,5 @@
-"""Robots (ManiSkill's "agents"): importing this registers them with ManiSkill. Policies live beside, in
-``biovln_ms.agents`` modules, and never import a robot."""
+"""Robots (ManiSkill's "agents"): importing this registers them with ManiSkill. The policies live in
+``biovln_ms.baselines`` and never import a robot."""
 
 from mani_skill.agents.base_agent import BaseAgent
 

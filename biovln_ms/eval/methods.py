@@ -3,6 +3,7 @@ reports, paper comparisons and the CLI name it."""
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -70,13 +71,11 @@ def _language_preflight(parser: str = "rule", **_) -> None:
 
 
 def _lazy(module: str, cls: str, **fixed) -> Callable:
-    """A factory of ``biovln_ms.agents.<module>.<cls>``, imported only when a worker builds the policy
-    (so the driver never loads torch, SB3 or the perception models)."""
+    """A factory of ``<module>.<cls>`` (``module`` a full module path), imported only when a worker builds
+    the policy (so the driver never loads torch, SB3 or the perception models)."""
 
     def factory(**kw):
-        import importlib
-
-        return getattr(importlib.import_module(f"biovln_ms.agents.{module}"), cls)(**fixed, **kw)
+        return getattr(importlib.import_module(module), cls)(**fixed, **kw)
 
     return factory
 
@@ -92,7 +91,7 @@ def _sb3_preflight(checkpoint: str | None = None, **_) -> None:
 
 def _sb3_spec(algo: str, control_mode: str, report_order: int) -> MethodSpec:
     return MethodSpec(
-        _lazy("sb3_policy", "SB3Policy", algo=algo),
+        _lazy("biovln_ms.baselines.sb3_policy", "SB3Policy", algo=algo),
         "state",
         f"Stable-Baselines3 {algo.upper()} on the RL variant (--checkpoint)",
         label=algo.upper(),
@@ -101,7 +100,7 @@ def _sb3_spec(algo: str, control_mode: str, report_order: int) -> MethodSpec:
         options=("checkpoint", "deterministic"),
         env_id=RL_ENV,
         env_kwargs={"control_mode": control_mode},
-        obs_mode_without_gps="depth",  # for its pose estimate (agents/sb3_policy.py)
+        obs_mode_without_gps="depth",  # for its pose estimate (biovln_ms.baselines.sb3_policy)
     )
 
 
@@ -125,7 +124,7 @@ _BC_NOTE = (
 # The one registry: a new method is its policy file plus one entry here.
 METHODS: dict[str, MethodSpec] = {
     "random": MethodSpec(
-        _lazy("random_policy", "RandomPolicy"),
+        _lazy("biovln_ms.baselines.random_policy", "RandomPolicy"),
         "none",
         "uniform forward/left/right, 5 % stop per step",
         label="Random",
@@ -133,7 +132,7 @@ METHODS: dict[str, MethodSpec] = {
         paper_key="Random",
     ),
     "oracle": MethodSpec(
-        _lazy("oracle", "OraclePolicy"),
+        _lazy("biovln_ms.baselines.oracle", "OraclePolicy"),
         "none",
         "exact geodesic path to the snapped goal",
         label="Oracle",
@@ -142,7 +141,7 @@ METHODS: dict[str, MethodSpec] = {
         privileged=True,
     ),
     "zone3_oracle": MethodSpec(
-        _lazy("zone3_oracle", "Zone3OraclePolicy"),
+        _lazy("biovln_ms.baselines.zone3_oracle", "Zone3OraclePolicy"),
         "none",
         "up to 8 Zone-3 approach points, centroid fallback",
         label="3-Zone Oracle",
@@ -151,7 +150,7 @@ METHODS: dict[str, MethodSpec] = {
         privileged=True,
     ),
     "frontier": MethodSpec(
-        _lazy("frontier", "FrontierPolicy"),
+        _lazy("biovln_ms.baselines.frontier", "FrontierPolicy"),
         "depth",
         "depth-only occupancy grid, nearest-frontier exploration",
         label="Frontier",
@@ -159,7 +158,7 @@ METHODS: dict[str, MethodSpec] = {
         paper_key="Frontier",
     ),
     "llm_frontier": MethodSpec(
-        _lazy("llm_frontier", "LLMFrontierPolicy"),
+        _lazy("biovln_ms.baselines.llm_frontier", "LLMFrontierPolicy"),
         "depth",
         "frontier + LLM choice among near-equidistant frontiers",
         label="LLM-Frontier",
@@ -168,7 +167,7 @@ METHODS: dict[str, MethodSpec] = {
         preflight=_llm_preflight,
     ),
     "vlfm": MethodSpec(
-        _lazy("vlfm", "VLFMPolicy"),
+        _lazy("biovln_ms.baselines.vlfm", "VLFMPolicy"),
         "rgb+depth+segmentation",
         "frontier + image-text value map + detector (default: GT segmentation)",
         label="VLFM (GT detector)",
@@ -178,7 +177,7 @@ METHODS: dict[str, MethodSpec] = {
         report_note=_VLFM_NOTE,
     ),
     "bc": MethodSpec(
-        _lazy("bc_policy", "BCPolicy"),
+        _lazy("biovln_ms.baselines.bc_policy", "BCPolicy"),
         "rgbd",
         "behavioural cloning: ResNet-18 + 4-d goal vector (--checkpoint)",
         label="BC",
@@ -191,7 +190,7 @@ METHODS: dict[str, MethodSpec] = {
     **{algo: _sb3_spec(algo, mode, 80 + 10 * i) for i, (algo, mode) in enumerate(SB3_CONTROL_MODES.items())},
     # lab protocols (BioVLN-Protocol-v0, issue 17): K ordered goals, a STOP at each
     "protocol_oracle": MethodSpec(
-        _lazy("protocol_oracle", "ProtocolOraclePolicy"),
+        _lazy("biovln_ms.baselines.protocol.oracle", "ProtocolOraclePolicy"),
         "none",
         "the oracle's shortest path to each sub-goal in turn",
         label="Protocol Oracle",
@@ -200,7 +199,7 @@ METHODS: dict[str, MethodSpec] = {
         env_id=PROTOCOL_ENV,
     ),
     "protocol_frontier": MethodSpec(
-        _lazy("protocol_frontier", "ProtocolFrontierPolicy"),
+        _lazy("biovln_ms.baselines.protocol.frontier", "ProtocolFrontierPolicy"),
         "depth",
         "frontier, given each sub-goal's position in turn",
         label="Protocol Frontier",
@@ -208,7 +207,7 @@ METHODS: dict[str, MethodSpec] = {
         env_id=PROTOCOL_ENV,
     ),
     "protocol_vlfm": MethodSpec(
-        _lazy("protocol_vlfm", "ProtocolVLFMPolicy"),
+        _lazy("biovln_ms.baselines.protocol.vlfm", "ProtocolVLFMPolicy"),
         "rgb+depth+segmentation",
         "VLFM (GT detector), given each sub-goal's category in turn",
         label="Protocol VLFM (GT detector)",
@@ -217,7 +216,7 @@ METHODS: dict[str, MethodSpec] = {
         env_id=PROTOCOL_ENV,
     ),
     "protocol_language": MethodSpec(
-        _lazy("protocol_language", "ProtocolLanguagePolicy"),
+        _lazy("biovln_ms.baselines.protocol.language", "ProtocolLanguagePolicy"),
         "depth+segmentation",
         "reads the instruction: parsed targets resolved on its own map (GT detector), frontier machinery",
         label="Protocol Language (GT detector)",

@@ -959,7 +959,7 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
     import gymnasium as gym
 
     import biovln_ms  # noqa: F401
-    from biovln_ms.agents.frontier import FREE, OCCUPIED, FrontierPolicy
+    from biovln_ms.baselines.frontier import FREE, OCCUPIED, FrontierPolicy
     from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.topdown import draw_map
 

@@ -22,7 +22,7 @@ import numpy as np
 import torch
 from PIL import Image
 
-from biovln_ms.agents.policy import TURN_LEFT, TURN_RIGHT
+from biovln_ms.baselines.policy import TURN_LEFT, TURN_RIGHT
 from biovln_ms.errors import BioVLNError
 from biovln_ms.learning.recorder import RECORDER_VERSION
 

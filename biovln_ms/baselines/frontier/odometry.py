@@ -1,13 +1,13 @@
 """A pose estimate without GPS+compass for a policy that keeps no map of its own (BC and the SB3 policies
 under ``realistic``).
 
-The frontier agent's scheme (:mod:`~biovln_ms.agents.frontier`, :mod:`~biovln_ms.agents.localisation`) as a
-module of its own: in the episode frame (origin at the start pose, x along the start heading), dead
-reckoning of the commands the policy sent, corrected by matching each depth scan against an occupancy
-map that the module builds from the same scans at the estimated poses. The camera's mount on the base
-(height, tilt, the ground point's offset ahead of the turning centre) is read once from the observed
-extrinsics, which without GPS+compass are in the base frame. It reads observations only: depth, the
-camera parameters and the start-frame ``pointgoal``.
+The frontier agent's scheme (:mod:`~biovln_ms.baselines.frontier`,
+:mod:`~biovln_ms.baselines.frontier.localisation`) as a module of its own: in the episode frame (origin at the
+start pose, x along the start heading), dead reckoning of the commands the policy sent, corrected by matching
+each depth scan against an occupancy map that the module builds from the same scans at the estimated poses.
+The camera's mount on the base (height, tilt, the ground point's offset ahead of the turning centre) is read
+once from the observed extrinsics, which without GPS+compass are in the base frame. It reads observations
+only: depth, the camera parameters and the start-frame ``pointgoal``.
 """
 
 from __future__ import annotations
@@ -16,17 +16,17 @@ import math
 
 import numpy as np
 
-from biovln_ms.agents.frontier import camera_offset, goal_from_sensor, head_depth, to_numpy
-from biovln_ms.agents.frontier_map import OCCUPIED, OccupancyMap
-from biovln_ms.agents.frontier_params import FrontierParams
-from biovln_ms.agents.localisation import (
+from biovln_ms.baselines.frontier import camera_offset, goal_from_sensor, head_depth, to_numpy
+from biovln_ms.baselines.frontier.occupancy import OCCUPIED, OccupancyMap
+from biovln_ms.baselines.frontier.params import FrontierParams
+from biovln_ms.baselines.frontier.localisation import (
     Localiser,
     camera_mount,
     extrinsic_at,
     scan_points,
     wrap,
 )
-from biovln_ms.agents.policy import TaskSpec
+from biovln_ms.baselines.policy import TaskSpec
 
 __all__ = ["EpisodeOdometry"]
 

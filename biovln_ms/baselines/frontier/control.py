@@ -16,10 +16,10 @@ import math
 
 import numpy as np
 
-from biovln_ms.agents.frontier_map import OccupancyMap
-from biovln_ms.agents.frontier_params import FrontierParams
-from biovln_ms.agents.frontier_planner import FrontierPlanner, Plan
-from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT
+from biovln_ms.baselines.frontier.occupancy import OccupancyMap
+from biovln_ms.baselines.frontier.params import FrontierParams
+from biovln_ms.baselines.frontier.planner import FrontierPlanner, Plan
+from biovln_ms.baselines.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT
 
 
 def heading(yaw: float) -> np.ndarray:

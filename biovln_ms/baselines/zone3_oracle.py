@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from biovln_ms.agents.oracle import PointFollower
-from biovln_ms.agents.policy import STOP, EpisodeInfo, Policy
+from biovln_ms.baselines.oracle import PointFollower
+from biovln_ms.baselines.policy import STOP, EpisodeInfo, Policy
 
 SPACING = 0.15
 CANDIDATES = 8

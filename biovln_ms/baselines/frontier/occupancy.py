@@ -6,7 +6,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from biovln_ms.agents.frontier_params import FrontierParams
+from biovln_ms.baselines.frontier.params import FrontierParams
 
 UNKNOWN, FREE, OCCUPIED = 0, 1, 2
 SCAN_COLUMNS = 320  # image columns sampled per frame: rays 5 m away are ~2 cm apart

@@ -36,7 +36,7 @@ catalog's footprint gives when the points show its longer side, the one with a w
 wall grid or on the floor map beside it, else the longest run of free floor), else the reachable free cell
 nearest the instance (VLFM's rule), at least 0.4 m from it, and STOPs there as the frontier agent stops at
 its goal (out of the grown obstacles by the planner's escape rule after a STOP close to an instrument,
-:mod:`~biovln_ms.agents.frontier_planner`). With nothing of the category
+:mod:`~biovln_ms.baselines.frontier.planner`). With nothing of the category
 detected and no frontier left it STOPs where it stands. ``episode_stats`` holds the parsed targets, the
 instance gone to for each, and the parser's use of the LLM.
 """
@@ -50,12 +50,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy, backproject, to_numpy
-from biovln_ms.agents.frontier_control import FrontierController
-from biovln_ms.agents.frontier_map import FREE, OCCUPIED
-from biovln_ms.agents.frontier_planner import FrontierPlanner, PlanField, disk
-from biovln_ms.agents.policy import STOP, EpisodeInfo
-from biovln_ms.agents.protocol_chain import subgoal_index
+from biovln_ms.baselines.frontier import FrontierParams, FrontierPolicy, backproject, to_numpy
+from biovln_ms.baselines.frontier.control import FrontierController
+from biovln_ms.baselines.frontier.occupancy import FREE, OCCUPIED
+from biovln_ms.baselines.frontier.planner import FrontierPlanner, PlanField, disk
+from biovln_ms.baselines.policy import STOP, EpisodeInfo
+from biovln_ms.baselines.protocol.chain import subgoal_index
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import MAX_VISITS
 from biovln_ms.errors import BioVLNError

@@ -53,8 +53,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from biovln_ms.agents.frontier_map import OCCUPIED, SCAN_COLUMNS, OccupancyMap, backproject
-from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, TaskSpec
+from biovln_ms.baselines.frontier.occupancy import OCCUPIED, SCAN_COLUMNS, OccupancyMap, backproject
+from biovln_ms.baselines.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, TaskSpec
 from biovln_ms.noise import LOCOBOT_FORWARD, LOCOBOT_TURN
 
 __all__ = [

@@ -1,17 +1,17 @@
-"""Protocol VLFM: VLFM (:class:`~biovln_ms.agents.vlfm.VLFMPolicy`, GT detector by default) given each
+"""Protocol VLFM: VLFM (:class:`~biovln_ms.baselines.vlfm.VLFMPolicy`, GT detector by default) given each
 sub-goal's category in turn.
 
 At each sub-goal the agent starts over (empty frontier, value and object maps) with the category the
 ``objectgoal`` sensor now names, as if a new episode began where the last goal was found; see
-:mod:`~biovln_ms.agents.protocol_chain`. Like the single-goal agent it is never told a goal's position, and
+:mod:`~biovln_ms.baselines.protocol.chain`. Like the single-goal agent it is never told a goal's position, and
 it does not read the instruction: which instance of a category is meant is not known to it, so it stops at
 the first one it detects.
 """
 
 from __future__ import annotations
 
-from biovln_ms.agents.protocol_chain import SubgoalChain
-from biovln_ms.agents.vlfm import VLFMPolicy
+from biovln_ms.baselines.protocol.chain import SubgoalChain
+from biovln_ms.baselines.vlfm import VLFMPolicy
 
 
 class ProtocolVLFMPolicy(SubgoalChain):

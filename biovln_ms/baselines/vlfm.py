@@ -24,7 +24,7 @@ The structure of VLFM, with pluggable components:
 Unlike the frontier baseline, VLFM is never told the goal position: it only knows the target
 category, as in ObjectNav (it reads the head camera's images, the odometry, and the GT detector the
 ``semantic_category`` sensor, never ``pointgoal_with_gps_compass``; without GPS+compass it localises as
-the frontier baseline does, see :mod:`~biovln_ms.agents.frontier`). It early-stops after 100
+the frontier baseline does, see :mod:`~biovln_ms.baselines.frontier`). It early-stops after 100
 consecutive steps without progress (paper Table 15): progress = the known free area grew, or the
 distance to the current target shrank.
 """
@@ -39,10 +39,10 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy, to_numpy
-from biovln_ms.agents.frontier_map import FREE, Scan, backproject
-from biovln_ms.agents.frontier_planner import Candidate, PlanField
-from biovln_ms.agents.policy import STOP, EpisodeInfo
+from biovln_ms.baselines.frontier import FrontierParams, FrontierPolicy, to_numpy
+from biovln_ms.baselines.frontier.occupancy import FREE, Scan, backproject
+from biovln_ms.baselines.frontier.planner import Candidate, PlanField
+from biovln_ms.baselines.policy import STOP, EpisodeInfo
 
 
 def largest_cluster(points: np.ndarray, eps: float) -> np.ndarray:

@@ -27,8 +27,8 @@ from scipy import ndimage
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from biovln_ms.agents.frontier_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap
-from biovln_ms.agents.frontier_params import FrontierParams
+from biovln_ms.baselines.frontier.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap
+from biovln_ms.baselines.frontier.params import FrontierParams
 
 CROP_PAD = 2  # cells kept around the observed part of the map, so that its border cells have neighbours
 ESCAPE_INFLATE = 2  # cells: obstacle growth for planning while boxed in by the full growth

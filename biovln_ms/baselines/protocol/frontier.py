@@ -1,16 +1,16 @@
-"""Protocol frontier: the depth-only frontier agent (:class:`~biovln_ms.agents.frontier.FrontierPolicy`)
+"""Protocol frontier: the depth-only frontier agent (:class:`~biovln_ms.baselines.frontier.FrontierPolicy`)
 given each sub-goal of a lab protocol in turn.
 
 At each sub-goal the agent starts over (an empty map, the goal read once from the goal sensor, which now
 points at the new sub-goal), as if a new episode began where the last goal was found; see
-:mod:`~biovln_ms.agents.protocol_chain`. Like the single-goal agent it knows each goal's position, not its
+:mod:`~biovln_ms.baselines.protocol.chain`. Like the single-goal agent it knows each goal's position, not its
 category or the instruction.
 """
 
 from __future__ import annotations
 
-from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy
-from biovln_ms.agents.protocol_chain import SubgoalChain
+from biovln_ms.baselines.frontier import FrontierParams, FrontierPolicy
+from biovln_ms.baselines.protocol.chain import SubgoalChain
 
 
 class ProtocolFrontierPolicy(SubgoalChain):

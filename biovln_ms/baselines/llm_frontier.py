@@ -12,9 +12,9 @@ import json
 
 import numpy as np
 
-from biovln_ms.agents.frontier import FrontierParams, FrontierPolicy
-from biovln_ms.agents.frontier_planner import Candidate
-from biovln_ms.agents.policy import EpisodeInfo
+from biovln_ms.baselines.frontier import FrontierParams, FrontierPolicy
+from biovln_ms.baselines.frontier.planner import Candidate
+from biovln_ms.baselines.policy import EpisodeInfo
 
 SYSTEM = (
     "You guide a mobile robot exploring a biomedical laboratory to reach an instrument. Answer with a "

@@ -1,11 +1,11 @@
 """Frontier exploration from depth only (paper §4.3, Table 15 parameters in :class:`FrontierParams`).
 
-Three units: the occupancy map (:mod:`~biovln_ms.agents.frontier_map`: a 0.05 m grid of 100 x 100 m
-from the head camera's depth, like a laser scan), the planner (:mod:`~biovln_ms.agents.frontier_planner`:
+Three units: the occupancy map (:mod:`~biovln_ms.baselines.frontier.occupancy`: a 0.05 m grid of 100 x 100 m
+from the head camera's depth, like a laser scan), the planner (:mod:`~biovln_ms.baselines.frontier.planner`:
 the nearest frontier by path length on the robot's own map, re-planned as the map grows) and the
-controller (:mod:`~biovln_ms.agents.frontier_control`: path following and the STOP rule).
+controller (:mod:`~biovln_ms.baselines.frontier.control`: path following and the STOP rule).
 
-The policy runs from the observation alone (``biovln_ms.agents.policy``): its pose is the robot's
+The policy runs from the observation alone (``biovln_ms.baselines.policy``): its pose is the robot's
 odometry (the base joints in ManiSkill's proprioception, ``obs["agent"]["qpos"]``: x, y, yaw in the frame
 the camera extrinsics use), the map is centred on the first pose, and the goal is read once, at the first
 step, from the ``pointgoal_with_gps_compass`` sensor and kept fixed (re-reading it each step would make
@@ -13,11 +13,11 @@ float32 noise move the goal).
 
 Without GPS+compass (``task.noise.gps_compass`` false, e.g. the ``realistic`` preset) there is no odometry:
 the policy runs in the episode frame (origin at the start pose), keeps its pose by dead reckoning of its
-commands corrected by matching each depth scan to its map (:mod:`~biovln_ms.agents.localisation`), builds
-the map with camera extrinsics of that pose (only the camera's mount, its height and tilt, is read from
-the observed ones), and reads the goal once from ``pointgoal`` (the start frame). A FORWARD after which
-the estimate moved less than half a step was blocked. ``episode_stats`` reports the pose it acted on at
-every step (``pose_estimates``, in ``pose_frame``), from which the harness measures the drift.
+commands corrected by matching each depth scan to its map (:mod:`~biovln_ms.baselines.frontier.localisation`),
+builds the map with camera extrinsics of that pose (only the camera's mount, its height and tilt, is read from
+the observed ones), and reads the goal once from ``pointgoal`` (the start frame). A FORWARD after which the
+estimate moved less than half a step was blocked. ``episode_stats`` reports the pose it acted on at every step
+(``pose_estimates``, in ``pose_frame``), from which the harness measures the drift.
 
 Goal rule (the paper leaves it implicit): the goal position is used only to decide when to go there
 and stop: as soon as the goal cell is known free and reachable on the robot's map it navigates to it
@@ -40,10 +40,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from biovln_ms.agents.frontier_control import FrontierController
-from biovln_ms.agents.frontier_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap, Scan, backproject
-from biovln_ms.agents.frontier_params import FrontierParams
-from biovln_ms.agents.frontier_planner import (
+from biovln_ms.baselines.frontier.control import FrontierController
+from biovln_ms.baselines.frontier.occupancy import FREE, OCCUPIED, UNKNOWN, OccupancyMap, Scan, backproject
+from biovln_ms.baselines.frontier.params import FrontierParams
+from biovln_ms.baselines.frontier.planner import (
     Candidate,
     FrontierPlanner,
     PlanField,
@@ -51,8 +51,8 @@ from biovln_ms.agents.frontier_planner import (
     nearest_candidate,
     nearest_reachable,
 )
-from biovln_ms.agents.localisation import Localiser, camera_mount, extrinsic_at, scan_points
-from biovln_ms.agents.policy import EpisodeInfo, Policy, TaskSpec
+from biovln_ms.baselines.frontier.localisation import Localiser, camera_mount, extrinsic_at, scan_points
+from biovln_ms.baselines.policy import EpisodeInfo, Policy, TaskSpec
 
 __all__ = [
     "FREE",
@@ -137,7 +137,7 @@ class FrontierPolicy(Policy):
         self.control: FrontierController | None = None
         self.goal: np.ndarray | None = None
         self.pose: np.ndarray | None = None  # (x, y, yaw) at the current step
-        # without GPS+compass: the pose in the episode frame, estimated (biovln_ms.agents.localisation)
+        # without GPS+compass: the pose in the episode frame, estimated (frontier.localisation)
         self.localiser = None if self.task.noise.gps_compass else Localiser()
         self.mount: np.ndarray | None = None  # the head camera on the base (height, tilt, offset)
         self.camera_offset = np.zeros(2)  # the head camera's ground point ahead of the turning centre

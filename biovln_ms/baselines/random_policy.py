@@ -6,7 +6,7 @@ import zlib
 
 import numpy as np
 
-from biovln_ms.agents.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EpisodeInfo, Policy
+from biovln_ms.baselines.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EpisodeInfo, Policy
 
 
 class RandomPolicy(Policy):

@@ -3,12 +3,12 @@
 It reads the flat state observation of ``BioVLN-OpFace-RL-v0`` (the env it was trained on) and returns
 the deterministic action: an int for PPO/A2C (Discrete(4)), a [forward, turn, stop] array for SAC.
 
-Without GPS+compass (the ``realistic`` preset) the env has no RL state vector to give: it is the robot's
-pose. The policy then builds the vector itself (:func:`biovln_ms.rl_state.rl_state_vector`) from what a
-robot can know, as BC does: its pose estimate (:class:`~biovln_ms.agents.odometry.EpisodeOdometry`, dead
-reckoning corrected by matching depth to a map it builds) in the episode frame (origin at the start pose,
-x along the start heading) where training used the world frame, the goal from the start-frame
-``pointgoal``, and the clearance from that map: the distance to the nearest mapped obstacle, walls
+Without GPS+compass (the ``realistic`` preset) the env has no RL state vector to give: it is the robot's pose.
+The policy then builds the vector itself (:func:`biovln_ms.rl_state.rl_state_vector`) from what a robot can
+know, as BC does: its pose estimate (:class:`~biovln_ms.baselines.frontier.odometry.EpisodeOdometry`, dead
+reckoning corrected by matching depth to a map it builds) in the episode frame (origin at the start pose, x
+along the start heading) where training used the world frame, the goal from the start-frame ``pointgoal``, and
+the clearance from that map: the distance to the nearest mapped obstacle, walls
 included, where the env measures the nearest instrument body. The network is the same, trained with
 GPS+compass; so this measures what the paper's state vector is worth without its privileged pose.
 """
@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from biovln_ms.agents.frontier import to_numpy
-from biovln_ms.agents.policy import EpisodeInfo, Policy
+from biovln_ms.baselines.frontier import to_numpy
+from biovln_ms.baselines.policy import EpisodeInfo, Policy
 from biovln_ms.catalog import PAPER_GOAL_CATEGORIES, load_catalog
 from biovln_ms.errors import BioVLNError
 from biovln_ms.rl_state import rl_state_vector
@@ -49,7 +49,7 @@ class SB3Policy(Policy):
 
     def reset(self, episode_info: EpisodeInfo) -> None:
         """The network is stateless; without GPS+compass a fresh pose estimate for the episode."""
-        from biovln_ms.agents.odometry import EpisodeOdometry
+        from biovln_ms.baselines.frontier.odometry import EpisodeOdometry
 
         self.task = episode_info.task
         self.odometry = None if self.task.noise.gps_compass else EpisodeOdometry(self.task)

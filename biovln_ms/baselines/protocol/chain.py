@@ -9,7 +9,7 @@ if a new episode began where the last leg ended (a mapping policy with an empty 
 
 Each leg after the first starts where the last ended: at an instrument, closer than a single-goal episode
 ever starts (1.0 m from every obstacle), often inside the frontier planner's grown obstacles; the planner's
-escape rule (:mod:`~biovln_ms.agents.frontier_planner`) gets it out.
+escape rule (:mod:`~biovln_ms.baselines.frontier.planner`) gets it out.
 
 Without GPS+compass the inner policy localises in the frame of its leg's start, while ``pointgoal`` is in the
 episode's start frame: the chain keeps where each leg started (the previous leg's last pose estimate, in the
@@ -24,7 +24,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from biovln_ms.agents.policy import EpisodeInfo, Policy
+from biovln_ms.baselines.policy import EpisodeInfo, Policy
 
 POSE_KEYS = ("pose_frame", "pose_estimates")
 

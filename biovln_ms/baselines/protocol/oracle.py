@@ -1,4 +1,4 @@
-"""Protocol oracle: the geodesic oracle (:class:`~biovln_ms.agents.oracle.OraclePolicy`) chained over a lab
+"""Protocol oracle: the geodesic oracle (:class:`~biovln_ms.baselines.oracle.OraclePolicy`) chained over a lab
 protocol's sub-goals (privileged).
 
 Its privileged view follows the current sub-goal, so the oracle is simply re-targeted (a new shortest path
@@ -8,8 +8,8 @@ empirical upper bound, not 100 %: with 0.25 m steps and 30 deg turns a STOP can 
 
 from __future__ import annotations
 
-from biovln_ms.agents.oracle import OraclePolicy
-from biovln_ms.agents.protocol_chain import SubgoalChain
+from biovln_ms.baselines.oracle import OraclePolicy
+from biovln_ms.baselines.protocol.chain import SubgoalChain
 
 
 class ProtocolOraclePolicy(SubgoalChain):

@@ -29,9 +29,9 @@ class FrontierParams:
     waypoint_reach: float = 0.3  # m: a nearer waypoint is passed, a nearer exploration target re-planned
     blocked_move: float = 0.02  # m: a FORWARD that moved less was blocked by something the map missed
     step_clear: bool = False  # boxed in: first go to the nearest cell clear of the full growth (set by the
-    # policy without sliding, where a move that grazes an obstacle is lost; frontier_planner)
+    # policy without sliding, where a move that grazes an obstacle is lost; frontier.planner)
     stuck_turns: int = 12  # consecutive steps without a path (turning left to look around) before STOP
-    # localisation without GPS+compass (biovln_ms.agents.localisation)
+    # localisation without GPS+compass (biovln_ms.baselines.frontier.localisation)
     scan_match: bool = True  # correct dead reckoning by matching each depth scan to the map (False: dead
     # reckoning alone, for comparison)
 

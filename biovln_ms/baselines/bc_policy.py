@@ -7,9 +7,9 @@ arg-max action (``sample=True`` samples the softmax instead, seeded per episode)
 
 Without GPS+compass (the ``realistic`` preset) there is no goal sensor to read: rho and phi come from the
 start-frame ``pointgoal`` and the policy's own pose estimate
-(:class:`~biovln_ms.agents.odometry.EpisodeOdometry`: its commands dead-reckoned, corrected by matching its
-depth to a map it builds), as a PointNav agent without GPS must; the network is the same, trained on
-GPS+compass readings.
+(:class:`~biovln_ms.baselines.frontier.odometry.EpisodeOdometry`: its commands dead-reckoned, corrected by
+matching its depth to a map it builds), as a PointNav agent without GPS must; the network is the same, trained
+on GPS+compass readings.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import zlib
 import numpy as np
 import torch
 
-from biovln_ms.agents.policy import EpisodeInfo, Policy
+from biovln_ms.baselines.policy import EpisodeInfo, Policy
 
 
 class BCPolicy(Policy):
@@ -34,7 +34,7 @@ class BCPolicy(Policy):
         self.seed = seed
 
     def reset(self, episode_info: EpisodeInfo) -> None:
-        from biovln_ms.agents.odometry import EpisodeOdometry
+        from biovln_ms.baselines.frontier.odometry import EpisodeOdometry
 
         key = f"{self.seed}/{episode_info.scene_id}/{episode_info.episode_id}"
         self.rng = np.random.default_rng(zlib.crc32(key.encode()))
