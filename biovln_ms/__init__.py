@@ -4,13 +4,8 @@ Importing the package registers its envs with gymnasium (``gym.make("BioVLN-OpFa
 ManiSkill itself is imported on the first ``gym.make``.
 """
 
+from biovln_ms.registration import register_lazily
+
 __version__ = "0.1.0"
 
-
-def _register() -> None:
-    from biovln_ms.registration import register_lazily
-
-    register_lazily()
-
-
-_register()
+register_lazily()

@@ -304,7 +304,7 @@ def scene_generate(
 @scene_app.command("validate")
 def scene_validate(spec_path: Path = typer.Argument(..., help="Scene spec JSON.")) -> None:
     """Check a spec: schema, catalog, layout rules."""
-    from biovln_ms.scene.spec import load_spec
+    from biovln_ms.scene.loading import load_spec
 
     spec = load_spec(spec_path)
     typer.echo(
@@ -327,7 +327,7 @@ def scene_map(
     Walls, furniture, Zones 1/2/3, faces, goals, success radii, navigable area; optionally islands and one
     episode's start, goal, view points and shortest path."""
     from biovln_ms.scene.rules import scene_navigation
-    from biovln_ms.scene.spec import load_spec
+    from biovln_ms.scene.loading import load_spec
     from biovln_ms.scene.topdown import save_map
 
     spec = load_spec(spec_path)
@@ -377,7 +377,7 @@ def scene_export(
 
     A node per object named by id, category in extras and COLOR_0."""
     from biovln_ms.scene.export_glb import export_scene_glb
-    from biovln_ms.scene.spec import load_spec
+    from biovln_ms.scene.loading import load_spec
 
     spec = load_spec(spec_path)
     typer.echo(f"wrote {export_scene_glb(spec, out)} ({len(spec.objects())} objects)")
@@ -814,7 +814,7 @@ def lsat_export(
 
     A scene's goals (BioVLN JSON), the LSAT intermediate format and/or a USD stage for Isaac Sim."""
     from biovln_ms.lsat.exporters import goal_json, lsat_json, write_json, write_usd
-    from biovln_ms.scene.spec import load_spec
+    from biovln_ms.scene.loading import load_spec
 
     if not (goals or lsat or usd):
         raise BioVLNError(
@@ -1060,7 +1060,7 @@ def export_nav2_cmd(
     map_server map (raw occupancy), keep-out filter mask (Zones 1-2), goal poses (PoseStamped, frame
     map), costmap parameters and a preview PNG."""
     from biovln_ms.bridges.nav2 import export_nav2
-    from biovln_ms.scene.spec import load_spec
+    from biovln_ms.scene.loading import load_spec
 
     spec = load_spec(spec_path)
     files = export_nav2(spec, out, resolution)

@@ -8,8 +8,10 @@ from importlib import metadata
 
 import numpy as np
 
+from biovln_ms.assetgen.generate import verify_assets
 from biovln_ms.errors import RenderError
-from biovln_ms.render.sapien_utils import BACKPORTS_FIX, device_kind
+from biovln_ms.paths import ASSET_DIR
+from biovln_ms.render.sapien_utils import BACKPORTS_FIX, device_kind, look_at_pose, new_scene, take_rgb
 
 PACKAGES = ("sapien", "mani-skill", "torch", "gymnasium", "stable-baselines3", "trimesh", "coacd", "numpy")
 
@@ -27,8 +29,6 @@ def versions() -> dict[str, str]:
 def render_probe(size: int = 64) -> dict:
     """Render a red box on a grey floor; returns device info and the frame's mean colour."""
     import sapien
-
-    from biovln_ms.render.sapien_utils import look_at_pose, new_scene, take_rgb
 
     scene = new_scene()
     dev = scene.render_system.device
@@ -57,8 +57,6 @@ def render_probe(size: int = 64) -> dict:
 
 def run_doctor(echo=print) -> int:
     """Print the report; 0 when everything works, 1 otherwise (with the fix named)."""
-    from biovln_ms.assetgen.generate import verify_assets
-    from biovln_ms.paths import ASSET_DIR
 
     ok = True
     echo("BioVLN-MS doctor")

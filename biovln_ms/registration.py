@@ -2,8 +2,9 @@
 
 ``import biovln_ms`` registers every id with gymnasium lazily (ManiSkill, torch and SAPIEN take ~3 s to
 import, which CLI commands that never simulate should not pay). The first ``gym.make`` of an id
-imports :mod:`biovln_ms.tasks`, whose classes register with ManiSkill through
-:func:`register_biovln_env`; that replaces the lazy gymnasium spec with ManiSkill's own.
+imports :mod:`biovln_ms.tasks` (the specs' entry point is ``biovln_ms.tasks.make_lazy``), whose classes
+register with ManiSkill through :func:`register_biovln_env`; that replaces the lazy gymnasium spec with
+ManiSkill's own.
 """
 
 from __future__ import annotations
@@ -15,6 +16,10 @@ ENV_IDS: dict[str, int] = {
     **{uid: cfg.max_episode_steps for uid, cfg in VARIANTS.items()},
     "BioVLN-LabScene-v0": 1,
 }
+#: The lazy specs' entry point. Gymnasium resolves it by name on the first ``gym.make``, and resolving it
+#: imports :mod:`biovln_ms.tasks`, which registers every env; it lives there so that this module, which the
+#: tasks import, never imports them back.
+LAZY_ENTRY_POINT = "biovln_ms.tasks:make_lazy"
 
 
 def register_lazily() -> None:
@@ -26,7 +31,7 @@ def register_lazily() -> None:
             continue
         gym.register(
             uid,
-            entry_point="biovln_ms.registration:make_lazy",
+            entry_point=LAZY_ENTRY_POINT,
             kwargs={"env_id": uid},
             max_episode_steps=steps,
             disable_env_checker=True,
@@ -40,20 +45,12 @@ def register_lazily() -> None:
         )
 
 
-def make_lazy(env_id: str, **kwargs):
-    """Entry point of the lazy specs: import the tasks (real registration), then build the env."""
-    import biovln_ms.tasks  # noqa: F401
-    from mani_skill.utils.registration import make
-
-    return make(env_id, **kwargs)
-
-
 def register_biovln_env(uid: str, max_episode_steps: int, **kwargs):
     """ManiSkill's ``register_env``, after dropping this package's lazy gymnasium spec of ``uid``."""
     import gymnasium as gym
     from mani_skill.utils.registration import register_env
 
     spec = gym.registry.get(uid)
-    if spec is not None and spec.entry_point == "biovln_ms.registration:make_lazy":
+    if spec is not None and spec.entry_point == LAZY_ENTRY_POINT:
         del gym.registry[uid]
     return register_env(uid, max_episode_steps=max_episode_steps, **kwargs)

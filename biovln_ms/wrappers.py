@@ -12,6 +12,8 @@ import gymnasium as gym
 from gymnasium.utils import seeding
 from mani_skill.utils.wrappers.gymnasium import CPUGymWrapper
 
+import biovln_ms  # noqa: F401
+
 
 class GymnasiumEnv(CPUGymWrapper):
     @property
@@ -29,7 +31,6 @@ def make_gym_env(env_id: str = "BioVLN-OpFace-RL-v0", single_thread: bool = True
     """``gym.make`` on the CPU backends, wrapped for gymnasium / SB3. Picklable through
     ``functools.partial``, so it serves as the env factory of ``AsyncVectorEnv`` / ``SubprocVecEnv``
     (one env per process: ManiSkill refuses ``num_envs > 1`` on the CPU)."""
-    import biovln_ms  # noqa: F401  (registration)
 
     if single_thread:  # with the simulator on one core, 2 torch threads per worker slow it ~40x
         import torch

@@ -19,9 +19,9 @@ import numpy as np
 import torch
 
 from biovln_ms.constants import MAX_VISITS
+from biovln_ms.episodes.source import GeneratedProtocolEpisodes
 from biovln_ms.episodes.source import EpisodeSource
 from biovln_ms.metrics.protocol_measures import ProtocolBatchContext, ProtocolEpisodeContext
-from biovln_ms.protocols.episodes import GeneratedProtocolEpisodes
 from biovln_ms.protocols.vocabulary import load_vocabulary
 from biovln_ms.task_config import EpisodeInfo
 from biovln_ms.tasks.nav_env import BioVLNNavEnv

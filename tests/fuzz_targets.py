@@ -146,14 +146,14 @@ def _spec_setup(tmp: Path):
 
 
 def _spec_dict(state, seed: int, tmp: Path) -> str:
-    from biovln_ms.scene.spec import parse_spec
+    from biovln_ms.scene.loading import parse_spec
 
     bad = mutate_json(state, np.random.default_rng(seed))
     return classify(lambda: parse_spec(bad if isinstance(bad, dict) else {"x": bad}), finite_everywhere)
 
 
 def _spec_file(state, seed: int, tmp: Path) -> str:
-    from biovln_ms.scene.spec import load_spec
+    from biovln_ms.scene.loading import load_spec
 
     rng = np.random.default_rng(seed)
     raw = json.dumps(state).encode()

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from biovln_ms.lsat.designer_scene import target_glb_path
-from biovln_ms.scene.spec import parse_spec
+from biovln_ms.scene.loading import parse_spec
 
 ROOT = Path(__file__).resolve().parents[1]
 BLENDER_PY = Path(os.environ.get("BIOVLN_BLENDER_PYTHON", ROOT / ".venv-blender" / "bin" / "python"))

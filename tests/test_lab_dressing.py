@@ -10,7 +10,8 @@ from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import CatalogError
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.rules import check_layout, scene_free_space
-from biovln_ms.scene.spec import SceneSpecError, parse_spec
+from biovln_ms.scene.loading import parse_spec
+from biovln_ms.scene.spec import SceneSpecError
 
 SCENES = [("single_room", 150), ("two_room", 0), ("suite", 402), ("open_plan", 452), ("molecular_biology", 3)]
 OBSTACLES = {"lab_stool", "lab_trolley", "shelving_unit", "lab_sink"}

@@ -9,7 +9,7 @@ import pytest
 from biovln_ms.llm.client import JSONChatClient, LLMConfig
 from biovln_ms.lsat.layout import LayoutError, load_request, parse_request, solve_layout, suggest_request
 from biovln_ms.scene.rules import check_consistency, check_layout
-from biovln_ms.scene.spec import parse_spec
+from biovln_ms.scene.loading import parse_spec
 
 REQUEST = {
     "name": "cell_culture",

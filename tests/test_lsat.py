@@ -16,7 +16,7 @@ from biovln_ms.lsat.designer_scene import LAYOUT, build_target_scene, target_glb
 from biovln_ms.lsat.gltf import GLTFError, read_gltf
 from biovln_ms.lsat.importer import LSATImportError, import_glb
 from biovln_ms.lsat.names import match_category, normalise
-from biovln_ms.scene.spec import parse_spec
+from biovln_ms.scene.loading import parse_spec
 
 
 @pytest.mark.parametrize(

@@ -26,8 +26,8 @@ from biovln_ms.lsat.importer import (
     _Shell,
 )
 from biovln_ms.lsat.names import Match, match_category
-from biovln_ms.scene.generator import make_object, rooms_from_rects
-from biovln_ms.scene.spec import ObjectSpec
+from biovln_ms.scene.generator import rooms_from_rects
+from biovln_ms.scene.spec import ObjectSpec, make_object
 
 FLOOR = {"name": "Floor", "box": (0, 0, -0.02, 6, 4, 0)}  # one 6 x 4 m room
 

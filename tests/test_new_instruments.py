@@ -12,7 +12,8 @@ from biovln_ms.catalog import PAPER_GOAL_CATEGORIES, load_catalog
 from biovln_ms.paths import asset_glb
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.rules import check_consistency, check_layout
-from biovln_ms.scene.spec import load_spec, save_spec
+from biovln_ms.scene.loading import load_spec
+from biovln_ms.scene.spec import save_spec
 from biovln_ms.scene.templates import get_template
 
 NEW = ("fume_hood", "ultra_low_freezer", "autoclave", "thermal_cycler", "microscope", "water_bath", "shaker")

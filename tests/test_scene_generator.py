@@ -8,7 +8,8 @@ import pytest
 from biovln_ms.geometry.zones import zone2_disjoint
 from biovln_ms.scene.generator import GenerationError, generate_scene
 from biovln_ms.scene.rules import check_consistency, check_layout, scene_free_space
-from biovln_ms.scene.spec import SceneSpecError, load_spec, parse_spec, save_spec
+from biovln_ms.scene.loading import load_spec, parse_spec
+from biovln_ms.scene.spec import SceneSpecError, save_spec
 from biovln_ms.scene.templates import (
     TemplateError,
     get_template,

@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.scene.generator import generate_scene
+from biovln_ms.scene.loading import load_spec, parse_spec
 from biovln_ms.scene.spec import (
     MAX_COORDINATE,
     MAX_FILE_BYTES,
@@ -27,8 +28,6 @@ from biovln_ms.scene.spec import (
     MAX_WALLS,
     SceneSpecError,
     json_depth,
-    load_spec,
-    parse_spec,
 )
 
 NAN, INF = float("nan"), float("inf")

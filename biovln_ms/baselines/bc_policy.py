@@ -19,6 +19,7 @@ import zlib
 import numpy as np
 import torch
 
+from biovln_ms.baselines.frontier.odometry import EpisodeOdometry
 from biovln_ms.baselines.policy import EpisodeInfo, Policy
 
 
@@ -34,7 +35,6 @@ class BCPolicy(Policy):
         self.seed = seed
 
     def reset(self, episode_info: EpisodeInfo) -> None:
-        from biovln_ms.baselines.frontier.odometry import EpisodeOdometry
 
         key = f"{self.seed}/{episode_info.scene_id}/{episode_info.episode_id}"
         self.rng = np.random.default_rng(zlib.crc32(key.encode()))

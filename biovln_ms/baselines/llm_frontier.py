@@ -15,6 +15,7 @@ import numpy as np
 from biovln_ms.baselines.frontier import FrontierParams, FrontierPolicy
 from biovln_ms.baselines.frontier.planner import Candidate
 from biovln_ms.baselines.policy import EpisodeInfo
+from biovln_ms.llm.client import JSONChatClient, default_cache_path
 
 SYSTEM = (
     "You guide a mobile robot exploring a biomedical laboratory to reach an instrument. Answer with a "
@@ -34,8 +35,6 @@ class LLMFrontierPolicy(FrontierPolicy):
     ) -> None:
         super().__init__(params)
         if client is None:  # as `eval` builds it: the endpoint from the environment, the persistent cache
-            from biovln_ms.llm.client import JSONChatClient, default_cache_path
-
             client = JSONChatClient(cache_path=default_cache_path())
         self.client = client
         self.threshold, self.top_k = equidistance_threshold, top_k

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.baselines.frontier import to_numpy
+from biovln_ms.baselines.frontier.odometry import EpisodeOdometry
 from biovln_ms.baselines.policy import EpisodeInfo, Policy
 from biovln_ms.catalog import PAPER_GOAL_CATEGORIES, load_catalog
 from biovln_ms.errors import BioVLNError
@@ -49,7 +50,6 @@ class SB3Policy(Policy):
 
     def reset(self, episode_info: EpisodeInfo) -> None:
         """The network is stateless; without GPS+compass a fresh pose estimate for the episode."""
-        from biovln_ms.baselines.frontier.odometry import EpisodeOdometry
 
         self.task = episode_info.task
         self.odometry = None if self.task.noise.gps_compass else EpisodeOdometry(self.task)

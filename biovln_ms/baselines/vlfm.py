@@ -43,6 +43,9 @@ from biovln_ms.baselines.frontier import FrontierParams, FrontierPolicy, to_nump
 from biovln_ms.baselines.frontier.occupancy import FREE, Scan, backproject
 from biovln_ms.baselines.frontier.planner import Candidate, PlanField
 from biovln_ms.baselines.policy import STOP, EpisodeInfo
+from biovln_ms.catalog import load_catalog
+from biovln_ms.perception.detectors import make_detector
+from biovln_ms.perception.scorers import make_scorer
 
 
 def largest_cluster(points: np.ndarray, eps: float) -> np.ndarray:
@@ -74,7 +77,6 @@ class VLFMPolicy(FrontierPolicy):
         params: FrontierParams | None = None,
     ) -> None:
         super().__init__(params)
-        from biovln_ms.perception.scorers import make_scorer
 
         self.detector_spec = detector  # "gt", "owlvit:<dir>", or a Detector object
         self.scorer = make_scorer(scorer) if isinstance(scorer, str) else scorer  # or any ImageTextScorer
@@ -92,8 +94,6 @@ class VLFMPolicy(FrontierPolicy):
 
     def reset(self, episode_info: EpisodeInfo) -> None:
         super().reset(episode_info)
-        from biovln_ms.catalog import load_catalog
-        from biovln_ms.perception.detectors import make_detector
 
         if self._detector is None:
             spec = self.detector_spec

@@ -31,28 +31,21 @@ import zlib
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
-from typing import TYPE_CHECKING, Annotated, BinaryIO, Iterator, Literal
+from typing import Annotated, BinaryIO, Iterator, Literal
 
 from pydantic import AfterValidator, ConfigDict, Field, TypeAdapter, ValidationError, with_config
 from typing_extensions import NotRequired, TypedDict
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import MAX_VISITS, MIN_VISITS, SCENE_GENERATOR_VERSION
+from biovln_ms.episodes.generator import EpisodeSampler, stable_seed
 from biovln_ms.errors import BioVLNError, describe_validation_error
+from biovln_ms.protocols.episodes import ProtocolSampler
+from biovln_ms.protocols.library import ProtocolLibrary
 from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
-from biovln_ms.scene.spec import (
-    MAX_COORDINATE,
-    MAX_JSON_DEPTH,
-    SceneSpec,
-    SceneSpecError,
-    json_depth,
-    load_spec,
-)
+from biovln_ms.scene.loading import load_spec
+from biovln_ms.scene.spec import MAX_COORDINATE, MAX_JSON_DEPTH, SceneSpec, SceneSpecError, json_depth
 from biovln_ms.scene.spec import MAX_FILE_BYTES as MAX_SCENE_FILE_BYTES
-
-if TYPE_CHECKING:
-    from biovln_ms.protocols.episodes import ProtocolSampler
-    from biovln_ms.protocols.library import ProtocolLibrary
 
 #: 2: the lsat_target split and marker goals; 3: the Hard track (any instance); 4: protocol splits (ordered
 #: multi-goal episodes with an instruction; a reader taking their goals for any-instance goals would be wrong)
@@ -390,8 +383,6 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, robot:
     """``write_dataset``'s work: every file into ``tmp``, the manifest last, then the rename to ``out``."""
     from tqdm import tqdm
 
-    from biovln_ms.episodes.generator import EpisodeSampler
-
     cat = load_catalog()
     manifest: dict = {
         "format_version": DATASET_FORMAT_VERSION,
@@ -470,8 +461,6 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, robot:
 
 def _protocol_sampler(samplers: dict, spec: SceneSpec) -> ProtocolSampler:
     """The protocol sampler of ``spec``'s scene, replacing (and reusing the geometry of) its plain one."""
-    from biovln_ms.protocols.episodes import ProtocolSampler
-
     sampler = samplers[spec.name]
     if not isinstance(sampler, ProtocolSampler):
         sampler = samplers[spec.name] = ProtocolSampler(spec, sampler.nav)
@@ -479,8 +468,6 @@ def _protocol_sampler(samplers: dict, spec: SceneSpec) -> ProtocolSampler:
 
 
 def stable_split_seed(name: str) -> int:
-    from biovln_ms.episodes.generator import stable_seed
-
     return stable_seed("split", name)
 
 

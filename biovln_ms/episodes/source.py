@@ -1,4 +1,5 @@
-"""Where an env's episodes come from: a dataset split, or a scene generated on the fly."""
+"""Where an env's episodes come from: a dataset split, or a scene generated on the fly (single-goal
+episodes, or lab-protocol episodes of the loaded protocol library)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,11 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+from biovln_ms.episodes.generator import EpisodeSampler
+from biovln_ms.protocols.episodes import ProtocolSampler
+from biovln_ms.protocols.library import load_protocols
 from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
+from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.spec import SceneSpec
 
 
@@ -128,9 +133,6 @@ class GeneratedEpisodes(EpisodeSource):
         required_categories: tuple[str, ...] = (),
         robot: str = DEFAULT_ROBOT,
     ) -> None:
-        from biovln_ms.episodes.generator import EpisodeSampler
-        from biovln_ms.scene.generator import generate_scene
-
         self._spec = generate_scene(
             template,
             scene_seed,
@@ -138,6 +140,30 @@ class GeneratedEpisodes(EpisodeSource):
             robot_radius=robot_spec(robot).footprint_radius,
         )
         self.episodes = EpisodeSampler(self._spec).episodes(n, seed=scene_seed)
+
+    def spec(self, scene_id: str) -> SceneSpec:
+        return self._spec
+
+
+class GeneratedProtocolEpisodes(EpisodeSource):
+    """One scene generated from ``template`` / ``scene_seed`` for ``robot``'s footprint, with ``n`` protocol
+    episodes of the loaded library (shipped protocols and the user's, see ``load_protocols``)."""
+
+    def __init__(
+        self,
+        template: str = "two_room",
+        scene_seed: int = 0,
+        n: int = 100,
+        required_categories: tuple[str, ...] = (),
+        robot: str = DEFAULT_ROBOT,
+    ) -> None:
+        self._spec = generate_scene(
+            template,
+            scene_seed,
+            required_categories=required_categories,
+            robot_radius=robot_spec(robot).footprint_radius,
+        )
+        self.episodes = ProtocolSampler(self._spec).protocol_episodes(n, scene_seed, load_protocols())
 
     def spec(self, scene_id: str) -> SceneSpec:
         return self._spec

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.learning.algorithms import RL_ENV, SB3_CONTROL_MODES
+from biovln_ms.llm.client import LLMConfig
 
 PROTOCOL_ENV = "BioVLN-Protocol-v0"  # the env of the protocol methods (its protocol_* splits)
 
@@ -45,7 +46,6 @@ class MethodSpec:
 
 
 def _llm_preflight(**_) -> None:
-    from biovln_ms.llm.client import LLMConfig
 
     LLMConfig.from_env()
 

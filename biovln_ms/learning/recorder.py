@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from biovln_ms.errors import BioVLNError
+
 RECORDER_VERSION = 1
 MODES = ("full", "trace")
 
@@ -39,8 +41,6 @@ class TrajectoryRecorder:
         image_format: str = "png",
     ) -> None:
         if mode not in MODES:
-            from biovln_ms.errors import BioVLNError
-
             raise BioVLNError(
                 f"unknown recording mode '{mode}'", field="record_mode", fix=f"use one of: {', '.join(MODES)}"
             )

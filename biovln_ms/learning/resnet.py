@@ -12,6 +12,8 @@ from pathlib import Path
 import torch
 from torch import nn
 
+from biovln_ms.errors import BioVLNError
+
 
 class BasicBlock(nn.Module):
     def __init__(self, cin: int, cout: int, stride: int = 1) -> None:
@@ -60,7 +62,6 @@ class ResNet18(nn.Module):
 
     def load_pretrained(self, path: str | Path) -> list[str]:
         """Load a torchvision-layout ResNet-18 state dict (``fc.*`` ignored); returns missing keys."""
-        from biovln_ms.errors import BioVLNError
 
         try:
             state = torch.load(path, map_location="cpu", weights_only=True)

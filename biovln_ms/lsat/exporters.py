@@ -39,6 +39,7 @@ import numpy as np
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.io_utils import atomic_write_bytes, atomic_write_text
+from biovln_ms.scene.export_glb import assemble
 from biovln_ms.scene.spec import SceneSpec
 
 
@@ -134,7 +135,6 @@ def write_usd(spec: SceneSpec, out: str | Path) -> Path:
         from pxr import Gf, Sdf, Usd, UsdGeom, Vt
     except ImportError:
         raise BioVLNError("USD export needs usd-core", field="usd", fix="pip install usd-core") from None
-    from biovln_ms.scene.export_glb import assemble
 
     out = Path(out)
     scene = assemble(spec)

@@ -24,6 +24,7 @@ import numpy as np
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.frames import Y_UP_TO_Z_UP
+from biovln_ms.scene.spec import json_depth
 
 MAGIC = 0x46546C67  # b"glTF"
 CHUNK_JSON = 0x4E4F534A
@@ -259,7 +260,6 @@ def _split_glb(raw: bytes, path: Path) -> tuple[dict, bytes | None]:
 
 
 def _parse_json(body: bytes, path: Path, max_depth: int = Limits.max_depth) -> dict:
-    from biovln_ms.scene.spec import json_depth
 
     if json_depth(body) > max_depth:
         raise GLTFError(

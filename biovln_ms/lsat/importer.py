@@ -41,15 +41,18 @@ from biovln_ms.constants import ROBOT_RADIUS
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import placement_z, rot2, wrap_angle
 from biovln_ms.lsat.gltf import GLTFScene, Node, read_gltf
-from biovln_ms.lsat.name_map import NameMap
 from biovln_ms.lsat.names import (
     FACE_PART_WORDS,
     TARGET_PREFIX,
     Match,
+    NameMap,
     is_target_marker,
     match_category,
     normalise,
 )
+from biovln_ms.scene.generator import rooms_from_rects
+from biovln_ms.scene.loading import parse_spec
+from biovln_ms.scene.rules import check_layout
 from biovln_ms.scene.spec import (
     DESIGNER_TEMPLATE,
     SCHEMA_VERSION,
@@ -59,7 +62,7 @@ from biovln_ms.scene.spec import (
     SceneSpec,
     SceneSpecError,
     WallSpec,
-    parse_spec,
+    make_object,
 )
 
 SHELL_PREFIXES = ("floor", "wall", "ceiling", "room", "light", "camera")  # normalised names of no object
@@ -488,8 +491,6 @@ def _object_id(f: _Found, taken: dict[str, dict], counts: Counter) -> str:
 def _place(scene: GLTFScene, found: list[_Found], rects: list[RoomRect], report: ImportReport) -> _Placed:
     """Pose, room, support and id of each found object: furniture first (the supports), each kind in tree
     order. Goal objects get their Eq. 1 goal here; an object outside every floor is refused."""
-    from biovln_ms.scene.generator import make_object
-
     cat = load_catalog()
     floor_boxes = {rid: box(*rect) for rid, _, rect in rects}
     placed = _Placed([], [], {})
@@ -562,7 +563,6 @@ def _assemble(
 ) -> SceneSpec:
     """The designer scene spec, validated by ``parse_spec`` (a broken designer rule is refused, naming the
     object); the other generator rules become report warnings. A scene without instruments is refused."""
-    from biovln_ms.scene.rules import check_layout
 
     cat = load_catalog()
     if not placed.instruments:
@@ -607,7 +607,6 @@ def import_glb(
     """Read, interpret and validate a designer GLB: rooms, classify (``names``: the user's name map, which
     wins), adopt instruments for orphan markers, place, assign markers, assemble. The spec passes
     ``parse_spec`` (designer rules); the report says where each goal came from."""
-    from biovln_ms.scene.generator import rooms_from_rects
 
     path = Path(path)
     scene = read_gltf(path, allow_external=allow_external)

@@ -26,12 +26,15 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import BioVLNError, describe_validation_error
+from biovln_ms.llm.client import JSONChatClient
+from biovln_ms.scene.generator import GenerationError, generate_scene
 from biovln_ms.scene.spec import SceneSpec
-from biovln_ms.scene.templates import Side
+from biovln_ms.scene.templates import Side, parse_template
 
 WALL_MARGIN = 0.3  # m kept free at each end of a wall slot
 
@@ -185,7 +188,6 @@ def _wall_span(side: str, W: float, D: float, used: dict) -> list[float]:
 
 def request_template(req: LayoutRequest):
     """The one-off template of a request (fixed slots: every requested instrument is placed)."""
-    from biovln_ms.scene.templates import parse_template
 
     cat = load_catalog()
     W, D = req.room.width, req.room.depth
@@ -257,7 +259,6 @@ def request_template(req: LayoutRequest):
 
 def solve_layout(req: LayoutRequest) -> tuple[SceneSpec, list[str]]:
     """A spec that passes every generator rule, and notes on what the solver added."""
-    from biovln_ms.scene.generator import GenerationError, generate_scene
 
     template, notes = request_template(req)
     try:
@@ -292,7 +293,6 @@ def _categories_line() -> str:
 
 def suggest_request(description: str, client=None) -> LayoutRequest:
     """Ask the LLM for a layout request; its answer is validated data, never executed."""
-    from biovln_ms.llm.client import JSONChatClient
 
     client = client or JSONChatClient()
     description = re.sub(r"\s+", " ", description).strip()[:2000]

@@ -11,18 +11,19 @@ its children are then left out, unreported)::
 
 A node name is looked up as written and without Blender's ``.001`` suffix: exact keys first, then the
 patterns in file order. A marker (``target_Sterilgard III``) is looked up without its ``target_``.
+
+This module reads and checks the file; the map itself (:class:`~biovln_ms.lsat.names.NameMap`) is rule 1
+of the name matcher, so it lives with the matcher in :mod:`biovln_ms.lsat.names`, which suggests the
+closest category for an unknown value here.
 """
 
 from __future__ import annotations
 
-import re
-from dataclasses import dataclass
-from fnmatch import fnmatchcase
 from pathlib import Path
-from typing import NamedTuple
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import BioVLNError
+from biovln_ms.lsat.names import NameMap, NameMapHit, match_category
 
 _FIX_FORMAT = "write one 'node name: category' line per entry (category null: not an instrument)"
 
@@ -31,27 +32,8 @@ class NameMapError(BioVLNError):
     """A name map file that cannot be used."""
 
 
-class NameMapHit(NamedTuple):
-    key: str  # the map's key that named the node
-    category: str | None  # None: not an instrument
-
-
-@dataclass(frozen=True)
-class NameMap:
-    source: str
-    entries: tuple[NameMapHit, ...]  # keys case-folded, in file order
-
-    def lookup(self, name: str) -> NameMapHit | None:
-        """The entry naming ``name`` (exact keys before patterns), or None."""
-        forms = {name.casefold(), re.sub(r"\.\d+$", "", name).casefold()}
-        exact = next((e for e in self.entries if e.key in forms), None)
-        return exact or next((e for e in self.entries if any(fnmatchcase(f, e.key) for f in forms)), None)
-
-
 def _category(value: object, key: str, source: str) -> str | None:
     """A map value checked against the catalog; an unknown one is refused with the closest category."""
-    from biovln_ms.lsat.names import match_category
-
     cat = load_catalog()
     if value is None or (isinstance(value, str) and value in cat):
         return value

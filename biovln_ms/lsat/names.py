@@ -20,14 +20,12 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from fnmatch import fnmatchcase
+from typing import NamedTuple
 
 from rapidfuzz.distance import Levenshtein
 
 from biovln_ms.catalog import load_catalog, name_tokens
-
-if TYPE_CHECKING:
-    from biovln_ms.lsat.name_map import NameMap
 
 MAX_DISTANCE = 2
 TARGET_PREFIX = "target_"
@@ -37,6 +35,26 @@ FACE_PART_WORDS = ("door", "handle", "display", "keypad", "panel", "sash", "scre
 PART_WORDS = frozenset(
     {*FACE_PART_WORDS, "controls", "lid", "drawer", "shelf", "hinge", "knob", "pedal", "leg"}
 )
+
+
+class NameMapHit(NamedTuple):
+    key: str  # the map's key that named the node
+    category: str | None  # None: not an instrument
+
+
+@dataclass(frozen=True)
+class NameMap:
+    """A designer's name map (rule 1), as :mod:`biovln_ms.lsat.name_map` reads it from a file: node names
+    or glob patterns -> catalog categories (None: not an instrument)."""
+
+    source: str
+    entries: tuple[NameMapHit, ...]  # keys case-folded, in file order
+
+    def lookup(self, name: str) -> NameMapHit | None:
+        """The entry naming ``name`` (exact keys before patterns), or None."""
+        forms = {name.casefold(), re.sub(r"\.\d+$", "", name).casefold()}
+        exact = next((e for e in self.entries if e.key in forms), None)
+        return exact or next((e for e in self.entries if any(fnmatchcase(f, e.key) for f in forms)), None)
 
 
 def normalise(name: str) -> str:

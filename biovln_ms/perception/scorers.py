@@ -20,6 +20,8 @@ from typing import Protocol
 import numpy as np
 
 from biovln_ms.errors import BioVLNError
+from biovln_ms.io_utils import atomic_write_bytes
+from biovln_ms.scene.shell import cache_dir
 
 PROMPT = "Seems like there is a {} ahead."  # VLFM's prompt template
 
@@ -103,9 +105,6 @@ class ClassifierTextScorer:
         """Unit MiniLM embeddings of the ImageNet labels, cached on disk (keyed by the labels' hash)."""
         import hashlib
         import io
-
-        from biovln_ms.io_utils import atomic_write_bytes
-        from biovln_ms.scene.shell import cache_dir
 
         key = hashlib.sha256("\n".join(labels).encode()).hexdigest()[:16]
         path = cache_dir() / "perception" / f"imagenet-minilm-{key}.npy"

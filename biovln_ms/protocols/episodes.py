@@ -42,11 +42,9 @@ from biovln_ms.episodes.generator import (
     stable_seed,
     yaw_to_quat,
 )
-from biovln_ms.episodes.source import EpisodeSource
 from biovln_ms.protocols.instructions import describable, instruction
 from biovln_ms.protocols.library import Protocol, ProtocolLibrary, load_protocols
 from biovln_ms.protocols.vocabulary import load_vocabulary
-from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.spec import SceneSpec
 
 #: the stream of a scene's protocol episodes (single-goal episodes use [scene, seed], the Hard track 1)
@@ -193,29 +191,3 @@ class ProtocolSampler(EpisodeSampler):
             if keeps_start_rule(geo, float(euclidean[0]), float(radii[0])):
                 return start, geo
         return None
-
-
-class GeneratedProtocolEpisodes(EpisodeSource):
-    """One scene generated from ``template`` / ``scene_seed`` for ``robot``'s footprint, with ``n`` protocol
-    episodes of the loaded library (shipped protocols and the user's, see ``load_protocols``)."""
-
-    def __init__(
-        self,
-        template: str = "two_room",
-        scene_seed: int = 0,
-        n: int = 100,
-        required_categories: tuple[str, ...] = (),
-        robot: str = DEFAULT_ROBOT,
-    ) -> None:
-        from biovln_ms.scene.generator import generate_scene
-
-        self._spec = generate_scene(
-            template,
-            scene_seed,
-            required_categories=required_categories,
-            robot_radius=robot_spec(robot).footprint_radius,
-        )
-        self.episodes = ProtocolSampler(self._spec).protocol_episodes(n, scene_seed, load_protocols())
-
-    def spec(self, scene_id: str) -> SceneSpec:
-        return self._spec

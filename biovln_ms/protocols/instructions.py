@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from shapely.geometry import Point, Polygon
 
+from biovln_ms.catalog import load_catalog
 from biovln_ms.protocols.library import Protocol, ProtocolError
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 
@@ -308,8 +309,6 @@ def parse(text: str, categories: Sequence[str] | None = None) -> list[tuple[str,
     """The (category, relation text or None) targets of an instruction of the grammar, in order.
     ``categories``: the category vocabulary (default: the catalog's goal categories)."""
     if categories is None:
-        from biovln_ms.catalog import load_catalog
-
         categories = load_catalog().goal_categories()
     by_name = {spoken(c): c for c in categories}
     return [(by_name[m.group(1).lower()], m.group(2)) for m in _target_regex(categories).finditer(text)]

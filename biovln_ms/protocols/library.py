@@ -27,6 +27,7 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from rapidfuzz import process as fuzz_process
 
+from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import MAX_VISITS, MIN_VISITS
 from biovln_ms.errors import BioVLNError, describe_validation_error
 
@@ -42,7 +43,6 @@ class ProtocolError(BioVLNError):
 
 
 def _goal_categories() -> list[str]:
-    from biovln_ms.catalog import load_catalog
 
     return load_catalog().goal_categories()
 

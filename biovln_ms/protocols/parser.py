@@ -26,6 +26,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cache
 
+from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import CatalogError
 from biovln_ms.protocols.instructions import COMPASS, VERBS, spoken
 from biovln_ms.protocols.library import ProtocolError
@@ -118,7 +119,6 @@ def lexicon(categories: tuple[str, ...] | None = None) -> dict[tuple[str, ...], 
     """Token sequence of a name -> category: each category as said aloud, then its catalog display name
     (without a bracketed part) and synonyms; a display name or synonym two categories share is left out.
     ``categories``: the category vocabulary (default: the catalog's goal categories)."""
-    from biovln_ms.catalog import load_catalog
 
     catalog = load_catalog()
     cats = tuple(catalog.goal_categories()) if categories is None else categories

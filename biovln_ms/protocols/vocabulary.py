@@ -34,8 +34,12 @@ from pathlib import Path
 
 import numpy as np
 
+from biovln_ms.catalog import load_catalog
 from biovln_ms.io_utils import atomic_write_text
-from biovln_ms.protocols.library import ProtocolError
+from biovln_ms.protocols import instructions as g
+from biovln_ms.protocols.instructions import spoken
+from biovln_ms.protocols.library import ProtocolError, load_protocols
+from biovln_ms.scene.templates import get_template, template_names
 
 VOCABULARY_VERSION = 2  # 2: the molecular-biology categories (issue 18)
 VOCABULARY_DIR = Path(__file__).resolve().parent
@@ -145,9 +149,6 @@ def decode_text(data) -> str:
 
 def _grammar_words() -> set[str]:
     """The words of the grammar, the templates' room names and the shipped protocols' purposes."""
-    from biovln_ms.protocols import instructions as g
-    from biovln_ms.protocols.library import load_protocols
-    from biovln_ms.scene.templates import get_template, template_names
 
     texts = [*g.OPENINGS, *g.VERBS, *g.THEN, *g.FINALLY, *(p for p in g.PURPOSE_LINKS if p)]
     texts += [_RELATION_WORDS, *g.COMPASS, *string.ascii_lowercase, *string.digits]
@@ -158,8 +159,6 @@ def _grammar_words() -> set[str]:
 
 def category_words(names: Iterable[str] | None = None) -> set[str]:
     """The words of category names as instructions say them (default: the catalog's names)."""
-    from biovln_ms.catalog import load_catalog
-    from biovln_ms.protocols.instructions import spoken
 
     return {
         t for name in (load_catalog().names() if names is None else names) for t in tokenize(spoken(name))
@@ -182,7 +181,6 @@ def build_vocabulary(version: int = VOCABULARY_VERSION) -> Vocabulary:
 
 def load_vocabulary(version: int = VOCABULARY_VERSION) -> Vocabulary:
     """The shipped vocabulary file of ``version``, grown by the catalog's words the file lacks."""
-    from biovln_ms.catalog import load_catalog
 
     return _catalog_vocabulary(version, tuple(load_catalog().names()))
 

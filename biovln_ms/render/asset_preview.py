@@ -18,6 +18,7 @@ from PIL import Image, ImageDraw, ImageFont
 from biovln_ms.assetgen.generate import AssetPlan, plans
 from biovln_ms.catalog import Catalog, InteractionPoint, load_catalog
 from biovln_ms.paths import ASSET_DIR
+from biovln_ms.render.lighting import apply_lighting
 from biovln_ms.render.sapien_utils import look_at_pose, new_scene, take_rgb
 
 MARKER_COLOR = [0.95, 0.1, 0.1, 1.0]
@@ -79,8 +80,6 @@ class AssetRenderer:
 
     def __init__(self, size: int = 320, asset_dir: Path = ASSET_DIR, lighting: str | None = None) -> None:
         import sapien
-
-        from biovln_ms.render.lighting import apply_lighting
 
         self.asset_dir = Path(asset_dir)
         self.scene = new_scene()

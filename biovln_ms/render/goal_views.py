@@ -13,9 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from biovln_ms.errors import BioVLNError
+from biovln_ms.errors import BioVLNError, RenderError
 from biovln_ms.paths import ASSET_DIR
+from biovln_ms.render.sapien_utils import BACKPORTS_FIX, look_at_pose
+from biovln_ms.scene.generator import GenerationError, generate_scene
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
+from biovln_ms.scene.templates import TemplateError, get_template
 
 #: height of the head camera (agents/robots/biovln_base.py)
 HEAD_HEIGHT = 0.88
@@ -31,8 +34,6 @@ def showcase_scenes(categories: list[str]) -> list[tuple[SceneSpec, list[ObjectS
     seed of :data:`SHOWCASE_SEEDS` in turn, the scene asked to hold as many of the categories still
     unseen as its slots allow (added greedily, in catalog order), with the first instance of each it
     holds. Deterministic: the same categories give the same scenes."""
-    from biovln_ms.scene.generator import GenerationError, generate_scene
-    from biovln_ms.scene.templates import TemplateError, get_template
 
     out, left = [], list(categories)
     for template in SHOWCASE_TEMPLATES:
@@ -103,8 +104,6 @@ class GoalViewRenderer:
     ) -> None:
         import sapien
 
-        from biovln_ms.render.sapien_utils import BACKPORTS_FIX
-        from biovln_ms.errors import RenderError
         from biovln_ms.sim.sapien_builder import add_lights, add_spec_to_scene
 
         # The env's head camera: ManiSkill's "minimal" shader pack and its 8-bit picture formats.
@@ -133,7 +132,6 @@ class GoalViewRenderer:
         self, eye, target, up: tuple[float, float, float] = (0.0, 0.0, 1.0)
     ) -> tuple[np.ndarray, np.ndarray]:
         """RGB (H, W, 3 uint8) from ``eye`` looking at ``target``, and the per-actor segmentation ids."""
-        from biovln_ms.render.sapien_utils import look_at_pose
 
         self.camera.entity.set_pose(look_at_pose(eye, target, up))
         self.scene.update_render()

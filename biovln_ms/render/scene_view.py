@@ -7,6 +7,9 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from biovln_ms.episodes.generator import EpisodeSampler
+from biovln_ms.render.goal_views import HEAD_HEIGHT, GoalViewRenderer
+from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.scene.spec import SceneSpec
 
 
@@ -52,9 +55,6 @@ def robot_eye_pose(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray]:
     """(eye, target) of the head camera (0.88 m, level) at the start of the spec's first episode (episode
     sampler, seed 0): turned to the target object when the start sees its goal, else along the first leg
     of the shortest path (the way the robot sets off)."""
-    from biovln_ms.episodes.generator import EpisodeSampler
-    from biovln_ms.render.goal_views import HEAD_HEIGHT
-    from biovln_ms.scene.rules import scene_navigation
 
     nav = scene_navigation(spec)
     episode = EpisodeSampler(spec, nav).episodes(1, seed=0)[0]
@@ -75,7 +75,6 @@ def render_robot_and_top_views(
     """Two PNGs of ``spec`` under ``lighting``: ``<name>_robot.png``, the head camera's frame (the env's
     640x480, 79 degree camera and shader) at its first episode's start (:func:`robot_eye_pose`); and
     ``<name>_top.png``, straight down from above the ceiling (left out), the whole floor in the frame."""
-    from biovln_ms.render.goal_views import GoalViewRenderer
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

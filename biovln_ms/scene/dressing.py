@@ -21,7 +21,7 @@ from biovln_ms.catalog import AssetSpec, Catalog
 from biovln_ms.geometry.freespace import free_space, island_of
 from biovln_ms.geometry.zones import rot2, yaw_facing
 from biovln_ms.scene.rules import DRESSING_GAP, floor_polygon
-from biovln_ms.scene.spec import ObjectSpec, SceneSpec
+from biovln_ms.scene.spec import ObjectSpec, SceneSpec, make_object
 
 FRONT = (0.0, -1.0)  # model -Y: the front of every piece of dressing, as the asset generator builds it
 
@@ -95,8 +95,6 @@ class _Dresser:
         return None not in islands and len(islands) == 1
 
     def add(self, a: AssetSpec, xy: np.ndarray, yaw: float, z: float, room: str, support: str | None) -> None:
-        from biovln_ms.scene.generator import make_object
-
         n = sum(o.category == a.name for o in self.placed)
         obj = make_object(self.cat, f"{a.name}_{n}", a.name, xy, z, yaw, a.mount, room, support, None, False)
         self.placed.append(obj)

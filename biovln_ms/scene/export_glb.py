@@ -18,7 +18,9 @@ import trimesh
 
 from biovln_ms.assetgen.generate import load_glb
 from biovln_ms.catalog import PAPER_GOAL_CATEGORIES, load_catalog
+from biovln_ms.geometry.frames import Z_UP_TO_Y_UP
 from biovln_ms.io_utils import atomic_write_bytes
+from biovln_ms.paths import asset_glb
 from biovln_ms.scene.shell import shell_scene
 from biovln_ms.scene.spec import SceneSpec, SceneSpecError
 
@@ -57,7 +59,6 @@ def assemble(spec: SceneSpec) -> trimesh.Scene:
                 transform=tf,
             )
     assets: dict[str, trimesh.Scene] = {}
-    from biovln_ms.paths import asset_glb
 
     for o in spec.objects():
         if o.category not in assets:
@@ -172,7 +173,6 @@ def annotate(glb: bytes, spec: SceneSpec) -> bytes:
 def export_scene_glb(spec: SceneSpec, out: str | Path) -> Path:
     """Write the assembled, annotated scene GLB atomically, in glTF's Y-up frame (Blender, Habitat and
     viewers show it upright; ``biovln-ms lsat import`` reads it back)."""
-    from biovln_ms.geometry.frames import Z_UP_TO_Y_UP
 
     scene = assemble(spec)
     scene.apply_transform(Z_UP_TO_Y_UP)

@@ -26,10 +26,11 @@ from shapely.ops import unary_union
 from biovln_ms.catalog import Catalog, load_catalog
 from biovln_ms.constants import ROBOT_RADIUS, SCENE_GENERATOR_VERSION, SUPPORT_EDGE_MARGIN, WALL_THICKNESS
 from biovln_ms.errors import BioVLNError
-from biovln_ms.geometry.zones import goal_position, placement_z, rot2, wrap_angle, yaw_facing
+from biovln_ms.geometry.zones import placement_z, rot2, yaw_facing
 from biovln_ms.scene.dressing import dress
 from biovln_ms.scene.rules import Violation, check_layout
-from biovln_ms.scene.spec import ObjectSpec, OpeningSpec, RoomSpec, SceneSpec, WallSpec, parse_spec
+from biovln_ms.scene.loading import parse_spec
+from biovln_ms.scene.spec import ObjectSpec, OpeningSpec, RoomSpec, SceneSpec, WallSpec, make_object
 from biovln_ms.scene.templates import InstrumentSlot, Template, TemplateError, get_template
 
 WALL_INTERIOR = {"S": (0.0, 1.0), "N": (0.0, -1.0), "W": (1.0, 0.0), "E": (-1.0, 0.0)}
@@ -105,44 +106,6 @@ def rooms_from_rects(
 
 def _world_extent(size: Sequence[float], yaw: float) -> np.ndarray:
     return np.abs(rot2(yaw)) @ np.asarray(size[:2], float)
-
-
-def make_object(
-    cat: Catalog,
-    obj_id: str,
-    category: str,
-    xy: Sequence[float],
-    z: float,
-    yaw: float,
-    placement: str,
-    room: str,
-    support: str | None,
-    slot: str | None,
-    is_goal: bool,
-) -> ObjectSpec:
-    a = cat.get(category)
-    yaw = wrap_angle(yaw)
-    face = None if a.face_vector is None else tuple(float(v) for v in rot2(yaw) @ a.face_vector)
-    goal = None
-    if is_goal:
-        goal = tuple(float(v) for v in goal_position(xy, face, a.d_half, a.approach_distance))
-    return ObjectSpec(
-        id=obj_id,
-        category=category,
-        position=(float(xy[0]), float(xy[1]), float(z)),
-        yaw=float(yaw),
-        size=tuple(a.dimensions),
-        placement=placement,
-        room=room,
-        support=support,
-        slot=slot,
-        is_goal=is_goal,
-        face=face,
-        d_half=a.d_half if is_goal else None,
-        approach_distance=a.approach_distance if is_goal else None,
-        success_radius=a.success_radius if is_goal else None,
-        goal=goal,
-    )
 
 
 def _room_rect(t: Template, room_id: str) -> tuple[float, float, float, float]:

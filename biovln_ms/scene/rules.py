@@ -17,6 +17,7 @@ from shapely.ops import unary_union
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import SUPPORT_EDGE_MARGIN
 from biovln_ms.geometry.freespace import free_space, island_of
+from biovln_ms.geometry.navigation import NavGeometry
 from biovln_ms.geometry.zones import goal_position, placement_z, zone2_disjoint
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 
@@ -56,7 +57,6 @@ def scene_navigation(
 ) -> NavGeometry:
     """NavGeometry of a scene spec (radius defaults to the spec's robot radius). Imported here, not at the
     top: the rules also run inside Blender (the LSAT add-on), whose environment has no scipy."""
-    from biovln_ms.geometry.navigation import NavGeometry
 
     r = spec.robot_radius if radius is None else radius
     return NavGeometry(scene_free_space(spec, r), r, grid_resolution)

@@ -10,14 +10,16 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from biovln_ms.errors import BioVLNError, describe_validation_error
-from biovln_ms.geometry.zones import PlacedInstrument
+from biovln_ms.catalog import Catalog
+from biovln_ms.errors import BioVLNError
+from biovln_ms.geometry.zones import PlacedInstrument, goal_position, rot2, wrap_angle
 from biovln_ms.io_utils import atomic_write_text
 
 SCHEMA_VERSION = 1
@@ -157,6 +159,47 @@ class ObjectSpec(_Strict):
         )
 
 
+def make_object(
+    cat: Catalog,
+    obj_id: str,
+    category: str,
+    xy: Sequence[float],
+    z: float,
+    yaw: float,
+    placement: str,
+    room: str,
+    support: str | None,
+    slot: str | None,
+    is_goal: bool,
+) -> ObjectSpec:
+    """The spec of catalog asset ``category`` placed at (``xy``, ``z``, ``yaw``): its size from the catalog
+    and, for a goal (``is_goal``), the three-zone numbers and the Eq. 1 goal in the world frame. The
+    generator, the lab dressing and the LSAT importer all place objects through it."""
+    a = cat.get(category)
+    yaw = wrap_angle(yaw)
+    face = None if a.face_vector is None else tuple(float(v) for v in rot2(yaw) @ a.face_vector)
+    goal = None
+    if is_goal:
+        goal = tuple(float(v) for v in goal_position(xy, face, a.d_half, a.approach_distance))
+    return ObjectSpec(
+        id=obj_id,
+        category=category,
+        position=(float(xy[0]), float(xy[1]), float(z)),
+        yaw=float(yaw),
+        size=tuple(a.dimensions),
+        placement=placement,
+        room=room,
+        support=support,
+        slot=slot,
+        is_goal=is_goal,
+        face=face,
+        d_half=a.d_half if is_goal else None,
+        approach_distance=a.approach_distance if is_goal else None,
+        success_radius=a.success_radius if is_goal else None,
+        goal=goal,
+    )
+
+
 class SceneSpec(_Strict):
     schema_version: Literal[1]
     name: str
@@ -238,74 +281,6 @@ def _round(obj, nd: int = 6):
     return obj
 
 
-_COUNT_LIMITS = {"rooms": MAX_ROOMS, "walls": MAX_WALLS, "openings": MAX_OPENINGS}
-_BOUNDS_FIX = "lengths are positive and coordinates within 10 km (docs: scenes and templates, The spec)"
-_LIMIT_FIXES = {  # pydantic error type -> fix, for the errors the limits raise
-    "finite_number": "use a finite number (NaN and Infinity are refused)",
-    "greater_than": _BOUNDS_FIX,
-    "greater_than_equal": _BOUNDS_FIX,
-    "less_than_equal": _BOUNDS_FIX,
-    "too_long": "see the limits in the docs (scenes and templates, The spec)",
-}
-
-
-def _check_counts(obj: dict, source: str) -> None:
-    """Refuse oversized lists before the schema and the geometry see them."""
-    sizes = {k: len(v) for k, v in obj.items() if isinstance(v, list)}
-    limits = {**_COUNT_LIMITS, "furniture": MAX_OBJECTS, "instruments": MAX_OBJECTS, "dressing": MAX_OBJECTS}
-    for key, limit in limits.items():
-        if sizes.get(key, 0) > limit:
-            raise SceneSpecError(
-                f"{sizes[key]} {key}, more than the limit of {limit}",
-                source=source,
-                field=key,
-                fix="split the lab into several scenes",
-            )
-    n_objects = sizes.get("furniture", 0) + sizes.get("instruments", 0) + sizes.get("dressing", 0)
-    if n_objects > MAX_OBJECTS:
-        raise SceneSpecError(
-            f"{n_objects} objects (furniture + instruments + dressing), more than the limit of {MAX_OBJECTS}",
-            source=source,
-            field="instruments",
-            fix="split the lab into several scenes",
-        )
-
-
-def parse_spec(obj: dict, source: str = "<scene spec>", check_rules: bool = True) -> SceneSpec:
-    """Validate a spec object: size limits, schema, then consistency with the catalog and the layout
-    rules. Every problem raises ``SceneSpecError`` naming the field."""
-    if not isinstance(obj, dict):
-        raise SceneSpecError("a scene spec must be a JSON object", source=source)
-    version = obj.get("schema_version")
-    if version != SCHEMA_VERSION:
-        raise SceneSpecError(
-            f"schema_version {version!r} is not supported (this build reads {SCHEMA_VERSION})",
-            source=source,
-            field="schema_version",
-            fix="regenerate the spec with this version",
-        )
-    _check_counts(obj, source)
-    try:
-        spec = SceneSpec.model_validate(obj)
-    except ValidationError as e:
-        field, msg = describe_validation_error(e)
-        fix = _LIMIT_FIXES.get(e.errors()[0]["type"])
-        raise SceneSpecError(msg, source=source, field=field, fix=fix) from None
-    if check_rules:
-        from biovln_ms.scene.rules import DESIGNER_RULES, check_consistency, check_layout
-
-        for problems in (check_consistency(spec), check_layout(spec)):
-            if spec.template == DESIGNER_TEMPLATE:  # designer-authored (LSAT): only the rules it must keep
-                problems = [p for p in problems if p.rule in DESIGNER_RULES]
-            if problems:
-                p = problems[0]
-                more = f" (+{len(problems) - 1} more)" if len(problems) > 1 else ""
-                raise SceneSpecError(
-                    f"{p.message}{more}", source=source, field=p.field, fix=f"rule: {p.rule}"
-                )
-    return spec
-
-
 _JSON_STRING = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"', re.DOTALL)
 
 
@@ -316,46 +291,6 @@ def json_depth(raw: bytes) -> int:
     step[(b == ord("[")) | (b == ord("{"))] = 1
     step[(b == ord("]")) | (b == ord("}"))] = -1
     return int(np.cumsum(step, dtype=np.int32).max(initial=0))
-
-
-def load_spec(path: str | Path, check_rules: bool = True) -> SceneSpec:
-    """Read and validate a spec file: size, UTF-8 and nesting limits first, then ``parse_spec``."""
-    path = Path(path)
-    src = str(path)
-
-    def refuse(message: str, fix: str) -> SceneSpecError:
-        return SceneSpecError(message, source=src, field="file", fix=fix)
-
-    try:
-        with path.open("rb") as f:
-            raw = f.read(MAX_FILE_BYTES + 1)
-    except OSError as e:
-        raise SceneSpecError(f"cannot read the scene spec ({e.strerror})", source=src) from None
-    if len(raw) > MAX_FILE_BYTES:
-        raise refuse(
-            f"larger than the limit of {MAX_FILE_BYTES // 2**20} MiB", "is this a scene spec? regenerate it"
-        )
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise refuse(
-            f"not UTF-8 text (byte 0x{raw[e.start]:02x} at offset {e.start})", "save the spec as UTF-8 JSON"
-        ) from None
-    depth = json_depth(raw)
-    if depth > MAX_JSON_DEPTH:
-        raise refuse(
-            f"JSON nested {depth} levels deep, more than the limit of {MAX_JSON_DEPTH}",
-            "a scene spec nests a few levels; regenerate it",
-        )
-    try:
-        obj = json.loads(text)
-    except RecursionError:  # unreachable after the depth check; kept so no input gives a traceback
-        raise refuse("JSON nested too deeply", "regenerate the spec") from None
-    except ValueError as e:  # JSONDecodeError, or an integer literal with too many digits
-        where = f" at line {e.lineno} column {e.colno}" if isinstance(e, json.JSONDecodeError) else ""
-        msg = e.msg if isinstance(e, json.JSONDecodeError) else str(e)
-        raise refuse(f"not valid JSON{where}: {msg}", "fix the JSON syntax, or regenerate the spec") from None
-    return parse_spec(obj, src, check_rules)
 
 
 def save_spec(spec: SceneSpec, path: str | Path) -> Path:

@@ -16,6 +16,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import BioVLNError, describe_validation_error
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
@@ -99,7 +100,6 @@ class Template(_Strict):
 
     @model_validator(mode="after")
     def _refs(self) -> Template:
-        from biovln_ms.catalog import load_catalog
 
         cat = load_catalog()
         rooms = {r.id for r in self.rooms}

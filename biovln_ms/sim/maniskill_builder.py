@@ -18,7 +18,8 @@ from mani_skill.utils.scene_builder.registration import register_scene_builder
 
 from biovln_ms.scene.rules import scene_free_space
 from biovln_ms.sim.sapien_builder import BuiltScene, add_lights, add_spec_to_scene
-from biovln_ms.scene.spec import SceneSpec, load_spec
+from biovln_ms.scene.loading import load_spec
+from biovln_ms.scene.spec import SceneSpec
 
 SpecLike = Union[SceneSpec, str, Path]
 

@@ -17,10 +17,10 @@ import sapien
 from biovln_ms.assetgen.variation import variant_for
 from biovln_ms.catalog import load_catalog
 from biovln_ms.paths import ASSET_DIR, COLLISION_DIR
+from biovln_ms.render.lighting import apply_lighting
 from biovln_ms.scene.shell import FLOOR_DEPTH, shell_glbs, wall_spans
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 from biovln_ms.sim.instance_looks import apply_variant
-
 
 #: ManiSkill's group-2 collision bits of a mobile base's wheels (30) and base link (31)
 #: (``mani_skill.agents.robots.fetch``): the floor ignores them, as ManiSkill's own grounds do. Such a base
@@ -143,6 +143,5 @@ def add_lights(
 ) -> None:
     """The lighting preset ``lighting`` (:data:`biovln_ms.render.lighting.LIGHTING`) for the spec's rooms:
     ambient light, a directional key light (shadowed with ``shadows``) and ceiling fixtures."""
-    from biovln_ms.render.lighting import apply_lighting
 
     apply_lighting(scene, spec, lighting, key_shadow=shadows, scene_idxs=scene_idxs)

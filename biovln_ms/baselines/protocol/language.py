@@ -59,6 +59,7 @@ from biovln_ms.baselines.protocol.chain import subgoal_index
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import MAX_VISITS
 from biovln_ms.errors import BioVLNError
+from biovln_ms.llm.client import JSONChatClient, default_cache_path
 from biovln_ms.protocols.instructions import COMPASS
 from biovln_ms.protocols.parser import InstructionParseError, ParsedTarget, parse_relation, parse_targets
 from biovln_ms.protocols.vocabulary import decode_text, load_vocabulary
@@ -104,8 +105,6 @@ class LLMInstructionParser:
 
     def __init__(self, client=None, fallback: bool = True) -> None:
         if client is None:  # as `eval` builds it: the endpoint from the environment, the persistent cache
-            from biovln_ms.llm.client import JSONChatClient, default_cache_path
-
             client = JSONChatClient(cache_path=default_cache_path())
         self.client, self.fallback = client, fallback
         self.consulted = self.fallbacks = 0
