@@ -12,6 +12,10 @@ from typing import Any
 
 from biovln_ms.noise import NoiseConfig
 
+#: The action codes of the paper's action space (the env's ``Discrete(4)``), shared by the env, the
+#: policies and the learning code.
+STOP, FORWARD, TURN_LEFT, TURN_RIGHT = 0, 1, 2, 3
+
 #: Per-step info of every variant (paper §4.2) and the episode-end metrics.
 STEP_MEASURES = (
     "success",

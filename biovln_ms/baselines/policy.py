@@ -24,11 +24,9 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 
-from biovln_ms.task_config import EpisodeInfo, TaskSpec
+from biovln_ms.task_config import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EpisodeInfo, TaskSpec
 
 __all__ = ["STOP", "FORWARD", "TURN_LEFT", "TURN_RIGHT", "EpisodeInfo", "TaskSpec", "Policy"]
-
-STOP, FORWARD, TURN_LEFT, TURN_RIGHT = 0, 1, 2, 3
 
 
 class Policy(ABC):

@@ -22,9 +22,9 @@ import numpy as np
 import torch
 from PIL import Image
 
-from biovln_ms.baselines.policy import TURN_LEFT, TURN_RIGHT
 from biovln_ms.errors import BioVLNError
 from biovln_ms.learning.recorder import RECORDER_VERSION
+from biovln_ms.task_config import TURN_LEFT, TURN_RIGHT
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 IMAGENET_STD = (0.229, 0.224, 0.225)
