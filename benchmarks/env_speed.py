@@ -62,12 +62,22 @@ def time_noise_work(env) -> list[float]:
 
         return run
 
-    for controller in u.agent.controllers.values():
-        if controller.perturb is not None:
-            controller.perturb = timed(controller.perturb)
-    u._no_sliding = timed(u._no_sliding)
-    u._camera_params_in_base_frame = timed(u._camera_params_in_base_frame)
-    u._apply_image_noise = timed(u._apply_image_noise)
+    def time_controllers():  # the locomotion controllers are made anew when a scene is built
+        for controller in u.agent.controllers.values():
+            controller._perturb = timed(controller._perturb)
+            controller._no_sliding = timed(controller._no_sliding)
+
+    load_agent = u._load_agent
+
+    def load_and_time(options):
+        load_agent(options)
+        time_controllers()
+
+    u._load_agent = load_and_time
+    time_controllers()
+    noise = u._head_noise
+    noise.camera_params_in_base_frame = timed(noise.camera_params_in_base_frame)
+    noise.apply_image_noise = timed(noise.apply_image_noise)
     return spent
 
 

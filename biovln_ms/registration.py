@@ -46,11 +46,25 @@ def register_lazily() -> None:
 
 
 def register_biovln_env(uid: str, max_episode_steps: int, **kwargs):
-    """ManiSkill's ``register_env``, after dropping this package's lazy gymnasium spec of ``uid``."""
+    """ManiSkill's ``register_env``, after dropping this package's lazy gymnasium spec of ``uid``. A
+    navigation env's ManiSkill spec resolves ``split=`` / ``dataset=`` / ``template=`` / ``scene_seed=`` to
+    the episode source the env is handed (:mod:`biovln_ms.tasks.episode_sources`)."""
     import gymnasium as gym
-    from mani_skill.utils.registration import register_env
+    from mani_skill.utils.registration import REGISTERED_ENVS, register_env
 
     spec = gym.registry.get(uid)
     if spec is not None and spec.entry_point == LAZY_ENTRY_POINT:
         del gym.registry[uid]
-    return register_env(uid, max_episode_steps=max_episode_steps, **kwargs)
+    register = register_env(uid, max_episode_steps=max_episode_steps, **kwargs)
+
+    def wrap(cls):
+        register(cls)
+        from biovln_ms.tasks.episode_sources import NavEnvSpec
+        from biovln_ms.tasks.nav_env import BioVLNNavEnv
+
+        ms_spec = REGISTERED_ENVS.get(uid)
+        if issubclass(cls, BioVLNNavEnv) and ms_spec is not None and not isinstance(ms_spec, NavEnvSpec):
+            REGISTERED_ENVS[uid] = NavEnvSpec.of(ms_spec)
+        return cls
+
+    return wrap

@@ -1,7 +1,8 @@
 """The navigation task's configuration (paper §3.2, Eq. 5, appendix "Gym Environment for RL Training").
 
 Pure data: the env (:mod:`biovln_ms.tasks.nav_env`), its measures and sensors read it; a variant is
-one :class:`NavTaskConfig` in :data:`biovln_ms.variants.VARIANTS`.
+one :class:`NavTaskConfig` (a :class:`ProtocolTaskConfig` for lab protocols) in
+:data:`biovln_ms.variants.VARIANTS`.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ STEP_MEASURES = (
     "facing_instrument",
     "collisions",
     "strict_success",
+    "stopped",
 )
 END_MEASURES = ("spl", "soft_spl", "mcr", "vrt", "steps", "path_length")
 #: The sensors of the benchmark env (Habitat's PointNav/ObjectNav sensors; see ``baselines.policy``).
@@ -102,11 +104,11 @@ class NavTaskConfig:
     default_obs_mode: str = "state"
     lighting: str = "fast"  # a preset of biovln_ms.render.lighting.LIGHTING: "fast" or "quality" (shadows)
     noise: NoiseConfig = field(default_factory=NoiseConfig)  # biovln_ms.noise: the paper's is ideal
-    # protocol (multi-goal) episodes, BioVLN-Protocol-v0 (docs/guides/protocols.md)
-    protocol: bool = False  # episodes are lab protocols: K ordered goals, a STOP at each
-    steps_per_goal: int = 500  # protocol: an episode's step budget is steps_per_goal x K
-    wrong_stop: str = "end"  # protocol: a STOP away from the current goal "end"s the episode, or is a "miss"
-    subgoal_rule: str = "radius"  # protocol: a correct STOP is within r; "strict": in Zone 3, facing the face
+
+    @property
+    def protocol(self) -> bool:
+        """Whether episodes are lab protocols (K ordered goals): :class:`ProtocolTaskConfig`'s are."""
+        return False
 
     def with_noise(self, noise: NoiseConfig) -> "NavTaskConfig":
         """This config under ``noise``: without GPS+compass, its sensors lose them (the goal comes once, as
@@ -121,9 +123,24 @@ class NavTaskConfig:
         return replace(self, noise=noise, sensors=sensors, agent_obs=False)
 
     def step_budget(self, k: int) -> int:
-        """The step budget of an episode with ``k`` goals: ``steps_per_goal`` x k for protocol episodes, else
-        ``max_episode_steps``."""
-        return self.steps_per_goal * k if self.protocol else self.max_episode_steps
+        """The step budget of an episode with ``k`` goals: ``max_episode_steps`` for single-goal episodes."""
+        return self.max_episode_steps
+
+    def task_spec(
+        self, goal_categories: tuple[str, ...], control_mode: str, robot_radius: float
+    ) -> "TaskSpec":
+        """What a policy is told of this task, for a control mode and a robot."""
+        return TaskSpec(
+            self.forward_step,
+            self.turn_deg,
+            self.camera_hfov_deg,
+            self.max_episode_steps,
+            goal_categories,
+            control_mode,
+            robot_radius,
+            self.noise,
+            self.position_scale,
+        )
 
     @property
     def camera_vfov(self) -> float:
@@ -135,6 +152,24 @@ class NavTaskConfig:
     @property
     def hfov(self) -> float:
         return math.radians(self.camera_hfov_deg)
+
+
+@dataclass(frozen=True)
+class ProtocolTaskConfig(NavTaskConfig):
+    """A lab protocol task (``BioVLN-Protocol-v0``, docs/guides/protocols.md): an episode is K = 2-5 ordered
+    goals, a STOP at each (MultiON's FOUND). The options below are this task's only."""
+
+    steps_per_goal: int = 500  # an episode's step budget is steps_per_goal x K
+    wrong_stop: str = "end"  # a STOP away from the current goal "end"s the episode, or is a "miss"
+    subgoal_rule: str = "radius"  # a correct STOP is within r; "strict": in Zone 3, facing the face
+
+    @property
+    def protocol(self) -> bool:
+        return True
+
+    def step_budget(self, k: int) -> int:
+        """``steps_per_goal`` x ``k`` for an episode of ``k`` goals."""
+        return self.steps_per_goal * k
 
 
 @dataclass(frozen=True)

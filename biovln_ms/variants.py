@@ -15,12 +15,12 @@ from biovln_ms.task_config import (
     PROTOCOL_END_MEASURES,
     PROTOCOL_STEP_MEASURES,
     NavTaskConfig,
+    ProtocolTaskConfig,
 )
 
-# lab protocols (issue 17): K = 2-5 ordered goals, a STOP at each; the step budget is steps_per_goal x K,
+# lab protocols: K = 2-5 ordered goals, a STOP at each; the step budget is steps_per_goal x K,
 # and the registered step limit (gymnasium's truncation) the largest budget, steps_per_goal x MAX_VISITS
-_PROTOCOL = NavTaskConfig(
-    protocol=True,
+_PROTOCOL = ProtocolTaskConfig(
     measures=PROTOCOL_STEP_MEASURES + PROTOCOL_END_MEASURES,
     reward_measure="protocol_reward",
     success_measure="protocol_success",

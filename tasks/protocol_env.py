@@ -1,9 +1,10 @@
-"""``BioVLN-Protocol-v0``: a lab protocol as one episode, K = 2-5 ordered instrument goals (issue 17).
+"""``BioVLN-Protocol-v0``: a lab protocol as one episode, K = 2-5 ordered instrument goals.
 
 The robot, actions, physics, sensors and safety measures are :class:`~biovln_ms.tasks.nav_env.BioVLNNavEnv`'s.
 What differs: an episode's goals are visited in order, each an Eq. 1 goal with its success radius r; a STOP
 (MultiON's FOUND) at the current goal moves on to the next, a STOP elsewhere ends the episode or misses the
-goal (``wrong_stop``); the step budget is ``steps_per_goal`` x K. The rule and the metrics are measures
+goal (``wrong_stop``); the step budget is ``steps_per_goal`` x K (the options of its
+:class:`~biovln_ms.task_config.ProtocolTaskConfig`). The rule and the metrics are measures
 (:mod:`biovln_ms.metrics.protocol_measures`). The observation's goal sensors (``pointgoal_with_gps_compass``,
 ``pointgoal``, ``objectgoal``) and an oracle's privileged view follow the current goal; the observation also
 carries the episode's English instruction: ``instruction`` (token ids of the versioned vocabulary,
@@ -20,10 +21,9 @@ import torch
 
 from biovln_ms.constants import MAX_VISITS
 from biovln_ms.episodes.source import GeneratedProtocolEpisodes
-from biovln_ms.episodes.source import EpisodeSource
 from biovln_ms.metrics.protocol_measures import ProtocolBatchContext, ProtocolEpisodeContext
 from biovln_ms.protocols.vocabulary import load_vocabulary
-from biovln_ms.task_config import EpisodeInfo
+from biovln_ms.task_config import EpisodeInfo, ProtocolTaskConfig
 from biovln_ms.tasks.nav_env import BioVLNNavEnv
 from biovln_ms.tasks.privileged import PrivilegedView
 from biovln_ms.tasks.sensors import SENSORS, SensorInputs, register_sensor
@@ -53,16 +53,12 @@ def instruction_text(x: ProtocolSensorInputs) -> np.ndarray:
 class BioVLNProtocolEnv(BioVLNNavEnv):
     """Lab protocols: K ordered goals, a STOP at each. Episodes from a ``protocol_*`` split (of ``dataset``
     or the default dataset), or sampled in a scene generated from ``template`` (default ``two_room``, which
-    hosts every shipped protocol) / ``scene_seed``. :class:`NavTaskConfig` fields may be passed as keyword
-    arguments (``wrong_stop``, ``subgoal_rule``, ``steps_per_goal`` among them)."""
+    hosts every shipped protocol) / ``scene_seed``. :class:`ProtocolTaskConfig` fields may be passed as
+    keyword arguments (``wrong_stop``, ``subgoal_rule``, ``steps_per_goal`` among them)."""
 
-    config = VARIANTS["BioVLN-Protocol-v0"]
-
-    def __init__(self, *args, template: str = "two_room", **kwargs) -> None:
-        super().__init__(*args, template=template, **kwargs)
-
-    def _generated_episodes(self, template: str, scene_seed: int) -> EpisodeSource:
-        return GeneratedProtocolEpisodes(template, scene_seed, robot=self.robot_id)
+    config: ProtocolTaskConfig = VARIANTS["BioVLN-Protocol-v0"]
+    generated_episodes = GeneratedProtocolEpisodes
+    default_template = "two_room"  # it hosts every shipped protocol
 
     def _after_reconfigure(self, options: dict):
         super()._after_reconfigure(options)

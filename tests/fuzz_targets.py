@@ -338,7 +338,8 @@ def _env_args(state, seed: int, tmp: Path) -> str:
     decides acceptance, and CI builds real envs from a few accepted sets in tests/test_fuzz.py)."""
     from dataclasses import fields, replace
 
-    from biovln_ms.tasks.nav_env import BioVLNNavEnv, _check_arguments
+    from biovln_ms.tasks.config_checks import check_arguments as _check_arguments
+    from biovln_ms.tasks.nav_env import BioVLNNavEnv
 
     rng = np.random.default_rng(seed)
     kw = {k: v[0] if rng.random() < 0.5 else v[int(rng.integers(len(v)))] for k, v in ENV_ARGS.items()}

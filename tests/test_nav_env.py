@@ -512,7 +512,7 @@ def test_any_instance_counts_on_the_hard_track():
     far = ep["goals"][-1]
     face = u.scene_specs[0].get(far["object_id"]).placed().face
     x, y = far["view_points"][0]["agent_state"]["position"][:2]  # in Zone 3, within r
-    u._put_back([0], np.array([[x, y, math.atan2(-face[1], -face[0])]]))
+    u.agent.controller.put_back([0], np.array([[x, y, math.atan2(-face[1], -face[0])]]))
     info = env.step(0)[4]
     assert bool(info["success"]) and bool(info["strict_success"]) and bool(info["in_zone3"])
     d = math.dist((x, y), far["position"][:2])

@@ -1,7 +1,7 @@
 """Fetch for navigation, registered with ManiSkill as ``fetch_nav`` (the task's ``robot_uids="fetch"``).
 
 ManiSkill's Fetch (its URDF and meshes ship inside the ``mani_skill`` package; nothing is downloaded) with
-the navigation controllers of :mod:`biovln_ms.agents.robots.biovln_base` instead of ManiSkill's velocity
+the navigation controller of :mod:`biovln_ms.agents.robots.locomotion` instead of ManiSkill's velocity
 base: the same ``discrete`` (``Discrete(4)``) and ``continuous`` (``Box(-1, 1, (3,))``) modes drive the
 planar joints ``root_x_axis_joint`` / ``root_y_axis_joint`` / ``root_z_rotation_joint`` to the commanded pose
 through a stiff PD position drive, and every other joint is held at the tuck pose (:data:`TUCK`) by the
@@ -24,7 +24,8 @@ from mani_skill.agents.base_agent import Keyframe
 from mani_skill.agents.registration import register_agent
 from mani_skill.agents.robots.fetch.fetch import Fetch
 
-from biovln_ms.agents.robots.biovln_base import CONTROL_MODES, NavAgent, NavBaseControllerConfig
+from biovln_ms.agents.robots.biovln_base import NavAgent
+from biovln_ms.agents.robots.locomotion import CONTROL_MODES, LocomotionControllerConfig
 
 BASE_JOINTS = ("root_x_axis_joint", "root_y_axis_joint", "root_z_rotation_joint")
 PLANAR_LIMIT = 1000.0  # m, the planar joints' range (the cylinder's)
@@ -77,7 +78,7 @@ class FetchNav(NavAgent, Fetch):
     def _controller_configs(self):
         n = len(TUCK)
         return {
-            mode: NavBaseControllerConfig(
+            mode: LocomotionControllerConfig(
                 list(BASE_JOINTS) + list(TUCK),
                 lower=None,
                 upper=None,
