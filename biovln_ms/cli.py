@@ -647,6 +647,7 @@ def eval_cmd(
     ),
 ) -> None:
     from biovln_ms.eval.harness import EvalConfig, evaluate
+    from biovln_ms.eval.tables import headline
 
     given = {"checkpoint": str(checkpoint) if checkpoint else None, "detector": detector, "scorer": scorer}
     given["parser"] = parser
@@ -669,11 +670,11 @@ def eval_cmd(
         handoff_dir=str(export_handoff) if export_handoff else None,
         fresh_scene=fresh_scene,
     )
-    o = evaluate(cfg, echo=typer.echo)["overall"]
-    path = "progress {progress:.3f}, PPL {ppl:.3f}" if "progress" in o else "SPL {spl:.3f}, DTG {dtg:.2f} m"
+    summary = evaluate(cfg, echo=typer.echo)
+    o = summary["overall"]
     typer.echo(
-        f"{cfg.run_name} on {split}: {o['episodes']} episodes, SR {o['sr']:.1f}%, {path.format(**o)}, "
-        f"MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}%, errors: {o['errors']} -> {cfg.run_dir}"
+        f"{cfg.run_name} on {split}: {o['episodes']} episodes, {headline(summary)}, errors: {o['errors']} "
+        f"-> {cfg.run_dir}"
     )
     if o.get("reach_successes") is not None:  # Fetch: the reach check at STOP
         typer.echo(
@@ -976,6 +977,7 @@ def _train_rl(
     sim_backend: Optional[str] = None,
 ) -> None:
     from biovln_ms.eval.learned import train_and_evaluate
+    from biovln_ms.eval.tables import headline
     from biovln_ms.learning.rl import RLConfig
 
     cfg = RLConfig(
@@ -992,11 +994,7 @@ def _train_rl(
     )
     r = train_and_evaluate(cfg, out or Path(f"runs/{algo}"), echo=typer.echo)
     if r.eval_summary:
-        o = r.eval_summary["overall"]
-        typer.echo(
-            f"{algo} on {eval_split}: SR {o['sr']:.1f}%, SPL {o['spl']:.3f}, "
-            f"MCR {o['mcr']:.3f} m, VRT {o['vrt']:.1f}%"
-        )
+        typer.echo(f"{algo} on {eval_split}: {headline(r.eval_summary)}")
 
 
 def _rl_command(algo: str):

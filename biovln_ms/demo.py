@@ -5,7 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from biovln_ms.catalog import load_catalog
+from biovln_ms.eval.harness import DEFAULT_ENV
+from biovln_ms.metrics.measures import measure_type
 from biovln_ms.render.asset_preview import contact_sheet
+from biovln_ms.variants import VARIANTS
 
 
 def run_demo(out_dir: Path, echo=print, lighting: str = "quality") -> dict[str, Path]:
@@ -65,10 +68,7 @@ def run_demo(out_dir: Path, echo=print, lighting: str = "quality") -> dict[str, 
         "",
         "# Oracle on MS VAL episode 0 (BioVLN-OpFace-v0, SAPIEN physics, CPU render)",
         "",
-        "| success | steps | SPL | soft SPL | DTG (m) | MCR (m) | VRT | collisions |",
-        "|---|---|---|---|---|---|---|---|",
-        f"| {m['success']} | {m['steps']} | {m['spl']:.3f} | {m['soft_spl']:.3f} | "
-        f"{m['distance_to_goal']:.3f} | {m['mcr']:.3f} | {m['vrt']:.3f} | {m['collisions']} |",
+        *_metrics_table(m),
     ]
     files["table"] = out_dir / "demo.md"
     files["table"].write_text("\n".join(lines) + "\n")
@@ -85,3 +85,19 @@ def run_demo(out_dir: Path, echo=print, lighting: str = "quality") -> dict[str, 
     for k, p in files.items():
         echo(f"wrote {p}")
     return files
+
+
+def _metrics_table(info: dict) -> list[str]:
+    """The episode's end values of the benchmark variant's recorded metrics, one column each."""
+    cols = []
+    for name in VARIANTS[DEFAULT_ENV].measures:
+        metric = measure_type(name).metric
+        if metric is not None and metric.at == "end" and name in info:
+            a = metric.aggregates[0] if metric.aggregates else None
+            cols.append((f"{a.label} ({a.unit})" if a else metric.key, info[name]))
+    cells = [f"{v:.3f}" if isinstance(v, float) else str(v) for _, v in cols]
+    return [
+        "| " + " | ".join(h for h, _ in cols) + " |",
+        "|" + "---|" * len(cols),
+        "| " + " | ".join(cells) + " |",
+    ]

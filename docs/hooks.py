@@ -9,6 +9,8 @@ never typed in. A page asks for one with a placeholder alone on its line:
   ``docs/data/reproduction.json`` (a copy of the report's ``measured.json``); the paper's numbers come
   from ``biovln_ms.eval.paper``. ``{{ report: source }}`` says where that file comes from.
 - ``{{ catalog }}``: the instrument catalog, read from ``assets/catalog.json``.
+- ``{{ metrics }}``: every recorded metric, from the measures' declarations (``Measure.metric``): record key,
+  what is recorded, and each aggregate with its unit, episodes and interval (``single`` or ``protocol``).
 - ``{{ protocols }}``: the shipped lab protocols (``biovln_ms/protocols/data/``), every step and its purpose.
 - ``{{ dataset: splits }}``: scenes, episodes, categories and difficulty mix of each split of the default
   dataset, built by the code (about 4 s, cached like ``gym.make`` does).
@@ -120,12 +122,36 @@ def _dataset(name: str) -> str:
     return "\n".join(rows)
 
 
+def _metrics(kind: str | None) -> str:
+    from biovln_ms.eval.metrics import kind_metrics
+
+    if kind not in ("single", "protocol"):
+        raise PluginError(f"docs: no metrics table {kind!r}; known: single, protocol")
+    at = {"end": "at the end", "trace": "every step", "count": "actions where true", "steps": "those actions"}
+    over = {"all": "all (errored: 0)", "ran": "that ran", "successes": "successes"}
+    rows = [
+        "| record key | measure | recorded | aggregate | unit | over episodes | 95 % interval |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for key, (metric, cls) in kind_metrics(kind == "protocol").items():
+        aggs = metric.aggregates or (None,)
+        for a in aggs:
+            if a is None:
+                cells = ["–", "–", "–", "–"]
+            else:
+                ci = "Wilson" if a.how != "mean" else "–" if a.bounds is None else "bootstrap"
+                cells = [f"`{a.key}` ({a.label}, {a.how})", a.unit, over[a.over], ci]
+            rows.append(f"| `{key}` | `{cls.uuid}` | {at[metric.at]} | " + " | ".join(cells) + " |")
+    return "\n".join(rows)
+
+
 KINDS = {
     "table": _table,
     "report": _report,
     "catalog": _catalog,
     "dataset": _dataset,
     "protocols": _protocols,
+    "metrics": _metrics,
 }
 # Sphinx roles in docstrings (:class:`~a.b.C`), as mkdocstrings renders them: ":class:<code>~a.b.C</code>"
 SPHINX_ROLE = re.compile(r":(?:class|meth|func|mod|data|attr|obj|exc):<code>(~?)([^<]*)</code>")

@@ -13,10 +13,10 @@ from biovln_ms.metrics.measures import (
     BatchContext,
     EpisodeContext,
     Measure,
-    MeasureSet,
     StepState,
     register_measure,
 )
+from biovln_ms.metrics.measure_set import MeasureSet
 from biovln_ms.task_config import NavTaskConfig
 from biovln_ms.variants import VARIANTS
 

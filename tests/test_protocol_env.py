@@ -18,7 +18,8 @@ from biovln_ms.benchmark import FOUR_CATEGORIES
 from biovln_ms.episodes.dataset import SplitPlan, write_dataset
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import PlacedInstrument
-from biovln_ms.metrics.measures import MeasureSet, StepState
+from biovln_ms.metrics.measure_set import MeasureSet
+from biovln_ms.metrics.measures import StepState
 from biovln_ms.metrics.protocol_measures import (
     MISSED,
     NONE,

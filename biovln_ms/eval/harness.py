@@ -18,19 +18,26 @@ repaired on resume: the first record of each episode is kept, and the repaired k
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
+import subprocess
 import time
 from dataclasses import asdict, dataclass, field
+from importlib import metadata
 from pathlib import Path
+
+import numpy as np
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import method_spec
-from biovln_ms.eval.metrics import aggregate_all, record_error, required_metrics
+from biovln_ms.eval.metrics import aggregate_all, record_error
 from biovln_ms.eval.handoff import handoff_payload, write_handoff
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.io_utils import atomic_write_text, exclusive_lock
+from biovln_ms.metrics.measures import OUTCOME, Metric, measure_type
+from biovln_ms.metrics.reach_measures import REACH_MEASURES
 from biovln_ms.noise import resolve_noise
 from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
 from biovln_ms.variants import VARIANTS
@@ -196,20 +203,47 @@ def _r4(v) -> float:
     return round(float(v), 4)
 
 
+def _recorded(u, info: dict) -> list[tuple[str, Metric, type]]:
+    """(info key, metric, measure) of what an episode's record holds: the variant's measures with a metric
+    (its success measure's value is ``info``'s outcome), then those only some robots report."""
+    names = dict.fromkeys(u.cfg.measures + REACH_MEASURES)
+    out = []
+    for name in names:
+        cls = measure_type(name)
+        if name in info and cls.metric is not None:
+            out.append((OUTCOME if cls.metric.key == OUTCOME else name, cls.metric, cls))
+    return out
+
+
+def _first(v) -> np.ndarray:
+    """Sub-env 0's value of an ``info`` entry (a tensor or array with a leading ``num_envs`` dimension)."""
+    v = np.asarray(v.cpu() if hasattr(v, "cpu") else v)
+    return v[0] if v.ndim else v
+
+
+def _value(v, dtype):
+    """One recorded value of a measure, as JSON: bool, int or float by the measure's type."""
+    kind = np.dtype(dtype).kind
+    return bool(v) if kind == "b" else int(v) if kind in "iu" else float(v)
+
+
 def _run(index: int) -> dict:
     env, policy, cfg, recorder = _W["env"], _W["policy"], _W["cfg"], _W.get("recorder")
     u = env.unwrapped
     t0 = time.perf_counter()
     ep = None
     try:
-        positions, headings, clearance, zone2, actions, poses = [], [], [], [], [], []
-        found_at, wrong_stops = [], 0  # protocol episodes: the steps of the correct STOPs, the wrong ones
+        actions, poses = [], []
+        traces: dict[str, list] = {}
         for st in rollout(env, policy, index, _W["privileged"], cfg["fresh_scene"]):
             pose = st.info["agent_pose"][0].cpu().numpy()
             poses.append([float(v) for v in pose[:3]])
             if st.action is None:
                 ep = u.current_episode
                 goal = st.info["goal_position"][0].cpu().numpy()
+                recorded = _recorded(u, st.info)
+                traces = {m.key: [] for _, m, _ in recorded if m.at != "end"}
+                traces["positions"], traces["headings"] = [], []
                 if recorder is not None:
                     recorder.start(ep, goal)
             else:
@@ -224,42 +258,27 @@ def _run(index: int) -> dict:
                         st.obs_before,
                     )
                 actions.append(st.action if isinstance(st.action, int) else [_r4(v) for v in st.action])
-            positions.append([_r4(pose[0]), _r4(pose[1])])
-            headings.append(_r4(pose[2]))
-            clearance.append(_r4(st.info["clearance"]))
-            zone2.append(bool(st.info["zone2_violation"]))
-            if st.action is not None and u.cfg.protocol:
-                if bool(st.info["subgoal_found"]):
-                    found_at.append(len(actions))
-                wrong_stops += bool(st.info["wrong_stop"])
+            traces["positions"].append([_r4(pose[0]), _r4(pose[1])])
+            traces["headings"].append(_r4(pose[2]))
+            for name, m, cls in recorded:
+                if m.at == "trace":
+                    v = _value(_first(st.info[name]), cls.dtype)
+                    traces[m.key].append(_r4(v) if isinstance(v, float) else v)
+                elif m.at in ("count", "steps") and st.action is not None and bool(st.info[name]):
+                    traces[m.key].append(len(actions))
             info, trunc = st.info, st.truncated
-        trajectory = {
-            "actions": actions,
-            "positions": positions,
-            "headings": headings,
-            "clearance": clearance,
-            "zone2": zone2,
-        }
-        if u.cfg.protocol:
-            rec = protocol_record(info, trunc, found_at, wrong_stops) | trajectory
-        else:
-            rec = {
-                "success": bool(info["success"]),
-                "strict_success": bool(info["strict_success"]),
-                "spl": float(info["spl"]),
-                "soft_spl": float(info["soft_spl"]),
-                "dtg": float(info["distance_to_goal"]),
-                "steps": int(info["steps"]),
-                "mcr": float(info["mcr"]),
-                "vrt": float(info["vrt"]),
-                "collisions": int(info["collisions"]),
-                "path_length": float(info["path_length"]),
-                "stopped": bool(info["stopped"]),
-                "truncated": bool(trunc),
-                **trajectory,
-            }
-            if "reachable" in info:  # Fetch: the reach check at STOP (biovln_ms.sim.reach)
-                rec.update(reachable=bool(info["reachable"]), reach_success=bool(info["reach_success"]))
+        k = len(ep["goals"])
+        rec = {}
+        for name, m, cls in recorded:
+            if m.at == "end":
+                v = _first(info[name])
+                rec[m.key] = [_value(x, cls.dtype) for x in v[:k]] if cls.shape else _value(v, cls.dtype)
+            elif m.at in ("count", "steps"):
+                rec[m.key] = len(traces[m.key]) if m.at == "count" else traces[m.key]
+        rec["truncated"] = bool(trunc)
+        rec["actions"] = actions
+        rec.update((key, traces[key]) for key in ("positions", "headings"))
+        rec.update((m.key, traces[m.key]) for _, m, _ in recorded if m.at == "trace")
         if hasattr(policy, "episode_stats"):
             rec["policy_stats"] = policy.episode_stats()
             rec.update(pose_drift(rec["policy_stats"], poses))
@@ -268,10 +287,10 @@ def _run(index: int) -> dict:
         bad = record_error(rec)
         if bad:  # a failure, never a silent gap in a mean; JSON gets null, not NaN
             rec["error"] = f"invalid record: {bad}"
-            rec.update({k: None for k in required_metrics(rec)[1:] if not math.isfinite(rec[k])})
+            rec.update({k: None for k, v in rec.items() if isinstance(v, float) and not math.isfinite(v)})
         if recorder is not None:
-            recorder.finish(rec["success"])
-        if cfg.get("handoff_dir") and rec["success"] and not bad and not u.cfg.protocol:
+            recorder.finish(rec[OUTCOME])
+        if cfg.get("handoff_dir") and rec[OUTCOME] and not bad and not u.cfg.protocol:
             rec["handoff"] = handoff_payload(env, info, cfg)  # the driver writes it, and not into the JSONL
     except Exception as e:  # recorded; the run goes on with the next episode
         rec = {"error": f"{type(e).__name__}: {e}"}
@@ -298,30 +317,6 @@ def _run(index: int) -> dict:
         }
     )
     return rec
-
-
-def protocol_record(info: dict, truncated: bool, found_at: list[int], wrong_stops: int) -> dict:
-    """A protocol episode's metrics (``BioVLN-Protocol-v0``'s measures at its end): success (every goal
-    reached), progress, PPL, per-stage success and status of its K goals, the steps at which each was
-    found, the wrong STOPs, Zone-2 steps and the single-goal safety and path measures."""
-    k = int(info["num_goals"])
-    return {
-        "success": bool(info["success"]),
-        "progress": float(info["progress"]),
-        "ppl": float(info["ppl"]),
-        "stage_success": [bool(v) for v in info["stage_success"][0][:k]],
-        "subgoal_status": [int(v) for v in info["subgoal_status"][0][:k]],
-        "found_at": found_at,
-        "wrong_stops": wrong_stops,
-        "out_of_budget": bool(info["out_of_budget"]),
-        "zone2_steps": int(info["zone2_steps"]),
-        "steps": int(info["steps"]),
-        "mcr": float(info["mcr"]),
-        "vrt": float(info["vrt"]),
-        "collisions": int(info["collisions"]),
-        "path_length": float(info["path_length"]),
-        "truncated": bool(truncated),
-    }
 
 
 def protocol_meta(ep: dict) -> dict:
@@ -407,7 +402,8 @@ def _evaluate_locked(cfg: EvalConfig, obs_mode: str, progress: bool, echo) -> di
     from biovln_ms.benchmark import dataset_root
     from biovln_ms.episodes.source import DatasetEpisodes
 
-    source = DatasetEpisodes(cfg.split, dataset_root(cfg.dataset, cfg.robot), cfg.robot)
+    root = dataset_root(cfg.dataset, cfg.robot)
+    source = DatasetEpisodes(cfg.split, root, cfg.robot)
     episodes = source.episodes[: cfg.max_episodes] if cfg.max_episodes else source.episodes
     if any("protocol" in e for e in episodes[:1]) != _protocol_env(cfg.env_id):
         kind = "protocol (multi-goal)" if _protocol_env(cfg.env_id) else "single-goal"
@@ -418,6 +414,7 @@ def _evaluate_locked(cfg: EvalConfig, obs_mode: str, progress: bool, echo) -> di
             fix="run the protocol_* methods on the protocol_* splits, the others on the single-goal ones",
         )
     run_dir = cfg.run_dir
+    write_manifest(cfg, root)
     path = run_dir / "episodes.jsonl"
     raw = load_records(path)
     previous, dups = unique_records(raw)
@@ -517,6 +514,79 @@ def _run_on_ray(address: str, wcfg: dict, todo: list[int], workers: int, write) 
     finally:
         if started:
             ray.shutdown()
+
+
+MANIFEST = "manifest.json"  # in a run's split folder: who the run is (the report reads it)
+
+
+def _commit() -> str | None:
+    """The git commit of the package's source tree, when it runs from a checkout."""
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            cwd=Path(__file__).resolve().parent,
+            capture_output=True,
+            text=True,
+            timeout=5,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() if out.returncode == 0 else None
+
+
+def _dataset_digest(root: Path, split: str) -> str:
+    """SHA-256 over the dataset's manifest and the split's files (names and bytes)."""
+    h = hashlib.sha256()
+    files = [root / "manifest.json", *sorted(p for p in (root / split).rglob("*") if p.is_file())]
+    for f in files:
+        if f.is_file():
+            h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes())
+    return h.hexdigest()
+
+
+def write_manifest(cfg: EvalConfig, root: Path) -> dict:
+    """``manifest.json`` of the run: method, env, robot, noise preset, split, the dataset's digest, the
+    package's version and commit, and the arguments. A resumed run keeps its first one."""
+    path = cfg.run_dir / MANIFEST
+    if path.exists():
+        return json.loads(path.read_text())
+    try:
+        version = metadata.version("biovln-ms")
+    except metadata.PackageNotFoundError:
+        version = None
+    manifest = {
+        "method": cfg.method,
+        "env_id": cfg.env_id,
+        "robot": cfg.robot,
+        "noise": cfg.noise,
+        "split": cfg.split,
+        "dataset": str(root),
+        "dataset_sha256": _dataset_digest(Path(root), cfg.split),
+        "package_version": version,
+        "commit": _commit(),
+        "arguments": {
+            "method_kwargs": cfg.method_kwargs,
+            "camera": list(cfg.camera),
+            "max_episodes": cfg.max_episodes,
+            "fresh_scene": cfg.fresh_scene,
+            "record_mode": cfg.record_mode if cfg.record_dir else None,
+        },
+    }
+    atomic_write_text(path, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    return manifest
+
+
+def read_manifest(run_dir: Path, records: list[dict]) -> dict:
+    """Who a run is: its ``manifest.json``, else (results of an older version) its records' own fields."""
+    path = Path(run_dir) / MANIFEST
+    if path.is_file():
+        return json.loads(path.read_text())
+    r = records[0] if records else {}
+    keys = ("method", "env_id", "robot", "noise", "split")
+    return {k: r.get(k) for k in keys} | {
+        "robot": r.get("robot") or DEFAULT_ROBOT,
+        "noise": r.get("noise") or "ideal",
+    }
 
 
 def write_summary(cfg: EvalConfig, expected: int) -> dict:

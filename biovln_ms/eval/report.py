@@ -23,10 +23,11 @@ import numpy as np
 
 from biovln_ms.benchmark import HARD_SPLITS, HELD_OUT, LSAT_EPISODES, TWO_ROOM_BENCH
 from biovln_ms.eval import paper
-from biovln_ms.eval.harness import EvalConfig, episode_key, load_records, unique_records
+from biovln_ms.eval.harness import EvalConfig, episode_key, load_records, read_manifest, unique_records
 from biovln_ms.eval.methods import METHODS, method_of_paper_key, report_methods
 from biovln_ms.eval.metrics import (
     INTERVALS,
+    kind_metrics,
     PROTOCOL_INTERVALS,
     PROTOCOL_UNITS,
     UNITS,
@@ -37,6 +38,14 @@ from biovln_ms.eval.metrics import (
 )
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.eval.stats import holm, mcnemar, wilson_interval
+from biovln_ms.eval.tables import (
+    BREAKDOWN_MEASURES,
+    PROTOCOL_BREAKDOWN_MEASURES,
+    REACH_MEASURES,
+    STANDARD_MEASURES,
+    fmt as _fmt,
+    table_keys,
+)
 from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.measured import machine
 
@@ -55,10 +64,10 @@ def _run_name(method: str, env_id: str | None = None) -> str:
 
 def load_runs(results: Path, echo: Callable[[str], None] = print) -> dict[tuple[str, str], list[dict]]:
     """Episode records by (run, split), one per episode, errored ones included (they count as failures).
-    A method's run on its own env is keyed by the method's name (PPO's ``ppo@opface-rl`` folder as
-    ``ppo``); any other run by its folder's name (``frontier@centroid``). A file with more than one
-    finished record of an episode (two writers of an older version) is read with the first of each,
-    and named (``biovln-ms eval`` on that run repairs the file)."""
+    Who a run is comes from its manifest (:func:`run_key`); only records of an older version that name no
+    method or split fall back on the folder names. A file with more than one finished record of an episode
+    (two writers of an older version) is read with the first of each, and named (``biovln-ms eval`` on that
+    run repairs the file)."""
     runs = {}
     for f in sorted(Path(results).glob("*/*/episodes.jsonl")):
         recs, dups = unique_records(load_records(f, repair=False))
@@ -69,10 +78,24 @@ def load_runs(results: Path, echo: Callable[[str], None] = print) -> dict[tuple[
                 "eval` again on that run: it repairs the file)"
             )
         if recs:
-            folder, method = f.parent.parent.name, recs[0].get("method")
-            run = method if method in METHODS and folder == _run_name(method) else folder
-            runs[(run, f.parent.name)] = recs
+            who = read_manifest(f.parent, recs)
+            run = run_key(who) if who.get("method") in METHODS else f.parent.parent.name
+            split = who.get("split") or f.parent.name
+            if (run, split) in runs:
+                echo(f"warning: {f.parent} is a second run of {run} on {split}; it is left out")
+                continue
+            runs[(run, split)] = recs
     return runs
+
+
+def run_key(who: dict) -> str:
+    """A run's name in the report, from its manifest: the method's name for its own env, robot and the
+    ``ideal`` preset; else the name ``biovln-ms eval`` gives such a run (``frontier+realistic``,
+    ``frontier@centroid``)."""
+    cfg = EvalConfig(
+        method=who["method"], split="", out="", env_id=who["env_id"], robot=who["robot"], noise=who["noise"]
+    )
+    return who["method"] if cfg.run_name == _run_name(who["method"]) else cfg.run_name
 
 
 def _preset_run(method: str, preset: str) -> str:
@@ -107,10 +130,6 @@ def _with_paper_rows(table: dict) -> list[str]:
     return [m for m in report_methods() if METHODS[m].paper_key in table]
 
 
-def _fmt(v, nd=1):
-    return "–" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.{nd}f}"
-
-
 def _ci(interval, nd=1) -> str:
     """`` [lo, hi]``, or nothing when the interval is unknown."""
     if not interval or any(x is None or not math.isfinite(x) for x in interval):
@@ -131,68 +150,6 @@ def _metric(agg: dict, key: str, nd: int, theirs=None, n=None) -> str:
     return _cell(agg.get(key), theirs, nd, agg.get(f"{key}_ci95"), n)
 
 
-# What ``summarize`` keeps of each aggregate (biovln_ms.eval.metrics): overall, and per category / tier.
-OVERALL_KEYS = (
-    "episodes",
-    "errors",
-    "successes",
-    "sr",
-    "sr_ci95",
-    "strict_successes",
-    "strict_sr",
-    "strict_sr_ci95",
-    "spl",
-    "spl_ci95",
-    "soft_spl",
-    "soft_spl_ci95",
-    "dtg",
-    "dtg_ci95",
-    "steps_success",
-    "mcr",
-    "mcr_ci95",
-    "vrt",
-    "vrt_ci95",
-    "collisions",
-)
-BREAKDOWN_KEYS = ("episodes", "errors", "successes", "sr", "sr_ci95", "strict_sr", "strict_sr_ci95", "spl")
-#: ... and of a Fetch run, whose records hold the reach check at STOP (issue 16 item 4)
-REACH_KEYS = (
-    "episodes",
-    "successes",
-    "sr",
-    "sr_ci95",
-    "reach_successes",
-    "reach_sr",
-    "reach_sr_ci95",
-    "reachable_of_successes",
-    "reachable_of_successes_ci95",
-)
-#: ... and of a protocol run (biovln_ms.eval.metrics.aggregate_protocol): overall, and per number of goals K
-PROTOCOL_KEYS = (
-    "episodes",
-    "errors",
-    "successes",
-    "sr",
-    "sr_ci95",
-    "progress",
-    "progress_ci95",
-    "ppl",
-    "ppl_ci95",
-    "stage_episodes",
-    "stage_sr",
-    "stage_sr_ci95",
-    "mcr",
-    "mcr_ci95",
-    "vrt",
-    "vrt_ci95",
-    "zone2_steps",
-    "zone2_steps_ci95",
-    "steps",
-    "path_length",
-    "wrong_stops",
-    "out_of_budget",
-)
-PROTOCOL_BREAKDOWN_KEYS = ("episodes", "errors", "successes", "sr", "sr_ci95", "progress", "ppl")
 SCHEMA = 2  # measured.json: 2 = intervals, strict SR, split sizes, Holm-adjusted McNemar tests
 ALPHA = 0.05
 # The benchmark splits' full sizes (Table 4, as biovln_ms.benchmark builds them); the dataset's own
@@ -220,6 +177,11 @@ def _plain(value):
     return value
 
 
+def _overall_keys(agg: dict) -> tuple[str, ...]:
+    """Every aggregate of a run's overall row but its timing (a new measure's included)."""
+    return tuple(k for k in agg if k != "wall_time_s")
+
+
 def _keep(agg: dict, keys: tuple[str, ...]) -> dict:
     return {k: _plain(agg[k]) for k in keys}
 
@@ -237,6 +199,7 @@ def summarize(runs, split_sizes: dict[str, int] | None = None) -> dict:
     out: dict = {
         "schema": SCHEMA,
         "units": dict(UNITS),
+        "labels": {a.key: a.label for m, _ in kind_metrics(False).values() for a in m.aggregates},
         "intervals": INTERVALS,
         "significance": SIGNIFICANCE,
         "runs": {},
@@ -251,21 +214,29 @@ def summarize(runs, split_sizes: dict[str, int] | None = None) -> dict:
                 "split_episodes": total,
                 "partial": total is not None and a["overall"]["episodes"] < total,
                 "protocol": True,
-                "overall": _keep(a["overall"], PROTOCOL_KEYS),
-                "per_k": {k: _keep(v, PROTOCOL_BREAKDOWN_KEYS) for k, v in a["per_k"].items()},
+                "overall": _keep(a["overall"], _overall_keys(a["overall"])),
+                "per_k": {
+                    k: _keep(v, table_keys(PROTOCOL_BREAKDOWN_MEASURES)) for k, v in a["per_k"].items()
+                },
             }
             continue
         out["runs"].setdefault(run, {})[split] = {
             "split_episodes": total,
             "partial": total is not None and a["overall"]["episodes"] < total,
-            "overall": _keep(a["overall"], OVERALL_KEYS),
-            "per_category": {c: _keep(v, BREAKDOWN_KEYS) for c, v in a["per_category"].items()},
-            "per_difficulty": {d: _keep(v, BREAKDOWN_KEYS) for d, v in a["per_difficulty"].items()},
+            "overall": _keep(a["overall"], _overall_keys(a["overall"])),
+            "per_category": {
+                c: _keep(v, table_keys(BREAKDOWN_MEASURES)) for c, v in a["per_category"].items()
+            },
+            "per_difficulty": {
+                d: _keep(v, table_keys(BREAKDOWN_MEASURES)) for d, v in a["per_difficulty"].items()
+            },
         }
         if a["overall"].get("reach_successes") is not None:  # a Fetch run
             out["runs"][run][split]["reach"] = {
-                "overall": _keep(a["overall"], REACH_KEYS),
-                "per_category": {c: _keep(v, REACH_KEYS) for c, v in a["per_category"].items()},
+                "overall": _keep(a["overall"], table_keys(REACH_MEASURES)),
+                "per_category": {
+                    c: _keep(v, table_keys(REACH_MEASURES)) for c, v in a["per_category"].items()
+                },
             }
     pairs = []
     for preset in PRESETS:  # every pair of methods under one preset, and each method across presets
@@ -398,6 +369,26 @@ def reach_table(summ) -> list[str]:
             cells = [_label(run), split, cat, str(c["successes"]), _metric(c, "reachable_of_successes", 1)]
             out.append("| " + " | ".join(cells) + " |")
     return out + [""]
+
+
+def other_measures_table(summ) -> list[str]:
+    """Every aggregate that no other table shows (a measure registered by a variant or a user), per run
+    and split: its value with its interval, under its label."""
+    shown = set(table_keys(STANDARD_MEASURES))
+    labels = summ.get("labels", {})
+    rows = []
+    for run, splits in sorted(summ["runs"].items()):
+        for split, d in sorted(splits.items()):
+            o = d["overall"]
+            for key, v in o.items():
+                number = v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+                if key not in shown and not key.endswith("_ci95") and number:
+                    rows.append(
+                        f"| {_label(run)} | {split} | {labels.get(key, key)} | {_metric(o, key, 3)} |"
+                    )
+    if not rows:
+        return []
+    return ["## Other measures", "", "| Run | split | measure | value |", "|---|---|---|---|", *rows, ""]
 
 
 PROTOCOL_REPORT_SPLITS = ("protocol_val", "protocol_test")
@@ -1063,6 +1054,7 @@ TABLES = {
     "mcnemar": mcnemar_table,
     "reach": reach_table,
     "protocols": protocol_table,
+    "other": other_measures_table,
     "differences": differences,
 }
 

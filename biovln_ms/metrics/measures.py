@@ -1,15 +1,16 @@
 """Per-step and per-episode measures, batched over ``num_envs`` (habitat-lab's measures, ManiSkill's tensors).
 
-A :class:`MeasureSet` resets (rows ``env_idx``) and updates registered measures in dependency order from a
-:class:`StepState` (the robots' planar poses and commands, arrays with a leading ``num_envs`` dimension)
-and a :class:`BatchContext` (each sub-env's episode), and exposes their values as an ``info`` dict of torch
-tensors on the env's device. Reward, success and fail are measures too; the task config names which.
+A :class:`~biovln_ms.metrics.measure_set.MeasureSet` resets (rows ``env_idx``) and updates registered
+measures in dependency order from a :class:`StepState` (the robots' planar poses and commands, arrays with a
+leading ``num_envs`` dimension) and a :class:`BatchContext` (each sub-env's episode), and exposes their
+values as an ``info`` dict of torch tensors on the env's device. Reward, success and fail are measures too; the task config names which.
 
 The bookkeeping is NumPy on the host, whatever the simulation backend: the geometry that differs per
 scene (geodesics, clearance, Zone 2) is host-side anyway (shapely, visibility graphs), so the poses come
 to the host once a step; a NumPy operation on a few rows costs a quarter of a torch one on the CPU, and
-a measure update is a handful of them. Torch appears only at the boundary (:meth:`MeasureSet.info`,
-:meth:`MeasureSet.tensor`, state dicts). Conventions (paper §4.2):
+a measure update is a handful of them. Torch appears only at the boundary,
+:class:`~biovln_ms.metrics.measure_set.MeasureSet` (``info``, tensors, state dicts), so evaluation reads the
+declarations without loading torch. Conventions (paper §4.2):
 
 * ``clearance`` is the planar distance from the robot's centre (the agent position, as Habitat and
   the paper record trajectories) to the nearest instrument body (Zone 1); the robot radius is NOT
@@ -33,10 +34,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable, ClassVar
+from typing import Callable, ClassVar, Protocol
 
 import numpy as np
-import torch
 
 from biovln_ms.geometry.zones import SAFETY_THRESHOLD, InstrumentArray, PlacedInstrument
 from biovln_ms.task_config import NavTaskConfig
@@ -152,12 +152,72 @@ class StepState:
         return cls(pose[:, :2], pose[:, 2], np.zeros(len(pose), dtype=bool), zeros, zeros)
 
 
+@dataclass(frozen=True)
+class Aggregate:
+    """One number of a run's summary, made from a metric's values in the episode records.
+
+    ``how``: ``"rate"`` (the share of episodes where the value is true, with a Wilson interval),
+    ``"mean"`` (with a seeded bootstrap interval clipped to ``bounds``; no interval when ``bounds`` is
+    None) or ``"stages"`` (a per-goal vector: the share of episodes with at least s goals that reached the
+    s-th). ``over``: ``"all"`` episodes (an errored one counts as a failure, or 0), only those that
+    ``"ran"``, or the ``"successes"`` (a rate among successful episodes)."""
+
+    key: str  # its name in summary.json and the report's data
+    label: str  # its heading in tables
+    unit: str
+    how: str = "mean"
+    over: str = "ran"
+    scale: float = 1.0  # record value -> unit (100: a share in percent)
+    bounds: tuple[float, float | None] | None = (0.0, None)
+    count: str | None = None  # a rate's episode count, reported beside it ("successes")
+    missing: float | None = None  # the value of a record without the metric (None: the aggregate is unknown)
+    known_without_runs: bool = True  # a rate: 0 when no episode ran (False: unknown)
+
+
+@dataclass(frozen=True)
+class Metric:
+    """How evaluation records a measure in an episode's record (``key``) and aggregates it.
+
+    ``at``: ``"end"`` records the value at the episode's end; ``"trace"`` every step's value (the reset
+    included); ``"count"`` the number of actions after which it was true; ``"steps"`` those actions'
+    numbers. A record of a run must hold a ``required`` metric; an optional one is checked when present.
+    A per-goal measure (``shape`` (K,)) is recorded for the episode's goals only."""
+
+    key: str
+    at: str = "end"
+    required: bool = True
+    aggregates: tuple[Aggregate, ...] = ()
+
+
+#: the record key of an episode's outcome: every variant's success measure is recorded under it
+OUTCOME = "success"
+FRACTION = "fraction in [0, 1]"
+
+
+def rate(key: str, label: str, **kw) -> Aggregate:
+    """The share of episodes (in percent) where a metric is true."""
+    return Aggregate(
+        key, label, kw.pop("unit", "%"), "rate", kw.pop("over", "all"), 100.0, (0.0, 100.0), **kw
+    )
+
+
+class Values(Protocol):
+    """What a measure reads of the others (a :class:`~biovln_ms.metrics.measure_set.MeasureSet`): ``m[name]``,
+    their live values, and ``m.measures``, the measure objects."""
+
+    measures: dict[str, "Measure"]
+
+    def __getitem__(self, name: str) -> np.ndarray: ...
+
+
 class Measure:
     """One named value per sub-env (a NumPy array with a leading ``num_envs`` dimension). ``compute`` gives
     rows ``idx``; accumulating measures override ``reset``/``update``. ``state_names`` are the arrays a
-    state dict saves and restores."""
+    state dict saves and restores. ``metric`` (None: only in ``info``) is how evaluation records and
+    aggregates it: records, ``summary.json``, the report and the docs' metric table derive from it."""
 
     uuid: ClassVar[str]
+    metric: ClassVar[Metric | None] = None
     dependencies: ClassVar[tuple[str, ...]] = ()
     dtype: ClassVar[type] = F64
     shape: ClassVar[tuple[int, ...]] = ()
@@ -168,13 +228,13 @@ class Measure:
         self.cfg = cfg
         self.value = np.zeros((n, *self.shape), dtype=self.dtype)
 
-    def compute(self, ctx: BatchContext, s: StepState, m: "MeasureSet", idx: "Rows") -> np.ndarray:
+    def compute(self, ctx: BatchContext, s: StepState, m: "Values", idx: "Rows") -> np.ndarray:
         raise NotImplementedError
 
-    def reset(self, ctx: BatchContext, s: StepState, m: "MeasureSet", idx: "Rows") -> None:
+    def reset(self, ctx: BatchContext, s: StepState, m: "Values", idx: "Rows") -> None:
         self.value[idx] = self.compute(ctx, s, m, idx)
 
-    def update(self, ctx: BatchContext, s: StepState, m: "MeasureSet", idx: "Rows") -> None:
+    def update(self, ctx: BatchContext, s: StepState, m: "Values", idx: "Rows") -> None:
         self.value[idx] = self.compute(ctx, s, m, idx)
 
 
@@ -193,6 +253,13 @@ def register_measure(cls: type[Measure]) -> type[Measure]:
 
 def measure_names() -> list[str]:
     return list(_REGISTRY)
+
+
+def measure_type(name: str) -> type[Measure]:
+    """The measure class registered as ``name``."""
+    if name not in _REGISTRY:
+        raise KeyError(f"unknown measure '{name}'; registered: {', '.join(_REGISTRY)}")
+    return _REGISTRY[name]
 
 
 Rows = np.ndarray | slice  # the sub-envs a measure call touches: an index array, or all of them
@@ -280,6 +347,7 @@ class DistanceToGoal(Measure):
     """To the nearest goal (the episode's one, or any instance of its category)."""
 
     uuid = "distance_to_goal"
+    metric = Metric("dtg", aggregates=(Aggregate("dtg", "DTG", "m"),))
 
     def compute(self, ctx, s, m, idx):
         d = _goal_distances(ctx, s, idx)
@@ -297,6 +365,7 @@ class GeodesicDistanceToGoal(SceneQueryMeasure):
 @register_measure
 class Clearance(SceneQueryMeasure):
     uuid = "clearance"
+    metric = Metric("clearance", at="trace", required=False)
 
     def query(self, c, p):
         return c.array.clearance(p)
@@ -305,6 +374,7 @@ class Clearance(SceneQueryMeasure):
 @register_measure
 class Zone2Violation(SceneQueryMeasure):
     uuid = "zone2_violation"
+    metric = Metric("zone2", at="trace", required=False)
     dtype = bool
 
     def query(self, c, p):
@@ -354,6 +424,11 @@ class StrictSuccess(Measure):
     """Operational success: STOP within a goal's radius, in that goal's Zone 3, facing its face."""
 
     uuid = "strict_success"
+    metric = Metric(
+        "strict_success",
+        required=False,
+        aggregates=(rate("strict_sr", "strict SR", count="strict_successes"),),
+    )
     dtype = bool
     dependencies = ("stopped",)
 
@@ -378,6 +453,11 @@ class StrictFailedStop(Measure):
 @register_measure
 class Collisions(Measure):
     uuid = "collisions"
+    metric = Metric(
+        "collisions",
+        required=False,
+        aggregates=(Aggregate("collisions", "collisions", "per episode", bounds=None, missing=0.0),),
+    )
     dtype = np.int64
 
     def reset(self, ctx, s, m, idx):
@@ -391,6 +471,7 @@ class Collisions(Measure):
 @register_measure
 class Stopped(Measure):
     uuid = "stopped"
+    metric = Metric("stopped", required=False)
     dtype = bool
 
     def compute(self, ctx, s, m, idx):
@@ -402,6 +483,7 @@ class Success(Measure):
     """STOP within a goal's success radius (the paper's rule)."""
 
     uuid = "success"
+    metric = Metric(OUTCOME, aggregates=(rate("sr", "SR", count="successes"),))
     dtype = bool
     dependencies = ("stopped",)
 
@@ -424,6 +506,13 @@ class FailedStop(Measure):
 @register_measure
 class Steps(Measure):
     uuid = "steps"
+    metric = Metric(
+        "steps",
+        aggregates=(
+            Aggregate("steps", "steps", "actions", bounds=None),
+            Aggregate("steps_success", "steps (successes)", "actions", over="successes", bounds=None),
+        ),
+    )
     dtype = np.int64
 
     def reset(self, ctx, s, m, idx):
@@ -436,6 +525,9 @@ class Steps(Measure):
 @register_measure
 class PathLength(Measure):
     uuid = "path_length"
+    metric = Metric(
+        "path_length", required=False, aggregates=(Aggregate("path_length", "path length", "m", bounds=None),)
+    )
     state_names = ("value", "last")
 
     def __init__(self, n, cfg):
@@ -457,6 +549,7 @@ class MinClearance(Measure):
     """MCR: the minimum clearance over the trajectory so far."""
 
     uuid = "mcr"
+    metric = Metric("mcr", aggregates=(Aggregate("mcr", "MCR", "m"),))
     dependencies = ("clearance",)
 
     def reset(self, ctx, s, m, idx):
@@ -471,6 +564,9 @@ class ViolationRate(Measure):
     """VRT: fraction of trajectory poses (start included) within 0.5 m of an instrument body."""
 
     uuid = "vrt"
+    metric = Metric(
+        "vrt", aggregates=(Aggregate("vrt", "VRT", "% of poses", scale=100.0, bounds=(0.0, 100.0)),)
+    )
     dependencies = ("clearance",)
     state_names = ("value", "poses", "violations")
 
@@ -490,7 +586,7 @@ class ViolationRate(Measure):
         self.value[idx] = self.violations[idx] / self.poses[idx]
 
 
-def _efficiency(ctx: BatchContext, m: "MeasureSet", idx: Rows) -> np.ndarray:
+def _efficiency(ctx: BatchContext, m: "Values", idx: Rows) -> np.ndarray:
     """l_opt / max(l, l_opt) (the path-length factor of SPL and soft SPL)."""
     l_opt = ctx.start_geodesic[idx]
     return l_opt / np.maximum(np.maximum(m["path_length"][idx], l_opt), 1e-9)
@@ -499,6 +595,7 @@ def _efficiency(ctx: BatchContext, m: "MeasureSet", idx: Rows) -> np.ndarray:
 @register_measure
 class SPL(Measure):
     uuid = "spl"
+    metric = Metric("spl", aggregates=(Aggregate("spl", "SPL", FRACTION, over="all", bounds=(0.0, 1.0)),))
     dependencies = ("success", "path_length")
 
     def reset(self, ctx, s, m, idx):
@@ -511,6 +608,9 @@ class SPL(Measure):
 @register_measure
 class SoftSPL(Measure):
     uuid = "soft_spl"
+    metric = Metric(
+        "soft_spl", aggregates=(Aggregate("soft_spl", "soft SPL", FRACTION, over="all", bounds=(0.0, 1.0)),)
+    )
     dependencies = ("geodesic_distance_to_goal", "path_length")
 
     def reset(self, ctx, s, m, idx):
@@ -575,98 +675,3 @@ class GoalPosition(Measure):
 
     def compute(self, ctx, s, m, idx):
         return ctx.goal[idx]
-
-
-class MeasureSet:
-    """Registered measures for ``n`` sub-envs, updated in dependency order; ``device`` is where the torch
-    views (:meth:`info`, :meth:`tensor`, :meth:`state_dict`) go."""
-
-    def __init__(
-        self,
-        names: tuple[str, ...] = NavTaskConfig().measures,
-        n: int = 1,
-        device: torch.device | str = "cpu",
-        cfg: NavTaskConfig | None = None,
-    ) -> None:
-        order: list[str] = []
-
-        def visit(name: str, stack: tuple = ()) -> None:
-            if name in order:
-                return
-            if name not in _REGISTRY:
-                raise KeyError(f"unknown measure '{name}'; registered: {', '.join(_REGISTRY)}")
-            if name in stack:
-                raise ValueError(f"measure dependency cycle: {' -> '.join(stack + (name,))}")
-            for d in _REGISTRY[name].dependencies:
-                visit(d, stack + (name,))
-            order.append(name)
-
-        for name in names:
-            visit(name)
-        self.names, self.n, self.device = tuple(names), n, torch.device(device)
-        cfg = cfg or NavTaskConfig()
-        self.measures = {name: _REGISTRY[name](n, cfg) for name in order}
-        self._info_dtype = {name: self._info_type(meas) for name, meas in self.measures.items()}
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        """The live values of measure ``name`` (host array; do not modify)."""
-        return self.measures[name].value
-
-    def tensor(self, name: str, dtype: torch.dtype | None = None) -> torch.Tensor:
-        """A copy of measure ``name``'s values as a tensor on the device."""
-        t = torch.from_numpy(self.measures[name].value.copy())  # a fifth of torch.tensor's cost on the CPU
-        return t.to(self.device, dtype) if dtype is not None or self.device.type != "cpu" else t
-
-    @staticmethod
-    def _idx(env_idx: torch.Tensor | np.ndarray | None) -> Rows:
-        """Rows to touch: a slice for all of them (basic indexing is cheaper than an index array)."""
-        if env_idx is None:
-            return slice(None)
-        return env_idx.cpu().numpy() if isinstance(env_idx, torch.Tensor) else np.asarray(env_idx)
-
-    def reset(self, ctx: BatchContext, state: StepState, env_idx: torch.Tensor | None = None) -> None:
-        """Start the episodes of sub-envs ``env_idx`` (all by default)."""
-        idx = self._idx(env_idx)
-        for meas in self.measures.values():
-            meas.reset(ctx, state, self, idx)
-
-    def update(self, ctx: BatchContext, state: StepState, env_idx: torch.Tensor | None = None) -> None:
-        """One step of sub-envs ``env_idx`` (all by default)."""
-        idx = self._idx(env_idx)
-        for meas in self.measures.values():
-            meas.update(ctx, state, self, idx)
-
-    @staticmethod
-    def _info_type(meas: Measure) -> np.dtype:
-        """What ``info`` reports a measure as: floats as float32 unless ``exact_info``, counts as int32."""
-        dtype = meas.value.dtype
-        if dtype.kind in "iu":
-            return np.dtype(np.int32)
-        return np.dtype(np.float32) if dtype.kind == "f" and not meas.exact_info else dtype
-
-    def info(self, names: tuple[str, ...] | None = None) -> dict[str, torch.Tensor]:
-        """Copies of the values as tensors on the device (see :meth:`_info_type`)."""
-        types = self._info_dtype
-        out = {name: torch.from_numpy(self[name].astype(types[name])) for name in names or self.names}
-        if self.device.type != "cpu":
-            out = {name: v.to(self.device) for name, v in out.items()}
-        return out
-
-    def state_dict(self) -> dict[str, dict[str, torch.Tensor]]:
-        """Every measure's state as tensors (copies): what a replay needs to continue the episode."""
-        return {
-            name: {k: torch.tensor(getattr(meas, k), device=self.device) for k in meas.state_names}
-            for name, meas in self.measures.items()
-        }
-
-    def load_state_dict(self, state: dict, env_idx: torch.Tensor | None = None) -> None:
-        """Restore rows ``env_idx`` (all by default) from :meth:`state_dict` output."""
-        idx = self._idx(env_idx)
-        missing = sorted(set(self.measures) - set(state))
-        if missing:
-            raise KeyError(f"the task state has no measure {', '.join(missing)}")
-        for name, meas in self.measures.items():
-            for k in meas.state_names:
-                saved = state[name][k]
-                saved = saved.cpu().numpy() if isinstance(saved, torch.Tensor) else np.asarray(saved)
-                getattr(meas, k)[idx] = saved[idx]

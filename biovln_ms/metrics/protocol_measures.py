@@ -37,12 +37,17 @@ from biovln_ms.constants import MAX_VISITS
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import SAFETY_THRESHOLD
 from biovln_ms.metrics.measures import (
+    FRACTION,
+    OUTCOME,
+    Aggregate,
     BatchContext,
     EpisodeContext,
     Measure,
+    Metric,
     _facing_face,
     _goal_distances,
     _in_zone3,
+    rate,
     register_measure,
 )
 
@@ -178,6 +183,7 @@ class SubgoalStatus(_FromSubgoal):
     """Per goal slot: -1 no such goal, 0 pending, 1 reached, 2 missed."""
 
     uuid = "subgoal_status"
+    metric = Metric("subgoal_status", required=False)
     dtype = np.int64
     shape = (MAX_VISITS,)
 
@@ -190,6 +196,20 @@ class StageSuccess(_FromSubgoal):
     """Per goal slot: reached by a correct STOP (per-stage success)."""
 
     uuid = "stage_success"
+    metric = Metric(
+        "stage_success",
+        required=False,
+        aggregates=(
+            Aggregate(
+                "stage_sr",
+                "stage SR",
+                "% of the episodes with that many goals",
+                "stages",
+                scale=100.0,
+                count="stage_episodes",
+            ),
+        ),
+    )
     dtype = bool
     shape = (MAX_VISITS,)
 
@@ -202,6 +222,7 @@ class SubgoalFound(_FromSubgoal):
     """A correct STOP this step (MultiON's FOUND at the current goal)."""
 
     uuid = "subgoal_found"
+    metric = Metric("found_at", at="steps", required=False)
     dtype = bool
 
     def view(self, core, ctx, idx):
@@ -213,6 +234,12 @@ class WrongStop(_FromSubgoal):
     """A STOP away from the current goal this step."""
 
     uuid = "wrong_stop"
+    metric = Metric(
+        "wrong_stops",
+        at="count",
+        required=False,
+        aggregates=(Aggregate("wrong_stops", "wrong STOPs", "per episode", bounds=None, missing=0.0),),
+    )
     dtype = bool
 
     def view(self, core, ctx, idx):
@@ -280,6 +307,7 @@ class ProtocolSuccess(_FromSubgoal):
     """Every goal reached by a correct STOP."""
 
     uuid = "protocol_success"
+    metric = Metric(OUTCOME, aggregates=(rate("sr", "SR", unit="% (every goal reached)", count="successes"),))
     dtype = bool
 
     def view(self, core, ctx, idx):
@@ -291,6 +319,14 @@ class Progress(_FromSubgoal):
     """The fraction of the episode's goals reached."""
 
     uuid = "progress"
+    metric = Metric(
+        "progress",
+        aggregates=(
+            Aggregate(
+                "progress", "progress", "fraction of goals reached, in [0, 1]", over="all", bounds=(0.0, 1.0)
+            ),
+        ),
+    )
 
     def view(self, core, ctx, idx):
         return (core.status[idx] == REACHED).sum(axis=1) / ctx.num_goals[idx]
@@ -312,6 +348,15 @@ class OutOfBudget(Measure):
     """The step budget is spent with goals still pending."""
 
     uuid = "out_of_budget"
+    metric = Metric(
+        "out_of_budget",
+        required=False,
+        aggregates=(
+            Aggregate(
+                "out_of_budget", "out of budget", "% of episodes", scale=100.0, bounds=None, missing=0.0
+            ),
+        ),
+    )
     dtype = bool
     dependencies = ("steps", "step_budget", "subgoal_index")
 
@@ -341,6 +386,7 @@ class PPL(Measure):
     """Progress weighted by path length: progress x L / max(l, L), L the ordered route's geodesic length."""
 
     uuid = "ppl"
+    metric = Metric("ppl", aggregates=(Aggregate("ppl", "PPL", FRACTION, over="all", bounds=(0.0, 1.0)),))
     dependencies = ("progress", "path_length")
 
     def reset(self, ctx, s, m, idx):
@@ -356,6 +402,9 @@ class Zone2Steps(Measure):
     """Steps that ended with the robot's centre inside some instrument's Zone 2."""
 
     uuid = "zone2_steps"
+    metric = Metric(
+        "zone2_steps", aggregates=(Aggregate("zone2_steps", "Zone-2 steps", "steps per episode"),)
+    )
     dtype = np.int64
     dependencies = ("zone2_violation",)
 

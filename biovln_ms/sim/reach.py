@@ -46,7 +46,7 @@ from biovln_ms.agents.robots.fetch_nav import BASE_JOINTS, TUCK
 from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import rot2
-from biovln_ms.metrics.measures import Measure, register_measure
+from biovln_ms.metrics.measures import Measure, Metric, register_measure
 from biovln_ms.scene.shell import wall_spans
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 
@@ -481,8 +481,6 @@ def _standalone() -> FetchArm:
 
 
 # --- the measures ----------------------------------------------------------------------------------
-#: what info adds for Fetch (the cylinder has no arm: the keys are absent)
-REACH_MEASURES = ("reachable", "reach_success")
 ReachSolver = Callable[[int, np.ndarray], tuple[ReachResult, int]]
 
 
@@ -494,6 +492,7 @@ class Reachable(Measure):
     The env binds ``solver`` (sub-env, pose (x, y, yaw)) -> (result, goal index)."""
 
     uuid = "reachable"
+    metric = Metric("reachable", required=False)
     dtype = bool
     dependencies = ("stopped",)
     state_names = ("value", "qpos", "goal")
@@ -512,23 +511,6 @@ class Reachable(Measure):
             result, goal = self.solver(i, np.array([*s.position[i], s.yaw[i]]))
             self.value[i], self.goal[i] = result.reachable, goal if result.reachable else -1
             self.qpos[i] = result.qpos if result.reachable else math.nan
-
-
-@register_measure
-class ReachSuccess(Measure):
-    """A successful STOP (within a goal's radius) from which the gripper reaches that goal's interaction
-    point."""
-
-    uuid = "reach_success"
-    dtype = bool
-    dependencies = ("success", "reachable")
-
-    def compute(self, ctx, s, m, idx):
-        rows = np.arange(ctx.n)[idx]
-        goal = m.measures["reachable"].goal[rows]
-        j = np.maximum(goal, 0)
-        d = np.hypot(*(ctx.goals[rows, j] - s.position[rows]).T)
-        return m["success"][idx] & m["reachable"][idx] & (goal >= 0) & (d <= ctx.radii[rows, j])
 
 
 def reach_goals(

@@ -1,0 +1,194 @@
+"""Same records before and after a change: run a fixed set of episodes and compare with a reference.
+
+A refactoring must not change what a user gets. This runs every offline method on the first episodes of
+several splits under ``ideal`` and ``realistic`` (the matrix below), on a dataset built from scratch by the
+code under test, and writes one canonical file: the dataset's file digests and every episode record
+(timing removed, sorted). ``compare`` says which records differ, field by field.
+
+    python scripts/compare_records.py run --out /tmp/after          # the code importable now
+    python scripts/compare_records.py compare docs/data/records/reference.json.gz /tmp/after/records.json.gz
+
+``docs/data/records/reference.json.gz`` is the reference: the records of the code before the architecture
+rework. Replace it only with a change that means to change behaviour, and say so in the commit.
+
+``--quick`` runs one episode per cell (a smoke check). The PPO checkpoint is trained here, seeded, so
+training is compared too (its weights' digest is in the file). Images are 160x120 to keep the run short;
+the code paths are those of any resolution. Fetch has its own dataset build (minutes) and is left out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gzip
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+SINGLE_GOAL = ("random", "oracle", "zone3_oracle", "frontier", "vlfm", "ppo")
+SINGLE_GOAL_SPLITS = ("ms_val", "ms_test", "two_room", "lsat_target", "hard_val", "molbio_val")
+PROTOCOL = ("protocol_oracle", "protocol_frontier", "protocol_vlfm", "protocol_language")
+PROTOCOL_SPLITS = ("protocol_val",)
+PRESETS = ("ideal", "realistic")
+EPISODES = 2
+CAMERA = (160, 120)
+PPO_STEPS = 1024
+#: record fields that measure the machine, not the behaviour
+VOLATILE = ("wall_time_s",)
+
+_RUNNER = """
+import json, sys
+from biovln_ms.eval.harness import EvalConfig, evaluate
+for cell in json.loads(sys.argv[1]):
+    evaluate(EvalConfig(**cell), progress=False, echo=lambda *_: None)
+"""
+
+
+def _cells(out: Path, episodes: int, checkpoint: Path) -> list[dict]:
+    cells = []
+    for noise in PRESETS:
+        for method in SINGLE_GOAL:
+            kwargs = {"checkpoint": str(checkpoint)} if method == "ppo" else {}
+            for split in SINGLE_GOAL_SPLITS:
+                cells.append(dict(method=method, split=split, noise=noise, method_kwargs=kwargs))
+        for method in PROTOCOL:
+            for split in PROTOCOL_SPLITS:
+                cells.append(dict(method=method, split=split, noise=noise, method_kwargs={}))
+    for c in cells:
+        c.update(out=str(out / "results"), max_episodes=episodes, camera=list(CAMERA), workers=1)
+    return cells
+
+
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _sh(args: list[str], env: dict) -> None:
+    print("$", " ".join(args), flush=True)
+    subprocess.run(args, env=env, check=True)
+
+
+def run(out: Path, quick: bool, jobs: int) -> Path:
+    """Build the dataset, train the PPO checkpoint, run the matrix; write ``out/records.json.gz``."""
+    out.mkdir(parents=True, exist_ok=True)
+    env = {**os.environ, "BIOVLN_DATA_DIR": str(out / "dataset")}
+    py = sys.executable
+    t0 = time.time()
+    _sh([py, "-m", "biovln_ms.cli", "dataset", "stats"], env)  # builds it on first use
+    ckpt_dir = out / "ppo"
+    if not (ckpt_dir / "model.zip").exists():
+        _sh(
+            [
+                py,
+                "-m",
+                "biovln_ms.cli",
+                "train",
+                "ppo",
+                "--timesteps",
+                str(PPO_STEPS),
+                "--n-envs",
+                "1",
+                "--eval-split",
+                "",
+                "--seed",
+                "0",
+                "--out",
+                str(ckpt_dir),
+            ],
+            env,
+        )
+    cells = _cells(out, 1 if quick else EPISODES, ckpt_dir / "model.zip")
+    groups = [cells[i::jobs] for i in range(jobs)]  # one process per job, each running its cells in turn
+    procs = [subprocess.Popen([py, "-c", _RUNNER, json.dumps(g)], env=env) for g in groups if g]
+    if any(p.wait() for p in procs):
+        raise SystemExit("a runner failed (its traceback is above)")
+    result = collect(out, ckpt_dir / "model.zip")
+    path = out / "records.json.gz"
+    with gzip.open(path, "wt") as f:
+        json.dump(result, f, sort_keys=True, separators=(",", ":"))
+    n = sum(len(v) for v in result["records"].values())
+    print(f"{n} records in {len(result['records'])} runs, {time.time() - t0:.0f} s -> {path}")
+    return path
+
+
+def collect(out: Path, checkpoint: Path) -> dict:
+    """The canonical content: dataset file digests, the checkpoint's, and the records by run folder."""
+    data = out / "dataset"
+    dataset = {
+        str(p.relative_to(data)): _digest(p)
+        for p in sorted(data.rglob("*"))
+        if p.is_file() and p.suffix in (".json", ".gz", ".jsonl") and p.name != "manifest.json"
+    }
+    # the manifest records the catalog file's digest, which data-only catalog fields (map colours) change;
+    # what the catalog means for the scenes is in the scene and episode files above
+    manifest = json.loads((data / "manifest.json").read_text())
+    manifest.pop("catalog_sha256", None)
+    dataset["manifest.json"] = hashlib.sha256(json.dumps(manifest, sort_keys=True).encode()).hexdigest()
+    records = {}
+    for f in sorted((out / "results").rglob("episodes.jsonl")):
+        rows = [json.loads(line) for line in f.read_text().splitlines() if line.strip()]
+        for r in rows:
+            for k in VOLATILE:
+                r.pop(k, None)
+        rows.sort(key=lambda r: (r.get("scene_id", ""), r.get("episode_id", "")))
+        records[str(f.parent.relative_to(out / "results"))] = rows
+    return {"dataset": dataset, "checkpoint": _digest(checkpoint), "records": records}
+
+
+def _load(path: Path) -> dict:
+    with gzip.open(path, "rt") if path.suffix == ".gz" else open(path) as f:
+        return json.load(f)
+
+
+def compare(a: Path, b: Path, limit: int = 20) -> int:
+    """Print the differences between two record files; the number of differing items."""
+    x, y = _load(a), _load(b)
+    diffs: list[str] = []
+    for name in sorted(set(x["dataset"]) | set(y["dataset"])):
+        if x["dataset"].get(name) != y["dataset"].get(name):
+            diffs.append(f"dataset file {name}: {x['dataset'].get(name)} != {y['dataset'].get(name)}")
+    if x["checkpoint"] != y["checkpoint"]:
+        diffs.append("ppo checkpoint differs")
+    for run in sorted(set(x["records"]) | set(y["records"])):
+        ra, rb = x["records"].get(run), y["records"].get(run)
+        if ra is None or rb is None:
+            diffs.append(f"{run}: only in {'the second' if ra is None else 'the first'}")
+            continue
+        if len(ra) != len(rb):
+            diffs.append(f"{run}: {len(ra)} != {len(rb)} records")
+        for ea, eb in zip(ra, rb):
+            for k in sorted(set(ea) | set(eb)):
+                if ea.get(k) != eb.get(k):
+                    diffs.append(f"{run} {ea.get('scene_id')}/{ea.get('episode_id')} field '{k}' differs")
+    for d in diffs[:limit]:
+        print(d)
+    n = sum(len(v) for v in x["records"].values())
+    print(
+        f"{len(diffs)} differences over {n} records and {len(x['dataset'])} dataset files"
+        + (f" (first {limit} shown)" if len(diffs) > limit else "")
+    )
+    return len(diffs)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    sub = p.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("run", help="run the matrix with the code importable now")
+    r.add_argument("--out", type=Path, required=True)
+    r.add_argument("--quick", action="store_true", help="one episode per cell")
+    r.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runner processes")
+    c = sub.add_parser("compare", help="compare two records files")
+    c.add_argument("a", type=Path)
+    c.add_argument("b", type=Path)
+    args = p.parse_args()
+    if args.cmd == "run":
+        run(args.out, args.quick, args.jobs)
+    else:
+        sys.exit(1 if compare(args.a, args.b) else 0)
+
+
+if __name__ == "__main__":
+    main()
