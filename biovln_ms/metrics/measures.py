@@ -3,7 +3,8 @@
 A :class:`~biovln_ms.metrics.measure_set.MeasureSet` resets (rows ``env_idx``) and updates registered
 measures in dependency order from a :class:`StepState` (the robots' planar poses and commands, arrays with a
 leading ``num_envs`` dimension) and a :class:`BatchContext` (each sub-env's episode), and exposes their
-values as an ``info`` dict of torch tensors on the env's device. Reward, success and fail are measures too; the task config names which.
+values as an ``info`` dict of torch tensors on the env's device. Reward, success and fail are measures
+too; the task config names which.
 
 The bookkeeping is NumPy on the host, whatever the simulation backend: the geometry that differs per
 scene (geodesics, clearance, Zone 2) is host-side anyway (shapely, visibility graphs), so the poses come
