@@ -254,9 +254,8 @@ class BioVLNNavEnv(BaseEnv):
             obs["extra"]["semantic_category"] = semantic_category(
                 head["segmentation"], self._segmentation_lookup
             )
-        if not self.cfg.noise.gps_compass and "sensor_param" in obs:
-            pose = self._measures["agent_pose"]  # this step's pose, already read from the joints
-            self._head_noise.camera_params_in_base_frame(obs["sensor_param"], pose)
+        if not self.cfg.noise.gps_compass and "sensor_param" in obs:  # this step's pose, read from the joints
+            self._head_noise.camera_params_in_base_frame(obs["sensor_param"], self._measures["agent_pose"])
         return obs
 
     # --- rewards: measures chosen by the config (Eq. 5) ----------------------------------------
