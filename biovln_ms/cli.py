@@ -14,6 +14,7 @@ from typer.core import TyperCommand
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import METHODS, RL_ENV, SB3_CONTROL_MODES, report_methods
+from biovln_ms.plugins import load_plugins
 
 app = typer.Typer(
     help="BioVLN-MS: operational-face navigation to laboratory instruments (SAPIEN / ManiSkill3).",
@@ -62,18 +63,19 @@ app.add_typer(export_app, name="export")
 console = Console(stderr=True)
 
 
+def _method_line(name: str) -> str:
+    """A registered method: name, label, description and what it needs."""
+    s = METHODS[name]
+    return (
+        f"{name:<13} {s.label} — {s.description}"
+        + ("; privileged" if s.privileged else "")
+        + (f"; runs on {s.env_id}" if s.env_id else "")
+    )
+
+
 def _methods_help() -> str:
-    """One line per registered method, in report order: name, label, description and what it needs."""
-
-    def line(name: str) -> str:
-        s = METHODS[name]
-        return (
-            f"{name:<13} {s.label} — {s.description}"
-            + ("; privileged" if s.privileged else "")
-            + (f"; runs on {s.env_id}" if s.env_id else "")
-        )
-
-    return "\n".join(line(m) for m in report_methods())
+    """One line per registered method, in report order."""
+    return "\n".join(_method_line(m) for m in report_methods())
 
 
 _RECORDABLE = ", ".join(m for m in report_methods() if METHODS[m].recordable)  # what `record` can run as is
@@ -1078,9 +1080,72 @@ def user_error_line(e: BaseException) -> str:
     return str(e)
 
 
+@app.callback()
+def _plugins(
+    plugin: list[str] = typer.Option(
+        [],
+        "--plugin",
+        help="A plugin module (or .py file) to import first: your methods, measures, sensors, variants, "
+        "templates and instruments (repeatable; entry points of the group biovln_ms.plugins load always).",
+    ),
+) -> None:
+    load_plugins(plugin)
+
+
+def _plugin_args(argv: list[str]) -> list[str]:
+    """The ``--plugin`` values before the command (loaded before the commands read the registries)."""
+    out = []
+    for i, arg in enumerate(argv):
+        if arg == "--plugin" and i + 1 < len(argv):
+            out.append(argv[i + 1])
+        elif arg.startswith("--plugin="):
+            out.append(arg.split("=", 1)[1])
+    return out
+
+
+@app.command("list")
+def list_cmd(
+    what: str = typer.Argument(
+        "methods", help="methods, variants, measures, sensors, templates or instruments."
+    ),
+) -> None:
+    """List what is registered (plugins' entries included).
+
+    Methods, env variants, measures (with their record key), sensors, scene templates or instruments."""
+    from biovln_ms.catalog import load_catalog
+    from biovln_ms.metrics.measures import measure_names, measure_type
+    from biovln_ms.scene.templates import template_names
+    from biovln_ms.variants import VARIANTS
+
+    if what == "sensors":
+        from biovln_ms.tasks.sensors import SENSORS  # the simulator layer: sapien, torch
+
+        rows = list(SENSORS)
+    else:
+        rows = {
+            "methods": lambda: [_method_line(m) for m in report_methods()],
+            "variants": lambda: list(VARIANTS),
+            "measures": lambda: [
+                n + (f" -> {measure_type(n).metric.key}" if measure_type(n).metric else "")
+                for n in measure_names()
+            ],
+            "templates": template_names,
+            "instruments": lambda: load_catalog().names(),
+        }.get(what, lambda: None)()
+    if rows is None:
+        raise BioVLNError(
+            f"nothing called '{what}' is listed",
+            field="what",
+            fix="use methods, variants, measures, sensors, templates or instruments",
+        )
+    for row in rows:
+        typer.echo(row)
+
+
 def main() -> None:
     """Entry point: user-facing errors print as one clear line, not a traceback."""
     try:
+        load_plugins(_plugin_args(sys.argv[1:]))
         app()
     except USER_ERRORS as e:
         console.print(f"[bold red]error:[/] {escape(user_error_line(e))}", highlight=False, soft_wrap=True)

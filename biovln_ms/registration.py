@@ -9,6 +9,10 @@ ManiSkill's own.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
+from biovln_ms.errors import BioVLNError
+from biovln_ms.task_config import NavTaskConfig
 from biovln_ms.variants import VARIANTS
 
 #: uid -> max_episode_steps of every env this package provides (the variants' own, and the scene viewer).
@@ -20,6 +24,33 @@ ENV_IDS: dict[str, int] = {
 #: imports :mod:`biovln_ms.tasks`, which registers every env; it lives there so that this module, which the
 #: tasks import, never imports them back.
 LAZY_ENTRY_POINT = "biovln_ms.tasks:make_lazy"
+
+
+#: called with (uid, config) for a variant registered after the tasks were imported (set by the tasks)
+VARIANT_HOOKS: list[Callable[[str, NavTaskConfig], None]] = []
+
+
+def register_variant(uid: str, cfg: NavTaskConfig, override: bool = False) -> None:
+    """A new env id from your code, e.g. ``register_variant("MyLab-Zone3-v0", replace(VARIANTS[...], ...))``:
+    ``gym.make(uid)`` then builds it as a shipped variant, and evaluation and the CLI's lists know it. A
+    taken id with another configuration is refused unless ``override``."""
+    if not isinstance(uid, str) or not uid.rsplit("-v", 1)[-1].isdigit():
+        raise BioVLNError(
+            f"env id {uid!r} has no version suffix", field="uid", fix="name it like 'MyLab-Zone3-v0'"
+        )
+    if not isinstance(cfg, NavTaskConfig):
+        raise BioVLNError(
+            f"the configuration of {uid} is a {type(cfg).__name__}",
+            field="cfg",
+            fix="pass a NavTaskConfig (dataclasses.replace of a shipped variant's)",
+        )
+    if VARIANTS.get(uid, cfg) != cfg and not override:
+        raise BioVLNError(f"env id {uid} is already registered", field="uid", fix="choose another id")
+    VARIANTS[uid] = cfg
+    ENV_IDS[uid] = cfg.max_episode_steps
+    for hook in VARIANT_HOOKS:
+        hook(uid, cfg)
+    register_lazily()
 
 
 def register_lazily() -> None:

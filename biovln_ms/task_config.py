@@ -85,6 +85,7 @@ class NavTaskConfig:
     camera_width: int = 640
     camera_height: int = 480
     camera_hfov_deg: float = 79.0  # Habitat's horizontal FOV; SAPIEN takes the vertical one
+    strict_facing_deg: float = 30.0  # facing_face / strict success: the heading within this of the face's -f
     camera_far: float = 20.0
     success_bonus: float = 10.0
     step_penalty: float = 0.01

@@ -114,6 +114,7 @@ def check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> None
         "camera_width",
         "camera_height",
         "camera_hfov_deg",
+        "strict_facing_deg",
         "max_episode_steps",
     ):
         v = getattr(cfg, name)

@@ -39,6 +39,7 @@ from biovln_ms.io_utils import atomic_write_text, exclusive_lock
 from biovln_ms.metrics.measures import OUTCOME, Metric, measure_type
 from biovln_ms.metrics.reach_measures import REACH_MEASURES
 from biovln_ms.noise import resolve_noise
+from biovln_ms.plugins import load_plugins, loaded_plugins
 from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
 from biovln_ms.variants import VARIANTS
 
@@ -73,6 +74,9 @@ class EvalConfig:
     robot: str = DEFAULT_ROBOT  # a biovln_ms.robots.ROBOTS id; its own dataset unless ``dataset`` is given
     handoff_dir: str | None = None  # write each successful episode's hand-off here (biovln_ms.eval.handoff)
     fresh_scene: bool = False  # rebuild the scene at every reset: outcomes independent of a worker's history
+    plugins: list[str] = field(
+        default_factory=loaded_plugins
+    )  # imported by each worker first (biovln_ms.plugins)
 
     def __post_init__(self) -> None:
         robot_spec(self.robot, "robot")
@@ -165,6 +169,8 @@ def _init_worker(cfg: dict) -> None:
     import torch
 
     import biovln_ms  # noqa: F401
+
+    load_plugins(cfg.get("plugins", ()))
 
     torch.set_num_threads(1)
     spec = method_spec(cfg["method"])
@@ -569,6 +575,7 @@ def write_manifest(cfg: EvalConfig, root: Path) -> dict:
             "camera": list(cfg.camera),
             "max_episodes": cfg.max_episodes,
             "fresh_scene": cfg.fresh_scene,
+            "plugins": cfg.plugins,
             "record_mode": cfg.record_mode if cfg.record_dir else None,
         },
     }

@@ -121,7 +121,7 @@ _BC_NOTE = (
     "template."
 )
 
-# The one registry: a new method is its policy file plus one entry here.
+# The one registry: a shipped method is its policy module plus one entry here; yours, register_method.
 METHODS: dict[str, MethodSpec] = {
     "random": MethodSpec(
         _lazy("biovln_ms.baselines.random_policy", "RandomPolicy"),
@@ -226,6 +226,24 @@ METHODS: dict[str, MethodSpec] = {
         env_id=PROTOCOL_ENV,
     ),
 }
+
+
+def register_method(name: str, spec: MethodSpec, override: bool = False) -> MethodSpec:
+    """Add a method to the registry (your policy: ``MethodSpec(MyPolicy, "depth", ...)``); it then runs in
+    ``biovln-ms eval``, the suite and the report like a shipped one. A taken name is refused unless
+    ``override``."""
+    if not isinstance(name, str) or not name.isidentifier():
+        raise BioVLNError(
+            f"method name {name!r} is not an identifier", field="name", fix="use e.g. 'my_policy'"
+        )
+    if name in METHODS and not override and METHODS[name] != spec:
+        raise BioVLNError(
+            f"method '{name}' is already registered",
+            field="name",
+            fix="choose another name, or pass override=True",
+        )
+    METHODS[name] = spec
+    return spec
 
 
 def report_methods() -> list[str]:

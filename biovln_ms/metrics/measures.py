@@ -20,7 +20,7 @@ declarations without loading torch. Conventions (paper §4.2):
 * ``facing_instrument``: the target's centre lies within half the camera's horizontal field of view.
 * ``strict_success`` (operational success, this platform's rule beside the paper's radius rule): a
   successful STOP (within r) that also stands in Zone 3 and faces the operational face, the heading within
-  30 degrees of the face's inward normal ``-f`` (``facing_face``).
+  ``strict_facing_deg`` (30 by default) of the face's inward normal ``-f`` (``facing_face``).
 * ``collisions``: steps whose commanded forward motion was cut short by contact (moved < 90 %).
 * SPL = success * l_opt / max(l, l_opt); soft SPL = (1 - d_T / d_0) * l_opt / max(l, l_opt) with geodesic
   d_T at the end and d_0 at the start; DTG = final Euclidean distance; VRT = fraction of steps
@@ -43,9 +43,6 @@ from biovln_ms.geometry.zones import SAFETY_THRESHOLD, InstrumentArray, PlacedIn
 from biovln_ms.task_config import NavTaskConfig
 
 F64 = np.float64
-#: strict operational success: the heading within this angle of the face's inward normal
-STRICT_FACING_DEG = 30.0
-COS_STRICT_FACING = math.cos(math.radians(STRICT_FACING_DEG))
 #: m: Zone 3 includes its boundary within this; the Eq. 1 goal lies on its outer edge and the physics keeps
 #: poses in float32 (a robot stopped exactly at the goal reads up to ~1e-6 m outside it)
 ZONE3_TOLERANCE = 1e-5
@@ -332,13 +329,13 @@ def _in_zone3(ctx: BatchContext, s: StepState, idx: Rows) -> np.ndarray:
     return _once(s, idx, "in_zone3", compute)
 
 
-def _facing_face(ctx: BatchContext, s: StepState, idx: Rows) -> np.ndarray:
-    """(N, k) whether the heading is within STRICT_FACING_DEG of each goal's inward face normal."""
+def _facing_face(ctx: BatchContext, s: StepState, idx: Rows, cfg: NavTaskConfig) -> np.ndarray:
+    """(N, k) whether the heading is within ``cfg.strict_facing_deg`` of each goal's inward face normal."""
 
     def compute() -> np.ndarray:
         f, yaw = ctx.face[idx], s.yaw[idx][:, None]
         cos = -(np.cos(yaw) * f[..., 0] + np.sin(yaw) * f[..., 1])
-        return ctx.has_zone3[idx] & (cos >= COS_STRICT_FACING - 1e-12)
+        return ctx.has_zone3[idx] & (cos >= math.cos(math.radians(cfg.strict_facing_deg)) - 1e-12)
 
     return _once(s, idx, "facing_face", compute)
 
@@ -411,13 +408,13 @@ class FacingInstrument(Measure):
 
 @register_measure
 class FacingFace(Measure):
-    """The robot looks at a goal's operational face: its heading within 30 degrees of ``-f``."""
+    """The robot looks at a goal's operational face: its heading within ``strict_facing_deg`` of ``-f``."""
 
     uuid = "facing_face"
     dtype = bool
 
     def compute(self, ctx, s, m, idx):
-        return _any_goal(_facing_face(ctx, s, idx))
+        return _any_goal(_facing_face(ctx, s, idx, self.cfg))
 
 
 @register_measure
@@ -435,7 +432,7 @@ class StrictSuccess(Measure):
 
     def compute(self, ctx, s, m, idx):
         within = _goal_distances(ctx, s, idx) <= ctx.radii[idx]
-        at = within & _in_zone3(ctx, s, idx) & _facing_face(ctx, s, idx)
+        at = within & _in_zone3(ctx, s, idx) & _facing_face(ctx, s, idx, self.cfg)
         return m["stopped"][idx] & _any_goal(at)
 
 

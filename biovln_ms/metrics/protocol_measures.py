@@ -140,7 +140,7 @@ class SubgoalIndex(Measure):
         col = np.minimum(j, k - 1)
         at = _column(_goal_distances(ctx, s, idx), col) <= _column(ctx.radii[idx], col)
         if self.cfg.subgoal_rule == "strict":
-            at &= _column(_in_zone3(ctx, s, idx), col) & _column(_facing_face(ctx, s, idx), col)
+            at &= _column(_in_zone3(ctx, s, idx), col) & _column(_facing_face(ctx, s, idx, self.cfg), col)
         stop = m["stopped"][idx] & (j < k)
         found, wrong = stop & at, stop & ~at
         status = self.status[idx]
