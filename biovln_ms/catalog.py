@@ -32,6 +32,7 @@ from biovln_ms.paths import CATALOG_PATH
 #: Environment variable naming a catalog file to use instead of the packaged one (a catalog grown by an
 #: instrument of one's own; ``load_catalog()`` reads it when called without a path).
 CATALOG_ENV = "BIOVLN_CATALOG"
+OVERLAY_ENV = "BIOVLN_CATALOG_OVERLAY"
 Face = Literal["+X", "-X", "+Y", "-Y"]
 Placement = Literal["wall", "table_top", "floor", "furniture"]
 Mount = Literal["wall", "table_top", "floor"]
@@ -44,9 +45,9 @@ FACE_VECTORS: dict[str, tuple[float, float]] = {
     "-Y": (0.0, -1.0),
 }
 #: The paper's ten goal categories, in catalog order: first in ``Catalog.goal_categories()`` and so at
-#: indices 0-9 of the ``objectgoal`` one-hot and the semantic sensor, as before the catalog grew; categories
-#: added since (issue 18) follow them, so the one-hot grows at its end (a policy trained on the 10-long
-#: one-hot is refused with a one-line error, never fed a shifted one).
+#: indices 0-9 of the ``objectgoal`` one-hot and the semantic sensor; the other goal categories
+#: follow them, so the one-hot only grows at its end (a policy trained on a shorter one-hot is refused with
+#: a one-line error, never fed a shifted one).
 PAPER_GOAL_CATEGORIES = (
     "refrigerator",
     "incubator",
@@ -85,7 +86,7 @@ class _Strict(BaseModel):
 
 
 class InteractionPoint(_Strict):
-    """Where a manipulator acts on a goal category (issue 16 item 3): a point in the asset's model space
+    """Where a manipulator acts on a goal category: a point in the asset's model space
     (metres, origin at the bbox centre, as ``dimensions``), inside its bounds on its operational face's
     side."""
 
@@ -220,7 +221,7 @@ class CatalogFile(_Strict):
     room_inner: RoomInner
     assets: list[AssetSpec]
     room_shell: list[RoomShellPiece] = []
-    dressing: list[AssetSpec] = []  # non-goal objects the generator adds on request (issue 18 item 3)
+    dressing: list[AssetSpec] = []  # non-goal objects the generator adds on request (lab dressing)
 
     @model_validator(mode="after")
     def _dressing(self) -> CatalogFile:
@@ -336,39 +337,71 @@ class Catalog:
 
 def load_catalog(path: str | Path | None = None) -> Catalog:
     """Load and validate a catalog file (default: the file ``$BIOVLN_CATALOG`` names, else the packaged
-    ``assets/catalog.json``)."""
+    ``assets/catalog.json``), with the overlays ``$BIOVLN_CATALOG_OVERLAY`` names (``os.pathsep``-separated
+    JSON files ``{"assets": [...]}``: your instruments added to it; a name it has already is refused)."""
     if path is None:
-        return _default_catalog(os.environ.get(CATALOG_ENV) or None)
+        overlays = tuple(filter(None, os.environ.get(OVERLAY_ENV, "").split(os.pathsep)))
+        return _default_catalog(os.environ.get(CATALOG_ENV) or None, overlays)
     return _load(Path(path))
 
 
 @lru_cache(maxsize=4)
-def _default_catalog(override: str | None = None) -> Catalog:
-    return _load(CATALOG_PATH if override is None else Path(override))
+def _default_catalog(override: str | None = None, overlays: tuple[str, ...] = ()) -> Catalog:
+    return _load(CATALOG_PATH if override is None else Path(override), tuple(Path(o) for o in overlays))
 
 
-def _load(path: Path) -> Catalog:
+def _read_json(path: Path, what: str) -> tuple[bytes, object]:
     try:
         raw = path.read_bytes()
     except OSError as e:
         raise CatalogError(
-            f"cannot read the catalog ({e.strerror})",
+            f"cannot read the {what} ({e.strerror})",
             source=str(path),
             fix="reinstall biovln-ms or pass an existing catalog file",
         ) from None
     try:
-        obj = json.loads(raw)
+        return raw, json.loads(raw)
     except json.JSONDecodeError as e:
         raise CatalogError(
             f"not valid JSON at line {e.lineno} column {e.colno}: {e.msg}", source=str(path)
         ) from None
+
+
+def _overlay(obj: object, raw: bytes, path: Path) -> tuple[object, bytes]:
+    """The catalog object with an overlay file's ``assets`` appended (and its bytes in the digest)."""
+    more, extra = _read_json(path, "catalog overlay")
+    if not isinstance(extra, dict) or set(extra) != {"assets"} or not isinstance(extra["assets"], list):
+        raise CatalogError(
+            "an overlay is an object with one key, 'assets' (a list of asset entries)",
+            source=str(path),
+            field="assets",
+            fix='write {"assets": [{...}, ...]} with entries as in the packaged catalog.json',
+        )
+    taken = {a.get("name") for a in obj["assets"] if isinstance(a, dict)}
+    for i, a in enumerate(extra["assets"]):
+        if isinstance(a, dict) and a.get("name") in taken:
+            raise CatalogError(
+                f"assets[{i}]: the catalog already has an instrument named {a['name']!r}",
+                source=str(path),
+                field=f"assets[{i}].name",
+                fix="choose another name (an overlay adds instruments; it does not replace them)",
+            )
+    return {**obj, "assets": [*obj["assets"], *extra["assets"]]}, raw + b"\n" + more
+
+
+def _load(path: Path, overlays: tuple[Path, ...] = ()) -> Catalog:
+    raw, obj = _read_json(path, "catalog")
+    if overlays and not (isinstance(obj, dict) and isinstance(obj.get("assets"), list)):
+        raise CatalogError("the catalog has no 'assets' list", source=str(path), field="assets")
+    for overlay in overlays:
+        obj, raw = _overlay(obj, raw, overlay)
     try:
         data = CatalogFile.model_validate(obj)
     except ValidationError as e:
         field, msg = describe_validation_error(e)
         raise CatalogError(
             msg,
-            source=str(path),
+            source=", ".join(map(str, (path, *overlays))),
             field=field,
             fix="correct that value (see the 'rules' section of the packaged catalog.json)",
         ) from None

@@ -110,3 +110,24 @@ def test_a_broken_plugin_is_one_line(tmp_path):
         [sys.executable, "-m", "biovln_ms.cli", "--plugin", str(bad), "list"], capture_output=True, text=True
     )
     assert r.returncode == 2 and "Traceback" not in r.stderr and "my bug" in r.stderr
+
+
+def test_a_catalog_overlay_adds_instruments_and_refuses_a_taken_name(tmp_path, monkeypatch):
+    from biovln_ms import catalog
+    from biovln_ms.catalog import CatalogError, load_catalog
+
+    base = load_catalog()
+    entry = {**base.get("centrifuge").model_dump(mode="json", exclude_none=True), "name": "sonicator"}
+    entry.update(display_name="Sonicator", synonyms=["ultrasonic bath"])
+    overlay = tmp_path / "my_instruments.json"
+    overlay.write_text(json.dumps({"assets": [entry]}))
+    monkeypatch.setenv("BIOVLN_CATALOG_OVERLAY", str(overlay))
+    cat = load_catalog()
+    assert "sonicator" in cat and cat.names()[:-1] == base.names() and cat.sha256 != base.sha256
+    assert cat.phrases()[("ultrasonic", "bath")] == "sonicator"
+    taken = tmp_path / "taken.json"
+    taken.write_text(json.dumps({"assets": [{**entry, "name": "centrifuge"}]}))
+    monkeypatch.setenv("BIOVLN_CATALOG_OVERLAY", str(taken))
+    with pytest.raises(CatalogError, match="already has an instrument named 'centrifuge'"):
+        load_catalog()
+    catalog._default_catalog.cache_clear()
