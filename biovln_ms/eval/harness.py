@@ -12,7 +12,7 @@ lock when its process dies, so a killed run's folder is taken over by the next `
 
 An episode that raises, or whose record has a missing or non-finite metric, is recorded with an
 ``error`` and counts as a failure (``metrics.record_error``); a resume runs it again, replacing that
-record. A file with more than one finished record of an episode (two writers of an older version) is
+record. A file with more than one finished record of an episode (two writers without the lock) is
 repaired on resume: the first record of each episode is kept, and the repaired keys are named.
 """
 
@@ -36,7 +36,7 @@ from biovln_ms.eval.metrics import aggregate_all, record_error
 from biovln_ms.eval.handoff import handoff_payload, write_handoff
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.io_utils import atomic_write_text, exclusive_lock
-from biovln_ms.metrics.measures import OUTCOME, Metric, measure_type
+from biovln_ms.metrics.measures import OUTCOME, DistanceToGoal, Metric, measure_type
 from biovln_ms.metrics.reach_measures import REACH_MEASURES
 from biovln_ms.noise import resolve_noise
 from biovln_ms.plugins import load_plugins, loaded_plugins
@@ -260,7 +260,7 @@ def _run(index: int) -> dict:
                         st.action,
                         before,
                         goal,
-                        float(st.info_before["distance_to_goal"]),
+                        float(st.info_before[DistanceToGoal.uuid]),
                         st.obs_before,
                     )
                 actions.append(st.action if isinstance(st.action, int) else [_r4(v) for v in st.action])
@@ -584,7 +584,7 @@ def write_manifest(cfg: EvalConfig, root: Path) -> dict:
 
 
 def read_manifest(run_dir: Path, records: list[dict]) -> dict:
-    """Who a run is: its ``manifest.json``, else (results of an older version) its records' own fields."""
+    """Who a run is: its ``manifest.json``, else (a run folder without one) its records' own fields."""
     path = Path(run_dir) / MANIFEST
     if path.is_file():
         return json.loads(path.read_text())
