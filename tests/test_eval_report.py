@@ -1,4 +1,4 @@
-"""The honest report (issue 15 item 7): intervals in every table, episode counts in every cell, partial
+"""The honest report: intervals in every table, episode counts in every cell, partial
 runs labelled and kept out of the comparison with the paper, one unit convention, significance with
 Holm's correction, and a figure called "hard" only for a hard episode. Pure data: no simulator."""
 
@@ -10,20 +10,17 @@ import re
 import pytest
 
 from biovln_ms.eval import paper
-from biovln_ms.eval.report import (
+from biovln_ms.eval.figures import hard_episodes, hard_figure_title
+from biovln_ms.eval.paper_tables import (
     SPLIT_EPISODES,
     differences,
-    hard_episodes,
-    hard_figure_title,
     mcnemar_table,
-    summarize,
     table5,
     table9,
     table10,
     table11,
-    tables,
-    tables_of,
 )
+from biovln_ms.eval.report import summarize, tables, tables_of
 from biovln_ms.eval.stats import holm, wilson_interval
 
 
@@ -217,7 +214,7 @@ def test_a_figure_is_called_hard_only_for_a_hard_episode():
 
 
 def test_the_benchmark_table_ranks_every_method_under_each_preset_and_tests_the_noise():
-    from biovln_ms.eval.report import benchmark_table
+    from biovln_ms.eval.paper_tables import benchmark_table
 
     n = 40
     runs = {

@@ -51,7 +51,8 @@ def test_the_strict_facing_angle_is_configuration():
 
 def test_a_plugin_variant_method_and_measure_run_in_eval_and_the_report(plugin, tmp_path):
     from biovln_ms.eval.harness import EvalConfig, evaluate
-    from biovln_ms.eval.report import load_runs, other_measures_table, summarize
+    from biovln_ms.eval.paper_tables import other_measures_table
+    from biovln_ms.eval.report import load_runs, summarize
 
     cfg = EvalConfig(method="stop_at_once", split="ms_val", out=str(tmp_path), max_episodes=2, workers=2)
     assert cfg.plugins == [plugin] and cfg.env_id == "MyLab-Zone3Facing-v0"

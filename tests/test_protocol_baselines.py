@@ -1,4 +1,4 @@
-"""Lab-protocol baselines (issue 17 item 6): the instruction parser (rule-based and LLM), the sub-goal chains,
+"""Lab-protocol baselines: the instruction parser (rule-based and LLM), the sub-goal chains,
 the language agent, the harness's protocol records and aggregates, the report's table, the suite's stage and
 the habitat exporter's refusal."""
 
@@ -406,7 +406,8 @@ def test_protocol_aggregates_count_errored_episodes_as_failures():
 
 
 def test_the_report_renders_the_lab_protocols_table_from_fake_records():
-    from biovln_ms.eval.report import TABLES, protocol_table, summarize, tables_of
+    from biovln_ms.eval.paper_tables import protocol_table
+    from biovln_ms.eval.report import TABLES, summarize, tables_of
 
     runs = {
         ("protocol_oracle", "protocol_val"): [_fake(i, 3, 3, "protocol_oracle") for i in range(4)],
@@ -430,7 +431,8 @@ def test_the_report_renders_the_lab_protocols_table_from_fake_records():
 def test_the_report_plots_each_protocol_runs_stage_success(tmp_path):
     from matplotlib.image import imread
 
-    from biovln_ms.eval.report import plot_protocol_stages, summarize
+    from biovln_ms.eval.figures import plot_protocol_stages
+    from biovln_ms.eval.report import summarize
 
     runs = {
         ("protocol_oracle", "protocol_val"): [_fake(i, 3, 3, "protocol_oracle") for i in range(4)],

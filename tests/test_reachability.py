@@ -1,4 +1,4 @@
-"""Reachability of the interaction points by Fetch (issue 16 items 3-6): the catalog's points, the reach
+"""Reachability of the interaction points by Fetch: the catalog's points, the reach
 check (IK on Fetch's URDF, collisions), the ``reachable`` / ``reach_success`` measures at STOP, their
 aggregation and report, and the navigation-to-manipulation hand-off (physx_cpu)."""
 
@@ -46,7 +46,7 @@ def _within_limits(arm: FetchArm, q: np.ndarray) -> bool:
     return bool(np.all(q[arm.free] >= lo - 1e-9) and np.all(q[arm.free] <= hi + 1e-9))
 
 
-# --- the catalog's interaction points (item 3) ------------------------------------------------------
+# --- the catalog's interaction points ---------------------------------------------------------------
 def test_every_goal_category_has_an_interaction_point_inside_its_bounds_on_the_face_side(catalog):
     for name in catalog.goal_categories():
         a = catalog.get(name)
@@ -93,7 +93,7 @@ def test_interaction_points_follow_the_instrument_into_the_world():
     assert len(walls) == len(spec.walls)
 
 
-# --- the reach check (item 4) ----------------------------------------------------------------------
+# --- the reach check -------------------------------------------------------------------------------
 def test_ik_reaches_a_point_in_front_of_fetch_and_refuses_one_3_m_away(arm):
     point = np.array([0.75, 0.0, 0.9])
     r = arm.reach((0.0, 0.0, 0.0), point, FACE_BACK, [], "target")
@@ -154,7 +154,7 @@ def test_a_category_without_an_interaction_point_is_a_one_line_error(tmp_path, m
     assert "field 'interaction'" in str(e.value) and "\n" not in str(e.value)
 
 
-# --- the measures at STOP (item 4) -------------------------------------------------------------------
+# --- the measures at STOP ----------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def fetch_data(tmp_path_factory):
     from biovln_ms.benchmark import FOUR_CATEGORIES
@@ -217,7 +217,7 @@ def test_the_cylinder_has_no_reach_measures(held_out_dataset):
         env.close()
 
 
-# --- aggregation and report (item 4) -----------------------------------------------------------------
+# --- aggregation and report --------------------------------------------------------------------------
 def _rec(cat: str, success: bool, reachable: bool | None) -> dict:
     r = dict(success=success, spl=0.5 * success, soft_spl=0.5, dtg=0.3, steps=10, mcr=0.6, vrt=0.1)
     r.update(strict_success=False, object_category=cat, difficulty="easy")
@@ -228,7 +228,8 @@ def _rec(cat: str, success: bool, reachable: bool | None) -> dict:
 
 def test_reach_sr_and_reachable_successes_are_aggregated_and_reported():
     from biovln_ms.eval.metrics import aggregate
-    from biovln_ms.eval.report import reach_table, summarize
+    from biovln_ms.eval.paper_tables import reach_table
+    from biovln_ms.eval.report import summarize
 
     fetch = [_rec("cabinet", True, True), _rec("cabinet", True, False), _rec("refrigerator", False, True)]
     fetch.append({"error": "boom", "object_category": "cabinet"})
@@ -260,7 +261,7 @@ def test_eval_config_takes_a_robot():
         EvalConfig("oracle", "ms_val", "out", robot="panda")
 
 
-# --- the hand-off (item 6) ---------------------------------------------------------------------------
+# --- the hand-off ------------------------------------------------------------------------------------
 @pytest.mark.slow
 def test_handoff_is_exported_and_restored_in_a_fresh_env(fetch_data, tmp_path):
     from biovln_ms.eval.handoff import HANDOFF_SCHEMA, HandoffError, load_handoff, restore_handoff
