@@ -1,4 +1,4 @@
-"""The whole benchmark's wall time on this machine (issue 15 item 8: the geometric methods' part within
+"""The whole benchmark's wall time on this machine (the budget: the geometric methods' part within
 60 min): ``biovln-ms benchmark``'s runs, each with its episodes, SR and wall time, and the totals.
 
     python benchmarks/baselines.py [--out /tmp/biovln_bench] [--workers 2] [--all]

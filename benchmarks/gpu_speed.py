@@ -1,4 +1,4 @@
-"""GPU-parallel simulation of BioVLN-OpFace-v0 on ``physx_cuda`` (issue 14), against ManiSkill's PickCube-v1.
+"""GPU-parallel simulation of BioVLN-OpFace-v0 on ``physx_cuda``, against ManiSkill's PickCube-v1.
 
     python benchmarks/gpu_speed.py --out DIR [--section all|meta,state,...] [--smoke]
 
@@ -27,13 +27,13 @@ before):
   num_envs = 1, rendered by the GPU; needs no PhysX GPU library), and both step rates.
 * ``cpu_ref``: the same env on ``physx_cpu`` (num_envs = 1): state-only, and RGB-D 128x128 rendered by the
   GPU (needs no PhysX GPU library), and PickCube-v1 on the CPU.
-* ``ppo``: issue 14 item 4's recipe: Stable-Baselines3 PPO on one batched ``BioVLN-OpFace-RL-v0`` of
+* ``ppo``: the GPU training recipe: Stable-Baselines3 PPO on one batched ``BioVLN-OpFace-RL-v0`` of
   ``PPO_ENVS`` sub-envs on ``physx_cuda`` (``RLConfig.sim_backend``, ``BatchedVecEnv``) for
   ``PPO_TIMESTEPS`` steps on the train split, then MS VAL through the harness (CPU workers, as every
   evaluation): steps/s, wall time, SR. Not in ``run_all.sh``'s default order (it needs a call of its own:
   ``bash scripts/gpu/run_all.sh meta,ppo``); its run folder (``model.zip``, TensorBoard logs,
   ``learning_curve.png``) goes to ``DIR/ppo``.
-* ``lighting``: the frame cost of the lighting presets (issue 18 item 1), ``quality`` against ``fast`` at
+* ``lighting``: the frame cost of the lighting presets, ``quality`` against ``fast`` at
   640x480 and 128x128, as ``benchmarks/lighting.py`` measures it on the CPU: the env on ``physx_cpu``
   (num_envs = 1, rendered by the GPU; needs no PhysX GPU library) turning in place, ms per ``step`` with its
   RGB-D observation, and the head camera's raw SAPIEN frame (update_render + take_picture + read-back).
@@ -844,7 +844,7 @@ def markdown(data: dict) -> str:
     )
     bullets(
         "ppo",
-        "PPO on one batched RL env (issue 14 item 4)",
+        "PPO on one batched RL env",
         "ms_val_sr",
         lambda k, e: (
             f"- {e['num_envs']} sub-envs: {e['timesteps']:,} steps in {e['train_minutes']} min "

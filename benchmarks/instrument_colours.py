@@ -1,9 +1,9 @@
-"""Distinct colours of every goal category seen from its Zone-3 goal (issue 18 item 2; paper Table 8).
+"""Distinct colours of every goal category seen from its Zone-3 goal (paper Table 8).
 
 The paper found GPT-4o recognised only the instrument with a rich surface (the biosafety cabinet,
 12.6k-14.9k distinct colours), none of the near-uniform ones. For each goal category, its first instance
 in the scenes of :func:`~biovln_ms.render.goal_views.showcase_scenes` (``two_room`` seed 0 for the paper's
-ten categories, ``molecular_biology`` scenes for the seven of issue 18 item 4) is seen by a head camera
+ten categories, ``molecular_biology`` scenes for the seven molecular-biology ones) is seen by a head camera
 like the env's (640x480, the task's 79 degree field of view, ManiSkill's "minimal" shader with 8-bit
 colour, 0.88 m high) from three eyes: the Eq. 1 goal g = c + f (d + delta), and g turned by -15 and +15
 degrees about the object's centre (all within the success radius), each looking at the object's centre,

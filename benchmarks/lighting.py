@@ -1,4 +1,4 @@
-"""Frame cost of the lighting presets (issue 18 item 1): ``quality`` vs ``fast`` in one run.
+"""Frame cost of the lighting presets: ``quality`` vs ``fast`` in one run.
 
 For each preset and size, the head camera of ``BioVLN-OpFace-v0`` (obs_mode="rgbd") timed through the env
 (ms per ``step``, the observation included) and raw (SAPIEN's update_render + take_picture + read-back).

@@ -1,4 +1,4 @@
-"""Lab-protocol baselines (issue 17 item 6): a stratified subset of the protocol splits, and why the language
+"""Lab-protocol baselines: a stratified subset of the protocol splits, and why the language
 agents' episodes fail.
 
 ``subset`` copies a dataset (default: the default dataset) to ``--out`` with ``protocol_val`` and

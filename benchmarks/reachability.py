@@ -1,5 +1,4 @@
 """Can Fetch's gripper reach each goal category's interaction point from where the benchmark says to stand?
-(issue 16 item 5)
 
 Two measurements, both with the reach rule of ``biovln_ms.sim.reach`` (IK on Fetch's URDF, base fixed, 2 cm,
 approach within 30 degrees of the face normal, no collision):

@@ -1,11 +1,11 @@
-"""Can an image-text model tell which instrument it sees? (issue 18 item 5; the paper's Table 8 question)
+"""Can an image-text model tell which instrument it sees? (the paper's Table 8 question)
 
 Every goal category is rendered at its three Zone-3 views (:func:`~biovln_ms.render.goal_views.goal_views`:
 the Eq. 1 goal and the goal turned ±15° about the object, the head camera's 640x480 frame, 0.88 m high,
 looking at the object's centre; :func:`~biovln_ms.render.goal_views.showcase_scenes` picks the scenes)
-under the lighting presets ``fast`` (before issue 18's lighting) and ``quality``. Each frame is scored
-against the prompts of all goal categories (VLFM's prompt with the catalog's display name, as the VLFM
-baseline asks); a view is recognised at top-k when its own category's prompt is among the k best.
+under the lighting presets ``fast`` (unshadowed, that of every released result) and ``quality``. Each
+frame is scored against the prompts of all goal categories (VLFM's prompt with the catalog's display name,
+as the VLFM baseline asks); a view is recognised at top-k when its own category's prompt is among the k best.
 
     python benchmarks/recognition.py [--clip DIR] [--sheet PNG] [--data-out JSON]
 
@@ -54,7 +54,7 @@ class Scored:
 
 class FrameCachedScorer(ClassifierTextScorer):
     """The offline scorer, its ImageNet probabilities computed once per frame for all prompts (the scores
-    are ``ClassifierTextScorer``'s; its network is the cost, about 1 s of CPU per call)."""
+    are ``ClassifierTextScorer``'s; its network is the cost of a call)."""
 
     _last: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -191,7 +191,7 @@ def main(argv: list[str] | None = None) -> None:
         f"scenes {', '.join(s.name for s, _ in showcase_scenes(categories))}; chance: top-1 "
         f"{100 / len(categories):.0f} %, top-3 {300 / len(categories):.0f} %.",
         "`fast` is the lighting of every released result (flat, no shadows); `quality` has shadowed ceiling "
-        "fixtures (both with issue 18's textures and per-instance looks).",
+        "fixtures (both with the PBR textures and per-instance looks).",
     ]
     if not args.clip:
         notes.append(

@@ -9,9 +9,8 @@ int16-millimetre ``(1, H, W, 1)`` depth image (what the rgbd obs mode returns), 
 an episode, next to a plain ``img.clone()`` of the same tensors as the reference (cloning the RGBA view is
 slow: torch copies 3 of 4 bytes element by element). Two regimes: ``hot`` (frames back to back, the banks
 and images stay in cache) and ``evicted`` (64 MB written between frames, as a render step would, not timed).
-The issue's budget: ``realistic`` over ``ideal`` costs at most 5 % of an env step; an ideal 640x480 RGB-D
-step takes 20-25 ms here, so all the preset's work (both models, the actuation noise, the base-frame
-extrinsics) has about 1.0-1.2 ms. ``benchmarks/env_speed.py`` measures that inside the env.
+The budget: all of ``realistic``'s work over ``ideal`` (both models, the actuation noise, the base-frame
+extrinsics) costs at most 5 % of an env step. ``benchmarks/env_speed.py`` measures that inside the env.
 """
 
 from __future__ import annotations

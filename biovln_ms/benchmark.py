@@ -11,19 +11,19 @@ default dataset built from them (a composition of the episode model and the LSAT
 * Hard track (ours; the paper has none): ``hard_val`` / ``hard_test``, 160 episodes each over held-out
   seeds of ``suite``, ``open_plan`` and ``single_room`` (see ``HARD_SPLITS``); the goal is a category and
   any instance counts (ObjectNav's rule), half of each scene's episodes drawn for a geodesic over 6 m.
-  ``hard_dressed_test`` (issue 18): ``hard_test``'s scenes with the generator's lab dressing.
+  ``hard_dressed_test``: ``hard_test``'s scenes with the generator's lab dressing.
 * Benchmark splits (Table 4, pairwise disjoint): ``ms_dev`` seeds 150-153 x 40, ``ms_val`` 154 x 50,
   ``ms_test`` 155-156 x 60 (all holding cabinet, centrifuge, refrigerator and waste bin, Table 12:
   the generator's ``required_categories`` option), ``two_room`` (seed 200, 50 cross-room episodes)
   and ``lsat_target`` (the designer-authored scene ``assets/scenes/lsat_target.glb`` through the LSAT
   import, 40 episodes cycling over its 8 goal categories: 5 each, as Table 6's 20 % steps imply).
-* Protocol splits (issue 17, ours): ``protocol_train`` / ``protocol_val`` / ``protocol_test``, lab protocols
+* Protocol splits (ours): ``protocol_train`` / ``protocol_val`` / ``protocol_test``, lab protocols
   as multi-goal episodes (``biovln_ms.protocols.episodes``) in scenes of all four templates, their seeds
   disjoint from every other split's (see ``PROTOCOL_SPLITS``).
-* Molecular-biology splits (issue 18, ours): ``molbio_val`` / ``molbio_test``, scenes of the
-  ``molecular_biology`` template, the only one offering the catalog's seven new categories, on seeds no other
-  split uses (see ``MOLBIO_SPLITS``); any instance of the category counts. The paper's splits never hold
-  the new categories.
+* Molecular-biology splits (ours): ``molbio_val`` / ``molbio_test``, scenes of the
+  ``molecular_biology`` template, the only one offering the catalog's seven molecular-biology categories,
+  on seeds no other split uses (see ``MOLBIO_SPLITS``); any instance of the category counts. The paper's
+  splits never hold them.
 
 Every split is built for one robot (``biovln_ms.robots``): its scenes are generated, and their layout rules
 checked, for that robot's footprint radius. The default robot's dataset is the benchmark's; another robot's
@@ -66,7 +66,7 @@ HARD_SPLITS = {
     ),
 }
 HARD_SHARE = 0.5  # of each scene's episodes drawn for a geodesic over 6 m
-#: the Hard track with lab dressing (ours, issue 18): a split's scenes, same templates, seeds and instrument
+#: the Hard track with lab dressing (ours): a split's scenes, same templates, seeds and instrument
 #: layouts, with the generator's lab dressing (``<scene>_dressed``): the two differ only in the clutter
 HARD_DRESSED = {"hard_dressed_test": "hard_test"}
 TWO_ROOM_BENCH = (200, 50)
@@ -273,8 +273,8 @@ def default_dataset_dir(robot: str = DEFAULT_ROBOT) -> Path:
 
 
 def ensure_default_dataset(echo=print, robot: str = DEFAULT_ROBOT) -> Path:
-    """``robot``'s default dataset, built on first use and rebuilt when stale (deterministic, ~4 s;
-    nothing is downloaded)."""
+    """``robot``'s default dataset, built on first use and rebuilt when stale (deterministic and
+    local: nothing is downloaded)."""
     root = default_dataset_dir(robot)
     stale = False
     if (root / "manifest.json").exists():

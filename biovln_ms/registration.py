@@ -1,6 +1,6 @@
 """Registering BioVLN envs with ManiSkill and gymnasium.
 
-``import biovln_ms`` registers every id with gymnasium lazily (ManiSkill, torch and SAPIEN take ~3 s to
+``import biovln_ms`` registers every id with gymnasium lazily (ManiSkill, torch and SAPIEN take seconds to
 import, which CLI commands that never simulate should not pay). The first ``gym.make`` of an id
 imports :mod:`biovln_ms.tasks` (the specs' entry point is ``biovln_ms.tasks.make_lazy``), whose classes
 register with ManiSkill through :func:`register_biovln_env`; that replaces the lazy gymnasium spec with

@@ -32,7 +32,7 @@ def make_gym_env(env_id: str = "BioVLN-OpFace-RL-v0", single_thread: bool = True
     ``functools.partial``, so it serves as the env factory of ``AsyncVectorEnv`` / ``SubprocVecEnv``
     (one env per process: ManiSkill refuses ``num_envs > 1`` on the CPU)."""
 
-    if single_thread:  # with the simulator on one core, 2 torch threads per worker slow it ~40x
+    if single_thread:  # with the simulator on one core, 2 torch threads per worker slow it many times over
         import torch
 
         torch.set_num_threads(1)

@@ -1,4 +1,4 @@
-"""The long fuzz campaign (issue 20): seeded inputs per target of ``tests/fuzz_targets.py`` (10,000 default),
+"""The long fuzz campaign: seeded inputs per target of ``tests/fuzz_targets.py`` (10,000 default),
 with a progress bar, written as a Markdown table (tried / clear error / accepted correctly / other) and the
 seeds of any "other" outcome. The table also goes to ``docs/data/fuzz_campaign.json`` (``--data-out``),
 which the docs' Trust page renders.

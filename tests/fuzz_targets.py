@@ -1,4 +1,4 @@
-"""Fuzz targets for every untrusted input (issue 20): each target mutates a valid input with a seeded RNG and
+"""Fuzz targets for every untrusted input: each target mutates a valid input with a seeded RNG and
 classifies what the package did with it:
 
 * ``accepted``: it loaded, and the result passed the target's own validity check (finite numbers, ...);

@@ -1,5 +1,5 @@
 """One meaning per flag across commands, help texts that are never cut short, and dataset commands that
-default to the default dataset (issue 19 item 5). Walks the real typer app, so new commands are checked
+default to the default dataset. Walks the real typer app, so new commands are checked
 too."""
 
 from __future__ import annotations

@@ -1,5 +1,4 @@
-"""Every bad dataset gives one ``DatasetError`` line, and nothing outside its folder is read (issue 20,
-item 8).
+"""Every bad dataset gives one ``DatasetError`` line, and nothing outside its folder is read.
 
 Each bad dataset is a valid small one (the held-out scene of seed 154, as ``held_out_dataset`` builds it)
 with one edit. Where the edit changes a file, its SHA-256 in the manifest is rewritten too, as a careless
@@ -180,7 +179,7 @@ MANIFEST_FINDINGS = [  # (id, edit, message, field): each loaded without a Datas
 def test_malformed_manifest_is_one_dataset_error(root, name, edit, match, field):
     m = edit(_manifest(root))
     if name == "seed_huge_int":
-        text = json.dumps(m).replace('"HUGE"', "9" * 5000)  # was a ValueError
+        text = json.dumps(m).replace('"HUGE"', "9" * 5000)  # json's digit limit: a ValueError unless caught
         (root / "manifest.json").write_text(text)
     else:
         _save_manifest(root, m)
@@ -200,7 +199,7 @@ def _gz_text(text: bytes) -> bytes:
 
 BYTE_FINDINGS = [  # (id, new bytes from the old, message)
     ("not_gzip", lambda b: gzip.decompress(b), "not a readable gzip file"),
-    ("truncated_gzip", lambda b: b[: len(b) // 2], "not a readable gzip file"),  # was a bare "Aborted."
+    ("truncated_gzip", lambda b: b[: len(b) // 2], "not a readable gzip file"),  # not a bare "Aborted."
     ("corrupt_deflate", lambda b: b[:20] + bytes(x ^ 0xFF for x in b[20:40]) + b[40:], "not a readable gzip"),
     ("gzip_of_not_json", lambda b: _gz_text(b"episodes: []"), "not valid JSON"),
     ("gzip_of_not_utf8", lambda b: _gz_text(b'{"episodes": ["\xff"]}'), "not UTF-8"),
@@ -378,7 +377,7 @@ def test_oversized_manifest_is_refused(root):
 def test_deeply_nested_manifest_is_refused(root):
     m = _manifest(root)
     m["splits"]["ms_val"]["note"] = "@"
-    text = json.dumps(m).replace('"@"', "[" * 100_000 + "]" * 100_000)  # was a RecursionError
+    text = json.dumps(m).replace('"@"', "[" * 100_000 + "]" * 100_000)  # a RecursionError unless caught
     (root / "manifest.json").write_text(text)
     _refused(root, r"nested 100\d{3} levels deep, more than the limit of 64")
 

@@ -229,8 +229,8 @@ def test_cli_dataset_build_stats_show_and_map_overlay(tmp_path):
 
 
 def test_no_trivial_episodes_in_any_split_of_the_default_dataset():
-    """Issue 15: every start is outside its goal's success radius r and >= r + 1.0 m from it along the
-    floor, by the stored geodesic and by one recomputed on the scene's navigation geometry."""
+    """No trivial episode: every start is outside its goal's success radius r and >= r + 1.0 m from it
+    along the floor, by the stored geodesic and by one recomputed on the scene's navigation geometry."""
     from biovln_ms.benchmark import ensure_default_dataset
     from biovln_ms.episodes.generator import MIN_START_GEODESIC_MARGIN
 
@@ -254,7 +254,7 @@ def test_no_trivial_episodes_in_any_split_of_the_default_dataset():
 
 
 def test_hard_track_is_long_multi_instance_and_held_out():
-    """Issue 15 item 5: >= 300 episodes on suite / open_plan / single_room held-out seeds, >= 40 % hard
+    """The Hard track: >= 300 episodes on suite / open_plan / single_room held-out seeds, >= 40 % hard
     (geodesic > 6 m), several instances of a category as goals (any counts), nearest first."""
     from biovln_ms.benchmark import HARD_SPLITS, ensure_default_dataset
 

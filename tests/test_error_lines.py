@@ -1,4 +1,4 @@
-"""Bad input gets one clear line (issue 20, item 8): CLI error lines keep their text, BC checkpoints without a
+"""Bad input gets one clear line: CLI error lines keep their text, BC checkpoints without a
 config, unknown backends and a closed env."""
 
 import json
@@ -16,7 +16,7 @@ CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
 
 
 def test_cli_error_lines_keep_square_brackets(tmp_path):
-    """rich markup used to eat ``[...]`` (e.g. the expected goal in the Eq. 1 message)."""
+    """Error lines keep ``[...]``, which rich markup would eat (e.g. the Eq. 1 message's expected goal)."""
     code = (
         "import sys; from biovln_ms import cli; from biovln_ms.errors import BioVLNError\n"
         "def boom():\n"

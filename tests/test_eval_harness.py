@@ -97,7 +97,7 @@ def test_failing_episode_is_recorded_and_the_run_continues(dataset, tmp_path, mo
     real = OraclePolicy.reset
 
     def flaky(self, info):
-        if info.episode_id == "2":  # EpisodeInfo (policies no longer get the episode dict)
+        if info.episode_id == "2":  # EpisodeInfo (policies never get the episode dict)
             raise RuntimeError("planner exploded")
         return real(self, info)
 

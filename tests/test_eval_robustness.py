@@ -1,4 +1,4 @@
-"""Issue 20 (items 4, 5): every episode counts in the metrics, errored ones as failures; one writer per
+"""Robust evaluation: every episode counts in the metrics, errored ones as failures; one writer per
 results folder; a killed run resumes with each episode exactly once; duplicates are repaired."""
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ def _lines(path: Path) -> int:
     return path.read_bytes().count(b"\n") if path.exists() else 0
 
 
-# --- item 4: metrics count every episode ----------------------------------------------------------
+# --- metrics count every episode ------------------------------------------------------------------
 def test_an_errored_episode_is_a_failure_in_sr_and_spl(ds, tmp_path, monkeypatch):
     _flaky_oracle(monkeypatch)
     s = evaluate(EvalConfig("oracle", "ms_val", str(tmp_path), ds, workers=1), progress=False)
@@ -162,7 +162,7 @@ def test_report_counts_errored_episodes_as_failures(ds, tmp_path, monkeypatch):
     assert any("oracle on ms_val: 1" in line for line in said)
 
 
-# --- item 5: one writer per results folder --------------------------------------------------------
+# --- one writer per results folder ----------------------------------------------------------------
 def test_a_second_writer_fails_at_once_and_a_dead_ones_lock_is_taken_over(ds, tmp_path):
     from biovln_ms.errors import BioVLNError
 
@@ -277,7 +277,7 @@ def test_duplicate_records_of_an_older_version_are_repaired_and_named(ds, tmp_pa
     assert len(warned) == 1 and all(k in warned[0] for k in dup_keys) and "fix:" in warned[0]
     from biovln_ms.eval.harness import unique_records
 
-    # an older version's retried episode (error, then its record) is one episode, not a duplicate
+    # a retried episode (an error record, then its finished record) is one episode, not a duplicate
     err = {**{k: first[0][k] for k in ("scene_id", "episode_id")}, "error": "boom"}
     assert unique_records([err, first[0], first[1]]) == ([first[0], first[1]], [])
     assert unique_records([first[0], err]) == ([first[0]], [])

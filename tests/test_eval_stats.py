@@ -81,7 +81,7 @@ def test_aggregate_follows_section_4_2():
     assert full["per_difficulty"]["hard"]["sr"] == 0.0
 
 
-# --- issue 15 item 7: intervals in the metric's range, exact at the ends, deterministic ---------------
+# --- intervals in the metric's range, exact at the ends, deterministic --------------------------------
 @pytest.mark.parametrize("n", [1, 7, 50, 160])
 def test_wilson_is_exact_at_none_and_all(n):
     lo, hi = wilson_interval(0, n)

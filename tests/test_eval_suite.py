@@ -93,14 +93,14 @@ def test_suite_runs_resumes_and_logs(held_out_dataset, tmp_path, monkeypatch):
     after = Suite(tmp_path).log["runs"]
     assert len(load_records(tmp_path / "results" / "oracle" / "ms_val" / "episodes.jsonl")) == 3
     assert after["oracle/ms_val/ideal"]["seconds"] >= before["runs"]["oracle/ms_val/ideal"]["seconds"]
-    # a run whose results were deleted starts afresh: its time is this session's only
+    # a run whose results were deleted starts afresh: its time is this call's only
     shutil.rmtree(tmp_path / "results" / "random" / "ms_val")
     log = Suite(tmp_path).log
     log["runs"]["random/ms_val/ideal"]["seconds"] = 1e6
     atomic_write_text(tmp_path / "suite.json", json.dumps(log))
     run_suite(tmp_path, ["random"], echo=lines.append, **args)
     assert Suite(tmp_path).log["runs"]["random/ms_val/ideal"]["seconds"] < 1e6
-    # a run skipped by an earlier version that runs now loses the skip's reason
+    # a run logged as skipped that runs now loses the skip's reason
     log = Suite(tmp_path).log
     log["runs"]["oracle/ms_val/ideal"].update(status="skipped", reason="refused then")
     atomic_write_text(tmp_path / "suite.json", json.dumps(log))

@@ -1,4 +1,4 @@
-"""The fuzz suite (issue 20): every untrusted input's target (``tests/fuzz_targets.py``) on a fixed budget of
+"""The fuzz suite: every untrusted input's target (``tests/fuzz_targets.py``) on a fixed budget of
 seeded inputs (``BIOVLN_FUZZ_EXAMPLES``, default 60 per target): each input is accepted correctly or refused
 with one clear line, never anything else. ``scripts/fuzz_campaign.py`` runs the long campaign."""
 
@@ -44,7 +44,7 @@ def test_accepted_env_arguments_really_build_an_env():
     assert built == 2
 
 
-#: inputs the 10,000-per-target campaign found (each fixed; kept as regressions)
+#: inputs the 10,000-per-target campaign found, kept as regression cases
 FOUND = {
     "spec_dict": (4993, 9011),  # a spec without walls crashed the flush-wall rule
     "spec_file": (8444,),

@@ -1,4 +1,4 @@
-"""The CPU-side preparation of the GPU runs (issue 14): the reproducible wheel repack, the dependency
+"""The CPU-side preparation of the GPU runs: the reproducible wheel repack, the dependency
 closure check, the import shim, and benchmarks/gpu_speed.py's bookkeeping. Nothing here needs a GPU, the
 network or the carried wheels (``scripts/gpu/prepare.sh`` and ``scripts/gpu/rehearse.py`` exercise
 those)."""

@@ -1,4 +1,4 @@
-"""Instance-level instructions (issue 17 items 2 and 7): every generated instruction names every visited
+"""Instance-level instructions: every generated instruction names every visited
 category, uses a relation only where it is unique, and reads back to exactly the meant objects."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""Instruments that look like themselves (issue 18 item 2): PBR materials, readable decals, per-instance
-variants, and meshes (so bounds and collision) exactly as before the looks changed."""
+"""Instruments that look like themselves: PBR materials, readable decals, per-instance
+variants, and meshes (so bounds and collision) exactly the first generator's."""
 
 import hashlib
 
@@ -29,7 +29,7 @@ FIRST_GENERATOR_MESHES = {
     "floor_tile": "bf46764bc858e788",
     "ceiling_tile": "bf46764bc858e788",
     "door_frame": "9c99cdb24ca2c78c",
-    # the molecular-biology instruments (issue 18 item 4), pinned at their first generation
+    # the molecular-biology instruments, pinned at their first generation
     "fume_hood": "215432c02b502584",
     "ultra_low_freezer": "be2de1ebfced241f",
     "autoclave": "67b5d18b8ffa57d2",
@@ -37,7 +37,7 @@ FIRST_GENERATOR_MESHES = {
     "microscope": "ad3bffd6b91b72d0",
     "water_bath": "f8a32d64db081c96",
     "shaker": "12b64f7881e173ee",
-    # the lab dressing (issue 18 item 3), pinned at its first generation
+    # the lab dressing, pinned at its first generation
     "shelving_unit": "f67a0ba74436daa3",
     "lab_sink": "f74e282b134caeb4",
     "eyewash_station": "69cdf900020d5701",

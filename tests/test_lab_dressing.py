@@ -1,4 +1,4 @@
-"""Lab dressing (issue 18 item 3): non-goal objects placed by the generator on request, under the zone rules,
+"""Lab dressing: non-goal objects placed by the generator on request, under the zone rules,
 real obstacles in the navigation geometry and the episodes; off by default."""
 
 import json

@@ -1,4 +1,4 @@
-"""Lighting presets (issue 18 item 1): ``fast`` is today's lighting, ``quality`` casts shadows."""
+"""Lighting presets: ``fast`` is the default, unshadowed lighting; ``quality`` casts shadows."""
 
 import gymnasium as gym
 import numpy as np
@@ -69,8 +69,8 @@ def test_quality_shadows_the_floor_under_furniture():
 
 @pytest.mark.render
 def test_contact_sheet_and_scene_views_under_quality(tmp_path):
-    """The looked-at pictures (issue 18 item 6) render under ``quality``: an asset under its one shadowed
-    fixture (SAPIEN's default shader pack would refuse it), a lit robot's-eye view and a view from above."""
+    """The pictures people look at render under ``quality``: an asset under its one shadowed fixture
+    (SAPIEN's default shader pack would refuse it), a lit robot's-eye view and a view from above."""
     from PIL import Image
 
     from biovln_ms.assetgen.generate import plans

@@ -52,8 +52,8 @@ def test_shipped_target_glb_is_regenerated_byte_for_byte(tmp_path):
     assert write_target_glb(tmp_path / "t.glb").read_bytes() == target_glb_path().read_bytes()
 
 
-# sha256 of the LSAT Target import: the spec's JSON with its catalog_sha256 zeroed (a catalog edit changes
-# only that field: interaction points and new categories, issues 16 and 18, left every other byte), and the
+# sha256 of the LSAT Target import: the spec's JSON with its catalog_sha256 zeroed (a catalog edit such as
+# new categories or interaction points changes only that field), and the
 # report with the GLB's path written <glb>. Update only for an intended change of the importer, the
 # catalog's numbers or the shipped GLB.
 TARGET_SPEC_SHA256 = "d44ab29d11ca58463940a7d4b7ddcacd65498554916410132d9418f3fb669f30"

@@ -1,4 +1,4 @@
-"""Designer names in the wild (issue 19 item 3): words and catalog synonyms, the user's name map, and a
+"""Designer names in the wild: words and catalog synonyms, the user's name map, and a
 marker whose instrument's name says nothing — on a designer GLB written here."""
 
 import json
@@ -34,7 +34,7 @@ from biovln_ms.lsat.names import match_category
         ("Bench_Island", "lab_bench"),
         ("CO2Incubator", "incubator"),
         ("target_Fridge_02", "refrigerator"),
-        ("Fume Hood", "fume_hood"),  # a category since issue 18, and still no biosafety cabinet
+        ("Fume Hood", "fume_hood"),  # a goal category of its own, not a biosafety cabinet
         ("ULT_Freezer_2", "ultra_low_freezer"),
         ("PCR Machine", "thermal_cycler"),
     ],

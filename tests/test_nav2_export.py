@@ -1,4 +1,4 @@
-"""`biovln-ms export nav2` (issue 19, item 1): the files read back as Nav2 reads them (map_server's trinary
+"""`biovln-ms export nav2`: the files read back as Nav2 reads them (map_server's trinary
 and scale rules), goals land on free cells outside the keep-out, coordinates round-trip within a cell."""
 
 from __future__ import annotations

@@ -486,8 +486,8 @@ def test_no_tunnelling_at_any_step_size(dataset):
 
 
 def test_many_turns_one_way_stay_thirty_degrees_each():
-    """PhysX keeps the yaw joint within +-2 pi; a drive target past it used to spin the robot the long way
-    round (+131 deg for one right turn). The controller re-seats the joint before that."""
+    """PhysX keeps the yaw joint within +-2 pi; a drive target past it would spin the robot the long way
+    round (+131 deg for one right turn), so the controller re-seats the joint first."""
     env = gym.make("BioVLN-OpFace-v0", split="ms_val", obs_mode="state", max_episode_steps=100, **CPU)
     env.reset(options={"episode_index": 0})
     for action, sign in ((3, -1), (2, 1)):

@@ -1,5 +1,5 @@
-"""More instrument types (issue 18 item 4): seven new goal categories with real dimensions, their assets,
-the molecular_biology template and its splits, and the paper's datasets unchanged."""
+"""The molecular-biology instruments: seven goal categories beyond the paper's, with real dimensions,
+their assets, the molecular_biology template and its splits, and the paper's datasets unchanged."""
 
 import hashlib
 import json
@@ -28,11 +28,11 @@ EXPECTED = {
     "shaker": ((0.68, 0.62, 0.52), "table_top", "-Y", 0.31, 0.7, 0.9),
 }
 PAPER_TEMPLATES = ("single_room", "two_room", "suite", "open_plan")
-#: sha256 over the specs of PAPER_TEMPLATES x seeds 0-11 (catalog_sha256 left out), generated before the
-#: catalog grew: the existing templates keep their layouts bit for bit
+#: sha256 over the specs of PAPER_TEMPLATES x seeds 0-11 (catalog_sha256 left out), generated with the
+#: paper's ten-category catalog: the paper's templates keep their layouts bit for bit
 PAPER_TEMPLATE_SCENES = "642435dd29d3477bb3b7de9ae28ab7e5bcf93e7519ba7340d12d0e2f0e09ecf5"
 #: sha256 over {split: {scene: episode file sha256}} of the paper's splits and the Hard track in the default
-#: dataset, built before the catalog grew
+#: dataset, built with the paper's ten-category catalog
 PAPER_SPLIT_EPISODES = "8b8a8eca943b723289e43d83d13162c29768af349683964a6b42d29257377e7c"
 PAPER_SPLITS = (
     "full",
@@ -154,7 +154,7 @@ def test_an_rl_checkpoint_of_the_ten_long_one_hot_is_refused_in_one_line():
 def test_semantic_colours_of_the_paper_categories_are_unchanged():
     from biovln_ms.scene.export_glb import ROOM_CATEGORY, semantic_colors
 
-    rng = np.random.default_rng(7)  # how the colours were drawn before the catalog grew
+    rng = np.random.default_rng(7)  # the colours drawn for the paper's ten and the room alone
     before = rng.integers(40, 256, size=(len(PAPER_GOAL_CATEGORIES) + 1, 3))
     colors = semantic_colors()
     for name, c in zip([*PAPER_GOAL_CATEGORIES, ROOM_CATEGORY], before):
@@ -164,8 +164,8 @@ def test_semantic_colours_of_the_paper_categories_are_unchanged():
 
 @pytest.mark.slow
 def test_the_papers_splits_keep_their_episodes():
-    """The default dataset (built on first use, ~30 s): every episode file of the paper's splits and the
-    Hard track is the one built before the catalog grew; the new splits are there."""
+    """The default dataset (built on first use): every episode file of the paper's splits and the Hard
+    track is the pinned one, built from the paper's ten categories; the molecular-biology splits are there."""
     from biovln_ms.benchmark import ensure_default_dataset
     from biovln_ms.episodes.dataset import EpisodeDataset
 

@@ -96,7 +96,7 @@ def test_actuation_errors_follow_the_commanded_move():
 
 
 def test_actuation_noise_is_the_noise_of_earlier_versions():
-    """A digest of 40 moves' errors recorded with the code before the chunked draws (commit c24c505)."""
+    """A pinned digest of 40 moves' errors (recorded at commit c24c505): a seed's actuation noise is fixed."""
     u = actuation_uniforms(123456, 0, 40)
     moves = [(0.25, 0.0), (0.0, 0.5236), (0.0, -0.5236)]
     errors = [e for step in range(40) for e in actuation_errors(u[step], *moves[step % 3], 0.5)]

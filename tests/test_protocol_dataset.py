@@ -1,4 +1,4 @@
-"""Protocol episodes and splits (issue 17 item 5) and the instruction vocabulary: every episode is a valid,
+"""Protocol episodes and splits and the instruction vocabulary: every episode is a valid,
 ordered visit of a shipped protocol whose instruction reads back to its goals; the splits are deterministic,
 held out, and hold at least 300 episodes; stats report K, route lengths and relations."""
 

@@ -1,4 +1,4 @@
-"""BioVLN-Protocol-v0 (issue 17 items 3 and 4): the goal-switching rule and the protocol metrics on
+"""BioVLN-Protocol-v0: the goal-switching rule and the protocol metrics on
 hand-computed trajectories (pure measures, no simulator), then the env on the CPU: an oracle that reaches
 every goal, a wrong STOP that ends or misses, the strict rule, the step budget, the instruction in the
 observation, and the refusal of an episode of the other kind."""

@@ -1,4 +1,4 @@
-"""The protocol library (issue 17 item 1): shipped workflows, order semantics, user folders, bad files."""
+"""The protocol library: shipped workflows, order semantics, user folders, bad files."""
 
 from __future__ import annotations
 

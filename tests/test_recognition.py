@@ -1,5 +1,6 @@
-"""The recognisability benchmark (issue 18 item 5): ranking of the true category's prompt, top-k, and a tiny
-render-and-score pass through the goal views (64x48, one category, a scorer that reads the frame)."""
+"""The recognisability benchmark (the paper's Table 8 question): ranking of the true category's prompt,
+top-k, and a tiny render-and-score pass through the goal views (64x48, one category, a scorer that reads
+the frame)."""
 
 from __future__ import annotations
 

@@ -61,7 +61,7 @@ class Touch:
 
 @pytest.fixture(scope="module", autouse=True)
 def one_torch_thread():
-    """Tiny networks: more threads only contend (SAC's updates run 20x slower on a busy 2-core machine)."""
+    """Tiny networks: more threads only contend (SAC's updates slow down many-fold on a busy machine)."""
     n = torch.get_num_threads()
     torch.set_num_threads(1)
     yield

@@ -59,8 +59,8 @@ def test_known_seed_bytes_are_pinned():
     assert hashlib.sha256(text.encode()).hexdigest() == PINNED_S150
 
 
-# every byte but catalog_sha256 (synonyms, issue 19; new categories and interaction points, issue 18 and
-# 16 changed only that field)
+# every byte but catalog_sha256 (a catalog edit such as synonyms, new categories or interaction points
+# changes only that field)
 PINNED_S150 = "271596124525ca91a2c851f68496b6cf63d26e36d61f137ab5959bf7085e8ade"
 
 

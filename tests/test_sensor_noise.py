@@ -332,9 +332,8 @@ def test_offsets_cover_the_bank_and_agree_between_python_and_numpy(rgb_noise):
 
 
 def test_noise_is_the_noise_of_earlier_versions():
-    """A digest of both models' output on fixed inputs, recorded with the code before the fused kernels
-    (commit c24c505): a faster implementation must give the same noise, or every `realistic` result
-    changes."""
+    """A pinned digest of both models' output on fixed inputs (recorded at commit c24c505): a faster
+    implementation must give the same noise, or every `realistic` result changes."""
     rng = np.random.default_rng(2024)
     rgba = torch.from_numpy(rng.integers(0, 256, (2, 48, 64, 4), dtype=np.uint8))
     mm = rng.integers(0, 12000, (2, 48, 64, 1))
@@ -354,7 +353,7 @@ def test_noise_is_the_noise_of_earlier_versions():
 
 def test_wide_jitter_is_the_noise_of_earlier_versions():
     """As above for jitter of 7 rows (the last one-byte shift codes: sigma_shift_px 1.4), 8 and 10 rows
-    (two-byte codes), recorded with commit 55b3ab9, which stored the shifts as int8 pairs."""
+    (two-byte codes), pinned at commit 55b3ab9: the shift codes' layout must not change the noise."""
     rng = np.random.default_rng(2024)
     mm = rng.integers(0, 12000, (2, 48, 64, 1))
     mm[mm < 1500] = 0

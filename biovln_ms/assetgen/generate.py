@@ -23,7 +23,7 @@ from biovln_ms.catalog import Catalog, load_catalog
 from biovln_ms.errors import AssetError
 from biovln_ms.io_utils import atomic_write_bytes
 
-#: 2: physically based looks (issue 18 item 2): new textures, UVs and materials on the same meshes
+#: 2: physically based looks: PBR textures, UVs and materials on version 1's meshes
 GENERATOR_VERSION = 2
 #: Generated bounds must match the catalog dimensions this closely: exactly, up to rounding.
 BOUNDS_TOLERANCE = 1e-9

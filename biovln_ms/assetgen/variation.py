@@ -1,4 +1,4 @@
-"""Per-instance looks: two incubators in one lab differ in labels, wear and colour (issue 18 item 2).
+"""Per-instance looks: two incubators in one lab differ in labels, wear and colour.
 
 A :class:`Variant` is drawn from a scene's name and seed and an object's id, so a scene always looks
 the same and two instances of a category in it differ. It changes textures only (geometry and bounds

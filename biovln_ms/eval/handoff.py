@@ -1,4 +1,4 @@
-"""Hand-off from navigation to manipulation (issue 16 item 6): where a successful episode ended, as a
+"""Hand-off from navigation to manipulation: where a successful episode ended, as a
 manipulation task needs it to start there.
 
 ``biovln-ms eval ... --export-handoff DIR`` writes one JSON file per successful episode the command runs,

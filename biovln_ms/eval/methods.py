@@ -188,7 +188,7 @@ METHODS: dict[str, MethodSpec] = {
         report_note=_BC_NOTE,
     ),
     **{algo: _sb3_spec(algo, mode, 80 + 10 * i) for i, (algo, mode) in enumerate(SB3_CONTROL_MODES.items())},
-    # lab protocols (BioVLN-Protocol-v0, issue 17): K ordered goals, a STOP at each
+    # lab protocols (BioVLN-Protocol-v0): K ordered goals, a STOP at each
     "protocol_oracle": MethodSpec(
         _lazy("biovln_ms.baselines.protocol.oracle", "ProtocolOraclePolicy"),
         "none",

@@ -40,7 +40,7 @@ def rollout(
 
     ``fresh_scene``: rebuild the scene at the reset (ManiSkill's ``reconfigure``), so that the episode's
     contacts do not depend on the episodes the env ran before in the same scene (PhysX keeps state across
-    resets; the noise presets guide), at 0.3 to 0.75 s per reset on a Hard scene."""
+    resets; the noise presets guide), at the cost of a scene build per reset."""
     seed = episode_seed(env.unwrapped.source.episodes[episode_index])
     obs, info = env.reset(seed=seed, options={"episode_index": episode_index, "reconfigure": fresh_scene})
     episode_info = env.unwrapped.episode_info(0, privileged=privileged)

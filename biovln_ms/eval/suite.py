@@ -27,11 +27,11 @@ from biovln_ms.eval.methods import METHODS, PROTOCOL_ENV, method_spec
 from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.noise import resolve_noise
 
-#: item 6's splits: the paper's MS VAL / TEST, Two-Room and LSAT, and the Hard track
+#: the benchmark splits: the paper's MS VAL / TEST, Two-Room and LSAT, and the Hard track
 SUITE_SPLITS = ("ms_val", "ms_test", "two_room", "lsat_target", "hard_val", "hard_test")
 SUITE_NOISE = ("ideal", "realistic")
 #: geometric methods first (the suite's time budget is theirs), then the slower and the learned ones
-GEOMETRIC = ("oracle", "zone3_oracle", "frontier", "random")  # the methods of item 8's 60-minute budget
+GEOMETRIC = ("oracle", "zone3_oracle", "frontier", "random")  # the methods of the 60-minute budget
 SUITE_METHODS = (*GEOMETRIC, "llm_frontier", "ppo", "vlfm", "bc")
 LEARNED = ("ppo", "bc")
 PPO_TIMESTEPS = 300_000  # benchmarks/rl_learning.py's budget
@@ -40,7 +40,7 @@ BC_MINUTES = 35.0  # BC's wall-clock budget (the learning guide's measured run)
 BC_IMAGE_SIZE = 128
 
 
-#: lab protocols (issue 17): the protocol methods run on these splits under the ideal preset only, whatever
+#: lab protocols: the protocol methods run on these splits under the ideal preset only, whatever
 #: the splits and presets asked for the others (a new task: its baselines are compared with one another)
 PROTOCOL_SPLITS = ("protocol_val", "protocol_test")
 PROTOCOL_METHODS = ("protocol_oracle", "protocol_frontier", "protocol_vlfm", "protocol_language")
@@ -225,8 +225,8 @@ class Suite:
 
     @classmethod
     def totals_line(cls, runs: dict) -> str:
-        """The wall time of a log's runs: the geometric methods on the benchmark splits (item 8's budget),
-        with the paper-table extras, and everything."""
+        """The wall time of a log's runs: the geometric methods on the benchmark splits (the 60-minute
+        budget), with the paper-table extras, and everything."""
         item8 = geometric = total = 0.0
         for key, e in runs.items():
             total += e["seconds"]
@@ -248,7 +248,7 @@ class Suite:
 
     @staticmethod
     def geometric(key: str) -> bool:
-        """Whether a log key is a run of a geometric method (item 8's budget)."""
+        """Whether a log key is a run of a geometric method (the 60-minute budget's)."""
         return key.split("/")[0].split("@")[0] in GEOMETRIC
 
     @staticmethod

@@ -13,8 +13,8 @@ instrument's footprint, pushing against its convex parts). Two checks use it:
   ended in ``B``, in another free component, or its displacement crosses an obstacle's footprint or a
   wall); the task then puts the robot back where the move started (a blocked move).
 
-Neither fires for the benchmark's steps, so those runs are unchanged; large steps, noise and continuous
-control can no longer leave the navigable region.
+Neither fires for the benchmark's steps; they keep large steps, noise and continuous control inside the
+navigable region.
 """
 
 from __future__ import annotations

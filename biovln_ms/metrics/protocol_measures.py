@@ -1,4 +1,4 @@
-"""Measures of multi-goal protocol episodes (``BioVLN-Protocol-v0``, issue 17), batched like
+"""Measures of multi-goal protocol episodes (``BioVLN-Protocol-v0``), batched like
 :mod:`biovln_ms.metrics.measures` (host arrays with a leading ``num_envs`` dimension, rows ``idx``).
 
 An episode has K = 2-5 goals in visit order: the context's goal axis (``goals``, ``radii``, ``goal_ok``).

@@ -1,4 +1,4 @@
-"""Protocol episodes (issue 17): K = 2-5 ordered goals in one scene, a start, and the English instruction.
+"""Protocol episodes: K = 2-5 ordered goals in one scene, a start, and the English instruction.
 
 An episode of protocol P in a scene is drawn with one seeded generator, in this order:
 

@@ -41,7 +41,7 @@ from biovln_ms.protocols.instructions import spoken
 from biovln_ms.protocols.library import ProtocolError, load_protocols
 from biovln_ms.scene.templates import get_template, template_names
 
-VOCABULARY_VERSION = 2  # 2: the molecular-biology categories (issue 18)
+VOCABULARY_VERSION = 2  # 2: with the molecular-biology categories
 VOCABULARY_DIR = Path(__file__).resolve().parent
 PAD, UNK = "<pad>", "<unk>"
 MAX_TOKENS = 256

@@ -1,4 +1,4 @@
-"""What the robot's head camera sees of a goal object from its Zone-3 goal (issue 18 item 2).
+"""What the robot's head camera sees of a goal object from its Zone-3 goal.
 
 A plain SAPIEN scene of a whole spec, lit by a preset of :mod:`biovln_ms.render.lighting`, seen by a
 camera like the env's head camera (ManiSkill's "minimal" shader with 8-bit colour, 0.88 m high and

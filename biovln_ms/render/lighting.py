@@ -1,7 +1,7 @@
-"""Lighting presets of lab scenes: one table, applied by the scene builder (issue 18 item 1).
+"""Lighting presets of lab scenes: one table, applied by the scene builder.
 
-``fast`` is the benchmark's historical lighting (ambient, an unshadowed key light and one unshadowed
-point light per room): the renders of every released result. ``quality`` lights each room with
+``fast`` is the default and the lighting of every released result (ambient, an unshadowed key light and
+one unshadowed point light per room). ``quality`` lights each room with
 shadow-casting ceiling fixtures (SAPIEN's rasteriser, cube-map shadows of point lights, which the
 "minimal" camera shader of the head camera also samples), a lower ambient term and a weak directional fill,
 so furniture and instruments cast shadows on the floor and walls.

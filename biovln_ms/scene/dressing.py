@@ -1,4 +1,4 @@
-"""Lab dressing (issue 18 item 3): the non-goal objects real labs have, added by the generator on request.
+"""Lab dressing: the non-goal objects real labs have, added by the generator on request.
 
 :func:`dress` gives each room of a generated scene what :data:`PER_ROOM` lists (a sink with an eyewash
 station beside it, a shelving unit of bottles and boxes, a fire extinguisher, safety posters, a trolley and

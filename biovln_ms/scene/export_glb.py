@@ -29,7 +29,8 @@ ROOM_CATEGORY = "room"
 
 def semantic_colors() -> dict[str, tuple[int, int, int, int]]:
     """A fixed RGBA colour per category: the paper's ten (catalog order), the room shell, then the
-    categories and lab dressing added since (issue 18), so the earlier colours never change."""
+    other categories and the lab dressing, each appended at the end, so a new category never changes an
+    existing colour."""
     cat = load_catalog()
     later = [n for n in cat.names() if n not in PAPER_GOAL_CATEGORIES]
     names = [*PAPER_GOAL_CATEGORIES, ROOM_CATEGORY, *later, *(a.name for a in cat.dressing())]

@@ -328,7 +328,7 @@ WALL_FLUSH = 0.01
 
 
 def _dressing_rules(spec: SceneSpec, floor, walls: list, placed: dict) -> list[Violation]:
-    """Lab dressing (issue 18): inside the floor (on its support for table-top pieces), wall pieces against a
+    """Lab dressing: inside the floor (on its support for table-top pieces), wall pieces against a
     wall, clear of every goal's Zones 2 and 3 (its own support excepted) and of every other body."""
     out: list[Violation] = []
     on_walls = {a.name for a in load_catalog().dressing() if a.mount == "wall"}

@@ -213,7 +213,7 @@ class SceneSpec(_Strict):
     openings: list[OpeningSpec] = Field(max_length=MAX_OPENINGS)
     furniture: list[ObjectSpec] = Field(max_length=MAX_OBJECTS)
     instruments: list[ObjectSpec] = Field(min_length=1, max_length=MAX_OBJECTS)
-    # lab dressing (issue 18): non-goal objects; absent from the JSON when empty, so undressed specs keep
+    # lab dressing: non-goal objects; absent from the JSON when empty, so undressed specs keep
     # their bytes
     dressing: list[ObjectSpec] = Field(default_factory=list, max_length=MAX_OBJECTS)
 

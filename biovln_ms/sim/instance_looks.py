@@ -1,4 +1,4 @@
-"""Per-instance looks at scene-build time (issue 18 item 2): each placed instrument or piece of furniture
+"""Per-instance looks at scene-build time: each placed instrument or piece of furniture
 gets the textures of its :class:`~biovln_ms.assetgen.variation.Variant` (drawn from the scene's name and
 seed and the object's id), so two incubators in one lab differ in labels, setpoints, wear and colour.
 

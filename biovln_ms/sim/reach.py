@@ -1,5 +1,5 @@
-"""Whether Fetch's gripper reaches an instrument's interaction point from where its base stopped (issue 16
-item 4), and the ``reachable`` / ``reach_success`` measures the navigation env reports for Fetch.
+"""Whether Fetch's gripper reaches an instrument's interaction point from where its base stopped, and
+the ``reachable`` / ``reach_success`` measures the navigation env reports for Fetch.
 
 The rule (docs: envs and variants, "Reachability"):
 
@@ -11,9 +11,8 @@ The rule (docs: envs and variants, "Reachability"):
   the pinocchio Jacobian as gradient: the TCP's squared distance to the point, plus a penalty once the
   approach axis leaves a cone of ``APPROACH_CONE_DEG`` about -f (the roll is free), from each of the
   ``SEEDS`` in turn until one gives a collision-free configuration within the tolerances. (Pinocchio's
-  own CLIK, ``compute_inverse_kinematics``, needs one full target orientation and ignores the joint limits:
-  from twelve orientations it found 15 of the 26 reachable standoffs this finds on the centre lines of the
-  centrifuge and the refrigerator.)
+  own CLIK, ``compute_inverse_kinematics``, needs one full target orientation and ignores the joint limits,
+  so it misses standoffs that a free roll within the limits reaches.)
 * **Reach**: ``gripper_link``'s origin (between the fingertips: ManiSkill's Fetch TCP) within
   ``POSITION_TOLERANCE`` (2 cm) of the interaction point, and its approach axis (the link's +x, out of the
   palm) within ``APPROACH_TOLERANCE_DEG`` (30 degrees) of the face's inward normal -f.
