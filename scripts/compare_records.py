@@ -26,6 +26,7 @@ import os
 import subprocess
 import sys
 import time
+import zipfile
 from pathlib import Path
 
 SINGLE_GOAL = ("random", "oracle", "zone3_oracle", "frontier", "vlfm", "ppo")
@@ -64,6 +65,27 @@ def _cells(out: Path, episodes: int, checkpoint: Path) -> list[dict]:
 
 def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+#: digests of other files kept in dataset files: the catalog file's (which data-only catalog fields such as
+#: map colours change) and the scene files' (which hold it); the files' own content is compared instead
+DERIVED_KEYS = ("catalog_sha256", "sha256")
+
+
+def _strip(obj):
+    if isinstance(obj, dict):
+        return {k: _strip(v) for k, v in obj.items() if k not in DERIVED_KEYS}
+    if isinstance(obj, list):
+        return [_strip(v) for v in obj]
+    return obj
+
+
+def _content_digest(path: Path) -> str:
+    """A JSON file's content without :data:`DERIVED_KEYS`; any other file's bytes."""
+    if path.suffix != ".json":
+        return _digest(path)
+    canonical = json.dumps(_strip(json.loads(path.read_text())), sort_keys=True)
+    return hashlib.sha256(canonical.encode()).hexdigest()
 
 
 def _sh(args: list[str], env: dict) -> None:
@@ -118,15 +140,10 @@ def collect(out: Path, checkpoint: Path) -> dict:
     """The canonical content: dataset file digests, the checkpoint's, and the records by run folder."""
     data = out / "dataset"
     dataset = {
-        str(p.relative_to(data)): _digest(p)
+        str(p.relative_to(data)): _content_digest(p)
         for p in sorted(data.rglob("*"))
-        if p.is_file() and p.suffix in (".json", ".gz", ".jsonl") and p.name != "manifest.json"
+        if p.is_file() and p.suffix in (".json", ".gz", ".jsonl")
     }
-    # the manifest records the catalog file's digest, which data-only catalog fields (map colours) change;
-    # what the catalog means for the scenes is in the scene and episode files above
-    manifest = json.loads((data / "manifest.json").read_text())
-    manifest.pop("catalog_sha256", None)
-    dataset["manifest.json"] = hashlib.sha256(json.dumps(manifest, sort_keys=True).encode()).hexdigest()
     records = {}
     for f in sorted((out / "results").rglob("episodes.jsonl")):
         rows = [json.loads(line) for line in f.read_text().splitlines() if line.strip()]
@@ -135,7 +152,17 @@ def collect(out: Path, checkpoint: Path) -> dict:
                 r.pop(k, None)
         rows.sort(key=lambda r: (r.get("scene_id", ""), r.get("episode_id", "")))
         records[str(f.parent.relative_to(out / "results"))] = rows
-    return {"dataset": dataset, "checkpoint": _digest(checkpoint), "records": records}
+    return {"dataset": dataset, "checkpoint": _weights_digest(checkpoint), "records": records}
+
+
+def _weights_digest(checkpoint: Path) -> str:
+    """The SB3 checkpoint's tensors (policy, optimizer, variables); its ``data`` member holds the run's
+    folder and clock, which differ between any two runs."""
+    h = hashlib.sha256()
+    with zipfile.ZipFile(checkpoint) as z:
+        for name in sorted(n for n in z.namelist() if n.endswith(".pth")):
+            h.update(name.encode() + z.read(name))
+    return h.hexdigest()
 
 
 def _load(path: Path) -> dict:
