@@ -62,7 +62,7 @@ def test_new_category_numbers_and_the_documented_rule(name):
     assert (a.approach_distance, a.success_radius) == (delta, r)
     assert r == pytest.approx(min(max(round((0.55 + a.face_width / 2) / 0.05) * 0.05, 0.8), 1.3))
     assert 0.5 <= delta <= 0.9 and a.goal_category
-    assert "issue 18" in a.rationale and "delta" in a.rationale and " m " in a.rationale
+    assert "Not in the paper" in a.rationale and "delta" in a.rationale and " m " in a.rationale
     if placement == "table_top":  # the goal clears the support's edge (0.05 m back) by more than Fetch's body
         assert delta - 0.05 > 0.29
 
