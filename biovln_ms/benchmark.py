@@ -35,7 +35,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset, SplitPlan, write_dataset
+from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.protocols.episodes import hosted_protocols
 from biovln_ms.protocols.library import ProtocolLibrary, load_protocols
 from biovln_ms.robots import DEFAULT_ROBOT, robot_spec

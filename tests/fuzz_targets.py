@@ -408,7 +408,7 @@ DATASET_EPISODES = "ms_val/content/lab_s154_v0.json.gz"
 
 def _dataset_setup(tmp: Path):
     from biovln_ms.benchmark import FOUR_CATEGORIES
-    from biovln_ms.episodes.dataset import SplitPlan, write_dataset
+    from biovln_ms.episodes.writer import SplitPlan, write_dataset
     from biovln_ms.scene.generator import generate_scene
 
     root = tmp / "ds"
@@ -427,7 +427,8 @@ def _dataset(state: dict, seed: int, tmp: Path) -> str:
     import gzip
     import hashlib
 
-    from biovln_ms.episodes.dataset import EpisodeDataset, gz_json
+    from biovln_ms.episodes.dataset import EpisodeDataset
+    from biovln_ms.episodes.writer import gz_json
 
     rng = np.random.default_rng(seed)
     root = state["root"]

@@ -28,7 +28,8 @@ from hypothesis import strategies as st
 
 from biovln_ms.benchmark import FOUR_CATEGORIES
 from biovln_ms.episodes import dataset
-from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset, SplitPlan, gz_json, write_dataset
+from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+from biovln_ms.episodes.writer import SplitPlan, gz_json, write_dataset
 from biovln_ms.episodes.source import DatasetEpisodes
 from biovln_ms.scene.generator import generate_scene
 

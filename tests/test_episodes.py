@@ -6,7 +6,8 @@ import pytest
 import shapely
 
 from biovln_ms.benchmark import FOUR_CATEGORIES
-from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset, SplitPlan, write_dataset
+from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.episodes.dataset import EPISODE_GENERATOR_VERSION as VERSION
 from biovln_ms.episodes.generator import EpisodeError, EpisodeSampler, difficulty
 from biovln_ms.scene.rules import scene_navigation

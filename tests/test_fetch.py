@@ -13,7 +13,8 @@ from typer.testing import CliRunner
 
 import biovln_ms  # noqa: F401
 from biovln_ms.benchmark import FOUR_CATEGORIES
-from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset, SplitPlan, write_dataset
+from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.errors import BioVLNError
 from biovln_ms.robots import DEFAULT_ROBOT, ROBOTS
 from biovln_ms.scene.generator import generate_scene

@@ -124,7 +124,8 @@ def test_dressing_is_no_lsat_or_protocol_name():
 
 
 def test_the_manifest_records_dressing(tmp_path):
-    from biovln_ms.episodes.dataset import EpisodeDataset, SplitPlan, write_dataset
+    from biovln_ms.episodes.dataset import EpisodeDataset
+    from biovln_ms.episodes.writer import SplitPlan, write_dataset
 
     plain, dressed = generate_scene("single_room", 150), generate_scene("single_room", 150, dressing=True)
     m = write_dataset(

@@ -10,7 +10,8 @@ from pathlib import Path
 import pytest
 
 from biovln_ms.benchmark import FOUR_CATEGORIES
-from biovln_ms.episodes.dataset import EpisodeDataset, SplitPlan, write_dataset
+from biovln_ms.episodes.dataset import EpisodeDataset
+from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.eval import paper
 from biovln_ms.eval.harness import EvalConfig
 from biovln_ms.eval.methods import METHODS, RL_ENV, MethodSpec, method_spec, report_methods

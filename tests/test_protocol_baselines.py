@@ -14,7 +14,8 @@ import pytest
 
 import biovln_ms  # noqa: F401
 from biovln_ms.benchmark import FOUR_CATEGORIES
-from biovln_ms.episodes.dataset import EpisodeDataset, SplitPlan, write_dataset
+from biovln_ms.episodes.dataset import EpisodeDataset
+from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.protocols import load_protocols

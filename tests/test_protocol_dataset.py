@@ -25,7 +25,8 @@ from biovln_ms.benchmark import (
 )
 from biovln_ms.cli import app
 from biovln_ms.constants import MAX_VISITS, MIN_VISITS
-from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset, SplitPlan, write_dataset
+from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.episodes.generator import EpisodeError, keeps_start_rule
 from biovln_ms.protocols import load_protocols
 from biovln_ms.protocols.episodes import ProtocolSampler, drawable_objects, hosted_protocols

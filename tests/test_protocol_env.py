@@ -15,7 +15,7 @@ import torch
 
 import biovln_ms  # noqa: F401
 from biovln_ms.benchmark import FOUR_CATEGORIES
-from biovln_ms.episodes.dataset import SplitPlan, write_dataset
+from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import PlacedInstrument
 from biovln_ms.metrics.measure_set import MeasureSet

@@ -158,7 +158,7 @@ def test_a_category_without_an_interaction_point_is_a_one_line_error(tmp_path, m
 @pytest.fixture(scope="module")
 def fetch_data(tmp_path_factory):
     from biovln_ms.benchmark import FOUR_CATEGORIES
-    from biovln_ms.episodes.dataset import SplitPlan, write_dataset
+    from biovln_ms.episodes.writer import SplitPlan, write_dataset
     from biovln_ms.scene.generator import generate_scene
 
     root = tmp_path_factory.mktemp("data") / "fetch"

@@ -31,7 +31,8 @@ from typing import Iterable, Sequence
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import BioVLNError
-from biovln_ms.episodes.dataset import EpisodeDataset, gz_json
+from biovln_ms.episodes.dataset import EpisodeDataset
+from biovln_ms.episodes.writer import gz_json
 from biovln_ms.io_utils import atomic_write_bytes, atomic_write_text
 from biovln_ms.scene.export_glb import export_scene_glb
 

@@ -29,7 +29,7 @@ def dataset_build(
 
     Every scene and episode, deterministically and atomically, for one robot (its footprint radius)."""
     from biovln_ms.benchmark import paper_splits
-    from biovln_ms.episodes.dataset import write_dataset
+    from biovln_ms.episodes.writer import write_dataset
     from biovln_ms.robots import robot_spec
 
     robot_spec(robot, "--robot")
