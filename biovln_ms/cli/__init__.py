@@ -64,7 +64,7 @@ def list_cmd(
         "methods", help="methods, variants, measures, sensors, templates or instruments."
     ),
 ) -> None:
-    """List what is registered (plugins' entries included).
+    """List what is registered.
 
     Methods, env variants, measures (with their record key), sensors, scene templates or instruments."""
     from biovln_ms.catalog import load_catalog
