@@ -15,7 +15,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from biovln_ms.benchmark import paper_splits
+from biovln_ms.splits import paper_splits
 from biovln_ms.episodes.writer import write_dataset
 from biovln_ms.measured import docs_data_dir, write_table
 

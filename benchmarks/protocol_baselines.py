@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from biovln_ms.benchmark import dataset_root
+from biovln_ms.splits import dataset_root
 from biovln_ms.episodes.dataset import EpisodeDataset
 from biovln_ms.io_utils import atomic_write_bytes, atomic_write_text
 

@@ -36,7 +36,7 @@ from biovln_ms.catalog import AssetSpec, load_catalog
 from biovln_ms.constants import SUPPORT_EDGE_MARGIN
 from biovln_ms.geometry.zones import PlacedInstrument
 from biovln_ms.measured import docs_data_dir, write_table
-from biovln_ms.robots import ROBOTS
+from biovln_ms.robot_specs import ROBOTS
 from biovln_ms.sim.reach import Box, FetchArm
 
 FOOTPRINT = ROBOTS["fetch"].footprint_radius
@@ -219,7 +219,7 @@ def figure(
 def episodes(methods: list[str], splits: list[str], results: Path, workers: int) -> dict:
     """Per method: per category (and "all"), the radius successes and how many are reachable."""
     from biovln_ms.eval.harness import EvalConfig, evaluate, load_records, unique_records
-    from biovln_ms.eval.metrics import record_error
+    from biovln_ms.eval.aggregate import record_error
 
     out: dict = {}
     for m in methods:

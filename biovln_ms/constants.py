@@ -1,9 +1,9 @@
 """Platform-wide constants that several modules share (one definition each)."""
 
-from biovln_ms.robots import DEFAULT_ROBOT, ROBOTS
+from biovln_ms.robot_specs import DEFAULT_ROBOT, ROBOTS
 
-#: Footprint radius (m) of the default robot (``biovln_ms.robots``): the default of the navigation geometry,
-#: the scene and episode generators and the datasets; another robot's comes from its ``ROBOTS`` row.
+#: Footprint radius (m) of the default robot (``biovln_ms.robot_specs``): the default of the navigation
+#: geometry, the scene and episode generators and the datasets; another robot's comes from its ``ROBOTS`` row.
 ROBOT_RADIUS = ROBOTS[DEFAULT_ROBOT].footprint_radius
 #: Thickness of generated walls (m); walls stand outside the rooms' inner floor polygons.
 WALL_THICKNESS = 0.10

@@ -17,7 +17,7 @@ def run_demo(out_dir: Path, echo=print, lighting: str = "quality") -> dict[str, 
     an MP4 (egocentric view beside the map) with its metrics, the renders under the lighting preset
     ``lighting``; then oracle and frontier evaluated on MS VAL and the report (tables with the paper's
     numbers, plots, renders, one MP4)."""
-    from biovln_ms.benchmark import FOUR_CATEGORIES
+    from biovln_ms.splits import FOUR_CATEGORIES
     from biovln_ms.episodes.generator import EpisodeSampler
     from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.render.scene_view import render_overview
@@ -60,7 +60,7 @@ def run_demo(out_dir: Path, echo=print, lighting: str = "quality") -> dict[str, 
         f"{episode['goals'][0]['position'][:2]} | "
         f"{info['geodesic_distance']:.3f} | {info['euclidean_distance']:.3f} | {info['difficulty']} |",
     ]
-    from biovln_ms.record import record_episode
+    from biovln_ms.episode_video import record_episode
 
     files["video"] = out_dir / "ms_val_episode0_oracle.mp4"
     m = record_episode(files["video"], split="ms_val", episode=0, policy="oracle", lighting=lighting)

@@ -1,6 +1,6 @@
 """Every navigation env this package registers, declared once: id -> task configuration.
 
-``biovln_ms.registration`` registers them lazily with gymnasium and ``biovln_ms.tasks.variants`` with
+``biovln_ms.registration`` registers them lazily with gymnasium and ``biovln_ms.tasks.variant_envs`` with
 ManiSkill, both from this table. A new variant is one entry (or a new measure, see the envs guide).
 """
 

@@ -104,7 +104,7 @@ def _protocols(_: str | None) -> str:
 def _dataset(name: str) -> str:
     if name != "splits":
         raise PluginError(f"docs: no dataset table {name!r}; known: splits")
-    from biovln_ms.benchmark import ensure_default_dataset
+    from biovln_ms.splits import ensure_default_dataset
     from biovln_ms.episodes.dataset import EpisodeDataset
 
     ds = EpisodeDataset(ensure_default_dataset(lambda *_: None))
@@ -123,7 +123,7 @@ def _dataset(name: str) -> str:
 
 
 def _metrics(kind: str | None) -> str:
-    from biovln_ms.eval.metrics import kind_metrics
+    from biovln_ms.eval.aggregate import kind_metrics
 
     if kind not in ("single", "protocol"):
         raise PluginError(f"docs: no metrics table {kind!r}; known: single, protocol")

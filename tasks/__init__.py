@@ -1,6 +1,6 @@
 """ManiSkill tasks of BioVLN-MS (installed as ``biovln_ms.tasks``). Importing this registers them."""
 
-from biovln_ms.tasks import lab_scene_env, nav_env, variants  # noqa: F401
+from biovln_ms.tasks import lab_scene_env, nav_env, variant_envs  # noqa: F401
 
 
 def make_lazy(env_id: str, **kwargs):

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from mani_skill.utils.registration import EnvSpec
 
-from biovln_ms.benchmark import dataset_root
+from biovln_ms.splits import dataset_root
 from biovln_ms.episodes.source import DatasetEpisodes
-from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
+from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.tasks.config_checks import EnvConfigError, task_config
 from biovln_ms.tasks.nav_env import BioVLNNavEnv
 

@@ -26,7 +26,7 @@ from biovln_ms.metrics.measure_set import MeasureSet
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, StepState
 from biovln_ms.metrics.reach_measures import REACH_MEASURES
 from biovln_ms.render.camera_shaders import head_camera_shader, use_depth_only_format
-from biovln_ms.robots import DEFAULT_ROBOT, ROBOTS, robot_spec
+from biovln_ms.robot_specs import DEFAULT_ROBOT, ROBOTS, robot_spec
 from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.sim.reach import FetchArm, ReachResult, reach_goals
@@ -65,7 +65,7 @@ class BioVLNNavEnv(BaseEnv):
       A STOP elsewhere fails (``fail_measure``); the episode ends at ``max_episode_steps``.
     """
 
-    #: ManiSkill's agent uids of the robots (``robot_uids`` takes the ``biovln_ms.robots.ROBOTS`` ids)
+    #: ManiSkill's agent uids of the robots (``robot_uids`` takes the ``biovln_ms.robot_specs.ROBOTS`` ids)
     SUPPORTED_ROBOTS = [NAV_AGENTS[r].uid for r in ROBOTS]
     SUPPORTED_REWARD_MODES = ("normalized_dense", "dense", "sparse", "none")
     config: NavTaskConfig = VARIANTS["BioVLN-OpFace-v0"]

@@ -59,7 +59,7 @@ def catalog():
 def held_out_dataset(tmp_path_factory):
     """Factory: a dataset of the held-out scene of seed 154 (the four MS categories) with the given
     episodes per split, e.g. ``held_out_dataset(ms_val=3)``; built once per combination."""
-    from biovln_ms.benchmark import FOUR_CATEGORIES
+    from biovln_ms.splits import FOUR_CATEGORIES
     from biovln_ms.episodes.writer import SplitPlan, write_dataset
     from biovln_ms.scene.generator import generate_scene
 

@@ -407,7 +407,7 @@ DATASET_EPISODES = "ms_val/content/lab_s154_v0.json.gz"
 
 
 def _dataset_setup(tmp: Path):
-    from biovln_ms.benchmark import FOUR_CATEGORIES
+    from biovln_ms.splits import FOUR_CATEGORIES
     from biovln_ms.episodes.writer import SplitPlan, write_dataset
     from biovln_ms.scene.generator import generate_scene
 

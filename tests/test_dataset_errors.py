@@ -26,7 +26,7 @@ import pytest
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
-from biovln_ms.benchmark import FOUR_CATEGORIES
+from biovln_ms.splits import FOUR_CATEGORIES
 from biovln_ms.episodes import dataset
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
 from biovln_ms.episodes.writer import SplitPlan, gz_json, write_dataset

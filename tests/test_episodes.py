@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import shapely
 
-from biovln_ms.benchmark import FOUR_CATEGORIES
+from biovln_ms.splits import FOUR_CATEGORIES
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.episodes.dataset import EPISODE_GENERATOR_VERSION as VERSION
@@ -155,7 +155,7 @@ def test_killed_build_leaves_nothing_that_loads(tmp_path, monkeypatch):
 
 
 def test_paper_splits_are_disjoint_and_counted():
-    from biovln_ms.benchmark import paper_splits
+    from biovln_ms.splits import paper_splits
 
     splits = {s.name: s for s in paper_splits()}
     full = splits["full"]
@@ -232,7 +232,7 @@ def test_cli_dataset_build_stats_show_and_map_overlay(tmp_path):
 def test_no_trivial_episodes_in_any_split_of_the_default_dataset():
     """No trivial episode: every start is outside its goal's success radius r and >= r + 1.0 m from it
     along the floor, by the stored geodesic and by one recomputed on the scene's navigation geometry."""
-    from biovln_ms.benchmark import ensure_default_dataset
+    from biovln_ms.splits import ensure_default_dataset
     from biovln_ms.episodes.generator import MIN_START_GEODESIC_MARGIN
 
     ds = EpisodeDataset(ensure_default_dataset(echo=lambda *_: None))
@@ -257,7 +257,7 @@ def test_no_trivial_episodes_in_any_split_of_the_default_dataset():
 def test_hard_track_is_long_multi_instance_and_held_out():
     """The Hard track: >= 300 episodes on suite / open_plan / single_room held-out seeds, >= 40 % hard
     (geodesic > 6 m), several instances of a category as goals (any counts), nearest first."""
-    from biovln_ms.benchmark import HARD_SPLITS, ensure_default_dataset
+    from biovln_ms.splits import HARD_SPLITS, ensure_default_dataset
 
     ds = EpisodeDataset(ensure_default_dataset(echo=lambda *_: None))
     eps = [e for split in HARD_SPLITS for e in ds.episodes(split)]
@@ -293,7 +293,7 @@ def test_episodes_of_an_older_generator_are_refused_with_the_rebuild_command(tmp
 
 
 def test_a_stale_default_dataset_is_rebuilt(tmp_path, monkeypatch):
-    from biovln_ms import benchmark
+    from biovln_ms import splits
 
     root = tmp_path / "default"
     write_dataset(root, _small_splits(), progress=False)
@@ -301,9 +301,9 @@ def test_a_stale_default_dataset_is_rebuilt(tmp_path, monkeypatch):
     m["episode_generator_version"] = 1
     (root / "manifest.json").write_text(json.dumps(m))
     monkeypatch.setenv("BIOVLN_DATA_DIR", str(root))
-    monkeypatch.setattr(benchmark, "paper_splits", lambda robot: _small_splits())
+    monkeypatch.setattr(splits, "paper_splits", lambda robot: _small_splits())
     said: list[str] = []
-    assert benchmark.ensure_default_dataset(echo=said.append) == root
+    assert splits.ensure_default_dataset(echo=said.append) == root
     assert "stale" in said[0] and EpisodeDataset(root).manifest["episode_generator_version"] == VERSION
 
 

@@ -4,7 +4,7 @@ import sys
 
 import pytest
 
-from biovln_ms.benchmark import FOUR_CATEGORIES
+from biovln_ms.splits import FOUR_CATEGORIES
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.eval import harness
 from biovln_ms.eval.harness import EvalConfig, ResultsError, evaluate, load_records

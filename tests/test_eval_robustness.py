@@ -89,7 +89,7 @@ def test_an_errored_episode_is_a_failure_in_sr_and_spl(ds, tmp_path, monkeypatch
 
 
 def test_a_nan_metric_is_an_error_of_its_record_not_a_gap_in_the_mean(ds, tmp_path, monkeypatch):
-    from biovln_ms.eval.metrics import aggregate
+    from biovln_ms.eval.aggregate import aggregate
 
     real = harness.rollout
 

@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from biovln_ms.eval.metrics import UNITS, aggregate, aggregate_all, record_error
+from biovln_ms.eval.aggregate import UNITS, aggregate, aggregate_all, record_error
 from biovln_ms.eval.stats import (
     BOOTSTRAP_SEED,
     bootstrap_interval,

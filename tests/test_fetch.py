@@ -12,11 +12,11 @@ import torch
 from typer.testing import CliRunner
 
 import biovln_ms  # noqa: F401
-from biovln_ms.benchmark import FOUR_CATEGORIES
+from biovln_ms.splits import FOUR_CATEGORIES
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.errors import BioVLNError
-from biovln_ms.robots import DEFAULT_ROBOT, ROBOTS
+from biovln_ms.robot_specs import DEFAULT_ROBOT, ROBOTS
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.rules import scene_free_space
 from biovln_ms.variants import VARIANTS
@@ -268,7 +268,7 @@ def test_a_dataset_serves_only_its_robot(fetch_dataset, cylinder_dataset, tmp_pa
 def test_cli_builds_for_a_robot(tmp_path, monkeypatch):
     """``dataset build --robot fetch`` generates the splits for Fetch and records it (a small split stands in
     for the paper's); an unknown robot is one line."""
-    from biovln_ms import benchmark
+    from biovln_ms import splits
     from biovln_ms.cli import app, user_error_line
 
     asked = []
@@ -277,7 +277,7 @@ def test_cli_builds_for_a_robot(tmp_path, monkeypatch):
         asked.append(robot)
         return [SplitPlan("ms_val", [(scene(robot), 3, False)])]
 
-    monkeypatch.setattr(benchmark, "paper_splits", small)
+    monkeypatch.setattr(splits, "paper_splits", small)
     r = CliRunner().invoke(app, ["dataset", "build", "--robot", "fetch", "--out", str(tmp_path / "ds")])
     assert r.exit_code == 0, r.output
     ds = EpisodeDataset(tmp_path / "ds", robot="fetch")
@@ -292,7 +292,7 @@ def test_cli_builds_for_a_robot(tmp_path, monkeypatch):
 @pytest.mark.slow
 def test_fetch_builds_every_paper_split(tmp_path):
     """Every split of the paper's datasets builds for Fetch, with the cylinder's scene and episode counts."""
-    from biovln_ms.benchmark import paper_splits
+    from biovln_ms.splits import paper_splits
 
     m = write_dataset(tmp_path / "fetch", paper_splits("fetch"), progress=False, robot="fetch")
     counts = {s.name: (len(s.scenes), sum(n for _, n, _ in s.scenes)) for s in paper_splits()}

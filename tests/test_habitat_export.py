@@ -44,7 +44,7 @@ SPLITS = {"one": {154: 5}, "two": {154: 4, 150: 7}}  # seed 150: two centrifuges
 
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory) -> tuple[EpisodeDataset, Path]:
-    from biovln_ms.benchmark import FOUR_CATEGORIES
+    from biovln_ms.splits import FOUR_CATEGORIES
     from biovln_ms.episodes.writer import SplitPlan, write_dataset
     from biovln_ms.scene.generator import generate_scene
 

@@ -62,8 +62,8 @@ LIGHT_IMPORTERS = {
 #: module imports at module level
 NOT_YET_CONVERTED = {
     "biovln_ms.demo",
-    "biovln_ms.record",
-    "biovln_ms.benchmark",
+    "biovln_ms.episode_video",
+    "biovln_ms.splits",
     "biovln_ms.eval.report",
     "biovln_ms.eval.figures",
     "biovln_ms.tasks.nav_env",

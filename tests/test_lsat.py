@@ -144,7 +144,7 @@ def test_exporters_goal_json_lsat_format_and_usd(imported, tmp_path):
 
 
 def test_harness_runs_on_the_lsat_target_split(tmp_path):
-    from biovln_ms.benchmark import lsat_target_scene
+    from biovln_ms.splits import lsat_target_scene
     from biovln_ms.episodes.writer import SplitPlan, write_dataset
     from biovln_ms.eval.harness import EvalConfig, evaluate
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from biovln_ms.eval.harness import EvalConfig, evaluate
 from biovln_ms.eval.methods import METHODS
-from biovln_ms.eval.metrics import aggregate, record_error
+from biovln_ms.eval.aggregate import aggregate, record_error
 from biovln_ms.eval.paper_tables import other_measures_table
 from biovln_ms.eval.report import load_runs, summarize
 from biovln_ms.metrics.measures import Aggregate, Measure, Metric, register_measure

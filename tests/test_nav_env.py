@@ -10,7 +10,7 @@ import pytest
 import torch
 
 import biovln_ms  # noqa: F401
-from biovln_ms.benchmark import FOUR_CATEGORIES
+from biovln_ms.splits import FOUR_CATEGORIES
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.errors import BioVLNError
 from biovln_ms.scene.generator import generate_scene

@@ -114,7 +114,7 @@ def test_molecular_biology_builds_for_fetch():
 
 
 def test_molbio_splits_hold_every_new_category_on_seeds_no_other_split_uses():
-    from biovln_ms import benchmark as b
+    from biovln_ms import splits as b
 
     splits = b.molbio_splits()
     assert [s.name for s in splits] == ["molbio_val", "molbio_test"]
@@ -166,7 +166,7 @@ def test_semantic_colours_of_the_paper_categories_are_unchanged():
 def test_the_papers_splits_keep_their_episodes():
     """The default dataset (built on first use): every episode file of the paper's splits and the Hard
     track is the pinned one, built from the paper's ten categories; the molecular-biology splits are there."""
-    from biovln_ms.benchmark import ensure_default_dataset
+    from biovln_ms.splits import ensure_default_dataset
     from biovln_ms.episodes.dataset import EpisodeDataset
 
     ds = EpisodeDataset(ensure_default_dataset(lambda *_: None))

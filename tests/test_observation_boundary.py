@@ -119,7 +119,7 @@ def _policies(tmp_path, dataset):
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory):
     """Two MS VAL episodes of the held-out scene of seed 154, and a protocol episode there."""
-    from biovln_ms.benchmark import FOUR_CATEGORIES
+    from biovln_ms.splits import FOUR_CATEGORIES
     from biovln_ms.episodes.writer import SplitPlan, write_dataset
     from biovln_ms.protocols import load_protocols
     from biovln_ms.scene.generator import generate_scene

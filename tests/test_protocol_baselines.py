@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import biovln_ms  # noqa: F401
-from biovln_ms.benchmark import FOUR_CATEGORIES
+from biovln_ms.splits import FOUR_CATEGORIES
 from biovln_ms.episodes.dataset import EpisodeDataset
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.errors import BioVLNError
@@ -389,7 +389,7 @@ def _fake(index: int, k: int, reached: int, method: str = "protocol_frontier", *
 
 
 def test_protocol_aggregates_count_errored_episodes_as_failures():
-    from biovln_ms.eval.metrics import aggregate, aggregate_all, record_error
+    from biovln_ms.eval.aggregate import aggregate, aggregate_all, record_error
 
     recs = [_fake(0, 3, 3), _fake(1, 3, 1), _fake(2, 2, 2), {**_fake(3, 4, 0), "error": "RuntimeError: x"}]
     assert record_error(recs[0]) is None

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from biovln_ms.benchmark import (
+from biovln_ms.splits import (
     FOUR_CATEGORIES,
     HARD_SPLITS,
     HELD_OUT,

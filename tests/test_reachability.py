@@ -157,7 +157,7 @@ def test_a_category_without_an_interaction_point_is_a_one_line_error(tmp_path, m
 # --- the measures at STOP ----------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def fetch_data(tmp_path_factory):
-    from biovln_ms.benchmark import FOUR_CATEGORIES
+    from biovln_ms.splits import FOUR_CATEGORIES
     from biovln_ms.episodes.writer import SplitPlan, write_dataset
     from biovln_ms.scene.generator import generate_scene
 
@@ -227,7 +227,7 @@ def _rec(cat: str, success: bool, reachable: bool | None) -> dict:
 
 
 def test_reach_sr_and_reachable_successes_are_aggregated_and_reported():
-    from biovln_ms.eval.metrics import aggregate
+    from biovln_ms.eval.aggregate import aggregate
     from biovln_ms.eval.paper_tables import reach_table
     from biovln_ms.eval.report import summarize
 

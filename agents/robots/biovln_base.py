@@ -24,7 +24,7 @@ from mani_skill.agents.registration import register_agent
 from mani_skill.utils.structs.link import Link
 
 from biovln_ms.agents.robots.locomotion import CONTROL_MODES, LocomotionController, LocomotionControllerConfig
-from biovln_ms.robots import robot_spec
+from biovln_ms.robot_specs import robot_spec
 
 __all__ = ["CONTROL_MODES", "BioVLNBase", "NavAgent", "urdf_body_radius"]
 
@@ -38,8 +38,8 @@ DRIVE_FORCE_LIMIT = 1e5
 
 class NavAgent:
     """What the navigation task asks of a robot, mixed into a ManiSkill agent with one
-    :class:`LocomotionController` per control mode: its row in ``biovln_ms.robots.ROBOTS``, its head camera
-    link, planar poses in and out."""
+    :class:`LocomotionController` per control mode: its row in ``biovln_ms.robot_specs.ROBOTS``, its head
+    camera link, planar poses in and out."""
 
     robot_id: str  # its ROBOTS row
     controller: LocomotionController

@@ -11,9 +11,9 @@ same controller. The task's head camera is mounted on ``head_camera_link``; Mani
 Contacts are frictionless, as the cylinder's: the base link's collision mesh stops at walls and instruments
 and slides along them; the floor's contact is vertical, so it never resists a planar move. Self-collisions
 are off (the held joints never move). The base is not round: the footprint disc of
-``biovln_ms.robots.ROBOTS["fetch"]`` (0.29 m) encloses it (0.288 m ahead and behind), its sides are 0.264 m
-from the yaw axis, so side-on it may stand a little nearer an obstacle than the disc, and turning while in
-contact may push it a few centimetres.
+``biovln_ms.robot_specs.ROBOTS["fetch"]`` (0.29 m) encloses it (0.288 m ahead and behind), its sides are
+0.264 m from the yaw axis, so side-on it may stand a little nearer an obstacle than the disc, and turning
+while in contact may push it a few centimetres.
 """
 
 from __future__ import annotations

@@ -28,9 +28,9 @@ def dataset_build(
     """Build the paper's datasets.
 
     Every scene and episode, deterministically and atomically, for one robot (its footprint radius)."""
-    from biovln_ms.benchmark import paper_splits
+    from biovln_ms.splits import paper_splits
     from biovln_ms.episodes.writer import write_dataset
-    from biovln_ms.robots import robot_spec
+    from biovln_ms.robot_specs import robot_spec
 
     robot_spec(robot, "--robot")
     m = write_dataset(out, paper_splits(robot), robot=robot)
@@ -50,7 +50,7 @@ def dataset_stats(
     protocol splits also K, route lengths and how many instructions needed a spatial relation."""
     from rich.table import Table
 
-    from biovln_ms.benchmark import PAPER_MS_DEV_DIFFICULTY, dataset_root
+    from biovln_ms.splits import PAPER_MS_DEV_DIFFICULTY, dataset_root
     from biovln_ms.episodes.dataset import EpisodeDataset
 
     root = dataset_root(root)
@@ -122,7 +122,7 @@ def dataset_show(
     """Draw the map of one episode.
 
     Navigable islands, start and heading, goal, view points, shortest path."""
-    from biovln_ms.benchmark import dataset_root
+    from biovln_ms.splits import dataset_root
     from biovln_ms.episodes.dataset import EpisodeDataset
     from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.topdown import save_map
@@ -147,7 +147,7 @@ def dataset_export(
 
     habitat: habitat-lab ObjectNav-v1 episodes (Y-up), the scenes as GLB and a habitat-sim scene dataset
     config."""
-    from biovln_ms.benchmark import dataset_root
+    from biovln_ms.splits import dataset_root
     from biovln_ms.bridges.habitat import export_habitat
     from biovln_ms.episodes.dataset import EpisodeDataset
 

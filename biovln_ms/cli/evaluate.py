@@ -52,8 +52,8 @@ def record(
     """Record one episode as an MP4.
 
     The egocentric view beside a top-down map with trajectory, zones and goal."""
-    from biovln_ms.benchmark import dataset_root
-    from biovln_ms.record import record_episode
+    from biovln_ms.splits import dataset_root
+    from biovln_ms.episode_video import record_episode
 
     _check_lighting(lighting)
     root = dataset_root(dataset)

@@ -36,7 +36,7 @@ from typing_extensions import NotRequired, TypedDict
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import MAX_VISITS, MIN_VISITS, SCENE_GENERATOR_VERSION
 from biovln_ms.errors import BioVLNError, describe_validation_error
-from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
+from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.loading import load_spec
 from biovln_ms.scene.spec import MAX_COORDINATE, MAX_JSON_DEPTH, SceneSpec, SceneSpecError, json_depth
 from biovln_ms.scene.spec import MAX_FILE_BYTES as MAX_SCENE_FILE_BYTES

@@ -11,7 +11,7 @@ from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
 from biovln_ms.episodes.generator import EpisodeSampler
 from biovln_ms.protocols.episodes import ProtocolSampler
 from biovln_ms.protocols.library import load_protocols
-from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
+from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.spec import SceneSpec
 

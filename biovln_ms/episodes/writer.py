@@ -21,7 +21,7 @@ from biovln_ms.episodes.dataset import DATASET_FORMAT_VERSION, EPISODE_GENERATOR
 from biovln_ms.episodes.generator import EpisodeSampler, stable_seed
 from biovln_ms.protocols.episodes import ProtocolSampler
 from biovln_ms.protocols.library import ProtocolLibrary
-from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
+from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.spec import SceneSpec
 
 STALE_BUILD_AGE_S = 3600  # an unlocked build folder whose pid runs (reused?) is stale after this
@@ -111,7 +111,7 @@ def remove_stale_builds(out: str | Path, max_age_s: float = STALE_BUILD_AGE_S) -
 def write_dataset(
     out: Path, splits: list[SplitPlan], progress: bool = True, robot: str = DEFAULT_ROBOT
 ) -> dict:
-    """Build every split's episodes for ``robot`` (a ``biovln_ms.robots.ROBOTS`` id: the scenes must have
+    """Build every split's episodes for ``robot`` (a ``biovln_ms.robot_specs.ROBOTS`` id: the scenes must have
     been generated for its footprint radius) and write the dataset atomically; returns the manifest.
 
     Writes into ``.<name>.partial-<pid>`` beside ``out`` (locked while this build runs) and renames it

@@ -15,7 +15,7 @@ import numpy as np
 
 from biovln_ms.eval import paper
 from biovln_ms.eval.methods import report_methods
-from biovln_ms.eval.metrics import aggregate, record_error
+from biovln_ms.eval.aggregate import aggregate, record_error
 from biovln_ms.eval.paper_tables import (
     PROTOCOL_REPORT_SPLITS,
     SPLITS,

@@ -32,7 +32,7 @@ import numpy as np
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import method_spec
-from biovln_ms.eval.metrics import aggregate_all, record_error
+from biovln_ms.eval.aggregate import aggregate_all, record_error
 from biovln_ms.eval.handoff import handoff_payload, write_handoff
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.io_utils import atomic_write_text, exclusive_lock
@@ -40,7 +40,7 @@ from biovln_ms.metrics.measures import OUTCOME, DistanceToGoal, Metric, measure_
 from biovln_ms.metrics.reach_measures import REACH_MEASURES
 from biovln_ms.noise import resolve_noise
 from biovln_ms.plugins import load_plugins, loaded_plugins
-from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
+from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.variants import VARIANTS
 
 DEFAULT_ENV = "BioVLN-OpFace-v0"
@@ -71,7 +71,9 @@ class EvalConfig:
     record_mode: str = "full"  # "full" (PNG frames + depth) or "trace" (positions, actions, goals only)
     name: str | None = None  # results folder name (default: the method, plus the variant when not OpFace)
     noise: str = "ideal"  # a noise preset (biovln_ms.noise.PRESETS)
-    robot: str = DEFAULT_ROBOT  # a biovln_ms.robots.ROBOTS id; its own dataset unless ``dataset`` is given
+    robot: str = (
+        DEFAULT_ROBOT  # a biovln_ms.robot_specs.ROBOTS id; its own dataset unless ``dataset`` is given
+    )
     handoff_dir: str | None = None  # write each successful episode's hand-off here (biovln_ms.eval.handoff)
     fresh_scene: bool = False  # rebuild the scene at every reset: outcomes independent of a worker's history
     plugins: list[str] = field(
@@ -405,7 +407,7 @@ def _evaluate_locked(cfg: EvalConfig, obs_mode: str, progress: bool, echo) -> di
     under ``cfg``'s noise preset (:meth:`MethodSpec.obs_mode_under`), for the workers' env."""
     from tqdm import tqdm
 
-    from biovln_ms.benchmark import dataset_root
+    from biovln_ms.splits import dataset_root
     from biovln_ms.episodes.source import DatasetEpisodes
 
     root = dataset_root(cfg.dataset, cfg.robot)

@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import math
 
-from biovln_ms.benchmark import HARD_SPLITS, HELD_OUT, LSAT_EPISODES, TWO_ROOM_BENCH
+from biovln_ms.splits import HARD_SPLITS, HELD_OUT, LSAT_EPISODES, TWO_ROOM_BENCH
 from biovln_ms.eval import paper
 from biovln_ms.eval.harness import EvalConfig
 from biovln_ms.eval.methods import METHODS, method_of_paper_key, report_methods
-from biovln_ms.eval.metrics import PROTOCOL_INTERVALS
+from biovln_ms.eval.aggregate import PROTOCOL_INTERVALS
 from biovln_ms.eval.tables import STANDARD_MEASURES, fmt as _fmt, table_keys
 
 SPLITS = ["ms_dev", "ms_val", "ms_test", "two_room", "lsat_target"]  # the paper's
@@ -80,7 +80,7 @@ def _metric(agg: dict, key: str, nd: int, theirs=None, n=None) -> str:
 
 
 ALPHA = 0.05
-# The benchmark splits' full sizes (Table 4, as biovln_ms.benchmark builds them); the dataset's own
+# The benchmark splits' full sizes (Table 4, as biovln_ms.splits builds them); the dataset's own
 # sizes replace them when the report knows its dataset.
 SPLIT_EPISODES = {
     **{s: len(seeds) * n for s, (seeds, n) in HELD_OUT.items()},

@@ -29,7 +29,7 @@ from biovln_ms.eval.figures import (
 )
 from biovln_ms.eval.harness import EvalConfig, episode_key, load_records, read_manifest, unique_records
 from biovln_ms.eval.methods import METHODS, report_methods
-from biovln_ms.eval.metrics import (
+from biovln_ms.eval.aggregate import (
     INTERVALS,
     kind_metrics,
     PROTOCOL_UNITS,
@@ -311,8 +311,8 @@ def write_report(
     results: Path, out: Path, dataset: str | None = None, videos: int = 1, hard_figures: int = 2, echo=print
 ) -> Path:
     from biovln_ms.episodes.dataset import EpisodeDataset
-    from biovln_ms.benchmark import dataset_root, ensure_default_dataset
-    from biovln_ms.robots import DEFAULT_ROBOT
+    from biovln_ms.splits import dataset_root, ensure_default_dataset
+    from biovln_ms.robot_specs import DEFAULT_ROBOT
     from biovln_ms.errors import BioVLNError
 
     runs = load_runs(Path(results), echo)
@@ -374,7 +374,7 @@ def write_report(
         )
         lines += [heading, ""] + [f"![{f.stem}](figures/{f.name})" for f in hard_files] + [""]
     if videos:
-        from biovln_ms.record import record_episode
+        from biovln_ms.episode_video import record_episode
 
         (out / "videos").mkdir(exist_ok=True)
         vids = []

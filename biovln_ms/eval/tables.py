@@ -1,6 +1,6 @@
 """The report's table specifications: each table is a list of measures, and shows their aggregates
 (:class:`~biovln_ms.metrics.measures.Aggregate`) with their intervals and counts. The one module besides
-the measures that names metrics; the aggregation (:mod:`biovln_ms.eval.metrics`) names none."""
+the measures that names metrics; the aggregation (:mod:`biovln_ms.eval.aggregate`) names none."""
 
 from __future__ import annotations
 

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from PIL import Image, ImageChops
 
-from biovln_ms.benchmark import FOUR_CATEGORIES
+from biovln_ms.splits import FOUR_CATEGORIES
 from biovln_ms.episodes.generator import EpisodeSampler
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.rules import scene_navigation

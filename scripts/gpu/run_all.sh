@@ -123,7 +123,7 @@ head -40 "$OUT/system.txt"
 
 # 6. the dataset (deterministic, built once per machine)
 stamp "dataset"
-timeout 180 "$PY" -c "from biovln_ms.benchmark import ensure_default_dataset; print(ensure_default_dataset())" \
+timeout 180 "$PY" -c "from biovln_ms.splits import ensure_default_dataset; print(ensure_default_dataset())" \
   || stamp "dataset build failed"
 
 # 7. the sections

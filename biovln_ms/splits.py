@@ -25,9 +25,9 @@ default dataset built from them (a composition of the episode model and the LSAT
   on seeds no other split uses (see ``MOLBIO_SPLITS``); any instance of the category counts. The paper's
   splits never hold them.
 
-Every split is built for one robot (``biovln_ms.robots``): its scenes are generated, and their layout rules
-checked, for that robot's footprint radius. The default robot's dataset is the benchmark's; another robot's
-default dataset is a sibling folder (``default_dataset_dir``).
+Every split is built for one robot (``biovln_ms.robot_specs``): its scenes are generated, and their layout
+rules checked, for that robot's footprint radius. The default robot's dataset is the benchmark's; another
+robot's default dataset is a sibling folder (``default_dataset_dir``).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.protocols.episodes import hosted_protocols
 from biovln_ms.protocols.library import ProtocolLibrary, load_protocols
-from biovln_ms.robots import DEFAULT_ROBOT, robot_spec
+from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.spec import SceneSpec
 
