@@ -18,7 +18,7 @@ from pathlib import Path
 
 from biovln_ms.eval.harness import EvalConfig, evaluate
 from biovln_ms.eval.learned import train_and_evaluate
-from biovln_ms.learning.algorithms import RL_ENV
+from biovln_ms.variants import RL_ENV
 from biovln_ms.learning.rl import RLConfig
 from biovln_ms.measured import docs_data_dir, write_table
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from biovln_ms.variants import BENCHMARK_ENV
 from biovln_ms.eval.methods import method_spec
 
 
@@ -13,7 +14,7 @@ def record_episode(
     episode: int = 0,
     policy: str = "oracle",
     dataset: str | None = None,
-    env_id: str = "BioVLN-OpFace-v0",
+    env_id: str = BENCHMARK_ENV,
     size: tuple[int, int] = (640, 480),
     fps: int = 5,
     lighting: str = "fast",

@@ -13,12 +13,12 @@ from collections.abc import Callable
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.task_config import NavTaskConfig
-from biovln_ms.variants import VARIANTS
+from biovln_ms.variants import LAB_SCENE_ENV, VARIANTS
 
 #: uid -> max_episode_steps of every env this package provides (the variants' own, and the scene viewer).
 ENV_IDS: dict[str, int] = {
     **{uid: cfg.max_episode_steps for uid, cfg in VARIANTS.items()},
-    "BioVLN-LabScene-v0": 1,
+    LAB_SCENE_ENV: 1,
 }
 #: The lazy specs' entry point. Gymnasium resolves it by name on the first ``gym.make``, and resolving it
 #: imports :mod:`biovln_ms.tasks`, which registers every env; it lives there so that this module, which the

@@ -29,18 +29,25 @@ _PROTOCOL = ProtocolTaskConfig(
 )
 _PROTOCOL = replace(_PROTOCOL, max_episode_steps=_PROTOCOL.step_budget(MAX_VISITS))
 
+#: the env ids, each defined here once
+BENCHMARK_ENV = "BioVLN-OpFace-v0"
+CENTROID_ENV = "BioVLN-Centroid-v0"
+STRICT_ENV = "BioVLN-OpFace-Strict-v0"
+RL_ENV = "BioVLN-OpFace-RL-v0"
+PROTOCOL_ENV = "BioVLN-Protocol-v0"
+PROTOCOL_STRICT_ENV = "BioVLN-Protocol-Strict-v0"
+LAB_SCENE_ENV = "BioVLN-LabScene-v0"  # the scene viewer (no task; not a variant)
+
 VARIANTS: dict[str, NavTaskConfig] = {
     # the benchmark (paper §3.2): Eq. 1 goals, 0.25 m / 30 deg actions, 500 steps
-    "BioVLN-OpFace-v0": NavTaskConfig(),
+    BENCHMARK_ENV: NavTaskConfig(),
     # the paper's ablation (Table 9): the goal is the floor projection of the bounding-box centre
-    "BioVLN-Centroid-v0": NavTaskConfig(goal_mode="centroid"),
+    CENTROID_ENV: NavTaskConfig(goal_mode="centroid"),
     # operational success: STOP within r in Zone 3, facing the face within 30 deg (strict_success)
-    "BioVLN-OpFace-Strict-v0": NavTaskConfig(
-        success_measure="strict_success", fail_measure="strict_failed_stop"
-    ),
+    STRICT_ENV: NavTaskConfig(success_measure="strict_success", fail_measure="strict_failed_stop"),
     # the paper's Gym variant for RL: 10 deg turns, positions / 4.0 m, heading as a unit vector,
     # Eq. 5 with the proportional safety penalty, episodes shuffled once and cycled
-    "BioVLN-OpFace-RL-v0": NavTaskConfig(
+    RL_ENV: NavTaskConfig(
         turn_deg=10.0,
         proportional_safety=True,
         safety_penalty=1.0,
@@ -50,7 +57,7 @@ VARIANTS: dict[str, NavTaskConfig] = {
         default_split="train",
     ),
     # lab protocols: a correct STOP is within the current goal's success radius r
-    "BioVLN-Protocol-v0": _PROTOCOL,
+    PROTOCOL_ENV: _PROTOCOL,
     # ... and also in its Zone 3, facing its operational face within 30 deg (strict_success's rule)
-    "BioVLN-Protocol-Strict-v0": replace(_PROTOCOL, subgoal_rule="strict"),
+    PROTOCOL_STRICT_ENV: replace(_PROTOCOL, subgoal_rule="strict"),
 }

@@ -13,6 +13,7 @@ from gymnasium.utils import seeding
 from mani_skill.utils.wrappers.gymnasium import CPUGymWrapper
 
 import biovln_ms  # noqa: F401
+from biovln_ms.variants import RL_ENV
 
 
 class GymnasiumEnv(CPUGymWrapper):
@@ -27,7 +28,7 @@ class GymnasiumEnv(CPUGymWrapper):
         return super().reset(seed=seed, options=options)
 
 
-def make_gym_env(env_id: str = "BioVLN-OpFace-RL-v0", single_thread: bool = True, **kwargs) -> gym.Env:
+def make_gym_env(env_id: str = RL_ENV, single_thread: bool = True, **kwargs) -> gym.Env:
     """``gym.make`` on the CPU backends, wrapped for gymnasium / SB3. Picklable through
     ``functools.partial``, so it serves as the env factory of ``AsyncVectorEnv`` / ``SubprocVecEnv``
     (one env per process: ManiSkill refuses ``num_envs > 1`` on the CPU)."""

@@ -11,6 +11,7 @@ from mani_skill.envs.sapien_env import BaseEnv
 from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
 
+from biovln_ms.variants import LAB_SCENE_ENV
 from biovln_ms.registration import register_biovln_env
 from biovln_ms.render.lighting import lighting_preset
 from biovln_ms.scene.generator import generate_scene
@@ -28,7 +29,7 @@ def overview_pose(spec: SceneSpec):
     return sapien_utils.look_at(eye, [centre[0], centre[1] - 0.02 * span, 0.0])
 
 
-@register_biovln_env("BioVLN-LabScene-v0", max_episode_steps=1)
+@register_biovln_env(LAB_SCENE_ENV, max_episode_steps=1)
 class LabSceneEnv(BaseEnv):
     """Builds one or more scene specs (``specs=``), or the scene of ``template``/``seed``."""
 

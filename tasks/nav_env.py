@@ -36,7 +36,7 @@ from biovln_ms.tasks.episodes import choose_episodes, episode_context
 from biovln_ms.tasks.observations import HeadCameraNoise, segmentation_lookup
 from biovln_ms.tasks.privileged import PrivilegedView
 from biovln_ms.tasks.sensors import SENSORS, SensorInputs, semantic_category
-from biovln_ms.variants import VARIANTS
+from biovln_ms.variants import BENCHMARK_ENV, VARIANTS
 
 #: the follow camera of ``render()``: behind and above the robot, looking at a point ahead of it
 FOLLOW_CAMERA_EYE = (-2.2, 0.0, 2.3)
@@ -68,7 +68,7 @@ class BioVLNNavEnv(BaseEnv):
     #: ManiSkill's agent uids of the robots (``robot_uids`` takes the ``biovln_ms.robot_specs.ROBOTS`` ids)
     SUPPORTED_ROBOTS = [NAV_AGENTS[r].uid for r in ROBOTS]
     SUPPORTED_REWARD_MODES = ("normalized_dense", "dense", "sparse", "none")
-    config: NavTaskConfig = VARIANTS["BioVLN-OpFace-v0"]
+    config: NavTaskConfig = VARIANTS[BENCHMARK_ENV]
     #: the episodes without a split, sampled in a scene generated from a template (:mod:`~.episode_sources`)
     generated_episodes = GeneratedEpisodes
     default_template = "single_room"

@@ -27,7 +27,7 @@ from biovln_ms.task_config import EpisodeInfo, ProtocolTaskConfig
 from biovln_ms.tasks.nav_env import BioVLNNavEnv
 from biovln_ms.tasks.privileged import PrivilegedView
 from biovln_ms.tasks.sensors import SENSORS, SensorInputs, register_sensor
-from biovln_ms.variants import VARIANTS
+from biovln_ms.variants import PROTOCOL_ENV, VARIANTS
 
 
 @dataclass
@@ -56,7 +56,7 @@ class BioVLNProtocolEnv(BioVLNNavEnv):
     hosts every shipped protocol) / ``scene_seed``. :class:`ProtocolTaskConfig` fields may be passed as
     keyword arguments (``wrong_stop``, ``subgoal_rule``, ``steps_per_goal`` among them)."""
 
-    config: ProtocolTaskConfig = VARIANTS["BioVLN-Protocol-v0"]
+    config: ProtocolTaskConfig = VARIANTS[PROTOCOL_ENV]
     generated_episodes = GeneratedProtocolEpisodes
     default_template = "two_room"  # it hosts every shipped protocol
 

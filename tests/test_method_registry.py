@@ -14,7 +14,8 @@ from biovln_ms.episodes.dataset import EpisodeDataset
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.eval import paper
 from biovln_ms.eval.harness import EvalConfig
-from biovln_ms.eval.methods import METHODS, RL_ENV, MethodSpec, method_spec, report_methods
+from biovln_ms.eval.methods import METHODS, MethodSpec, method_spec, report_methods
+from biovln_ms.variants import RL_ENV
 from biovln_ms.eval.report import load_runs, tables, write_report
 from biovln_ms.scene.generator import generate_scene
 

@@ -186,7 +186,8 @@ def test_the_llm_parser_against_a_loopback_server(openai_server):
 
 
 def test_method_specs_and_the_parser_option(monkeypatch):
-    from biovln_ms.eval.methods import METHODS, PROTOCOL_ENV, method_spec
+    from biovln_ms.eval.methods import METHODS, method_spec
+    from biovln_ms.variants import PROTOCOL_ENV
 
     protocol = {m for m, s in METHODS.items() if s.env_id == PROTOCOL_ENV}
     assert protocol == {"protocol_oracle", "protocol_frontier", "protocol_vlfm", "protocol_language"}

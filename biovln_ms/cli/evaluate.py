@@ -18,6 +18,7 @@ from biovln_ms.cli.common import (
 )
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import report_methods
+from biovln_ms.variants import BENCHMARK_ENV
 
 
 @app.command()
@@ -45,7 +46,7 @@ def record(
     ),
     policy: str = typer.Option("oracle", help=f"Policy to run: {_RECORDABLE}."),
     dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
-    env_id: str = typer.Option("BioVLN-OpFace-v0", "--env", help="Env id (a registered variant)."),
+    env_id: str = typer.Option(BENCHMARK_ENV, "--env", help="Env id (a registered variant)."),
     fps: int = typer.Option(5, help="Frames per second."),
     lighting: str = _lighting_option(),
 ) -> None:

@@ -8,7 +8,8 @@ from typing import Optional
 import typer
 
 from biovln_ms.cli.common import app
-from biovln_ms.eval.methods import RL_ENV, SB3_CONTROL_MODES
+from biovln_ms.learning.algorithms import SB3_CONTROL_MODES
+from biovln_ms.variants import RL_ENV
 
 train_app = typer.Typer(
     help="Train learned policies (BC and RL).\n\nBehavioural cloning (bc) and RL with Stable-Baselines3 "

@@ -13,6 +13,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from biovln_ms.variants import BENCHMARK_ENV
 from biovln_ms.eval import paper
 from biovln_ms.eval.methods import report_methods
 from biovln_ms.eval.aggregate import aggregate, record_error
@@ -183,7 +184,7 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
 
     pol = FrontierPolicy()
     env = gym.make(
-        "BioVLN-OpFace-v0",
+        BENCHMARK_ENV,
         split=rec["split"],
         dataset=dataset,
         obs_mode=pol.obs_mode,

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from biovln_ms.variants import BENCHMARK_ENV
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import method_spec
 from biovln_ms.eval.aggregate import aggregate_all, record_error
@@ -43,7 +44,7 @@ from biovln_ms.plugins import load_plugins, loaded_plugins
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.variants import VARIANTS
 
-DEFAULT_ENV = "BioVLN-OpFace-v0"
+DEFAULT_ENV = BENCHMARK_ENV  # the env of a method that names none
 LOCK_FILE = "eval.lock"  # in the run folder, held by the one process writing there
 
 

@@ -7,11 +7,10 @@ import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from biovln_ms.variants import PROTOCOL_ENV, RL_ENV
 from biovln_ms.errors import BioVLNError
-from biovln_ms.learning.algorithms import RL_ENV, SB3_CONTROL_MODES
+from biovln_ms.learning.algorithms import SB3_CONTROL_MODES
 from biovln_ms.llm.client import LLMConfig
-
-PROTOCOL_ENV = "BioVLN-Protocol-v0"  # the env of the protocol methods (its protocol_* splits)
 
 
 @dataclass(frozen=True)

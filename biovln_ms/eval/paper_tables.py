@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+from biovln_ms.variants import CENTROID_ENV
 from biovln_ms.splits import HARD_SPLITS, HELD_OUT, LSAT_EPISODES, TWO_ROOM_BENCH
 from biovln_ms.eval import paper
 from biovln_ms.eval.harness import EvalConfig
@@ -18,7 +19,6 @@ SPLITS = ["ms_dev", "ms_val", "ms_test", "two_room", "lsat_target"]  # the paper
 #: the benchmark's splits (issue 15: the paper's and the Hard track), and its noise presets in order
 BENCH_SPLITS = ["ms_dev", "ms_val", "ms_test", "two_room", "lsat_target", "hard_val", "hard_test"]
 PRESETS = ("ideal", "realistic")
-CENTROID_ENV = "BioVLN-Centroid-v0"  # the Table 9 ablation's env
 CENTROID_ENV_SUFFIX = "@centroid"  # in its runs' names
 
 

@@ -21,9 +21,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from biovln_ms.variants import CENTROID_ENV, PROTOCOL_ENV
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.harness import EvalConfig, evaluate
-from biovln_ms.eval.methods import METHODS, PROTOCOL_ENV, method_spec
+from biovln_ms.eval.methods import METHODS, method_spec
 from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.noise import resolve_noise
 
@@ -47,7 +48,7 @@ PROTOCOL_METHODS = ("protocol_oracle", "protocol_frontier", "protocol_vlfm", "pr
 
 #: the paper's tables also need MS DEV (Tables 5, 6, 10, 11) and the centroid ablation (Table 9, frontier)
 PAPER_SPLIT = "ms_dev"
-CENTROID = ("frontier", "BioVLN-Centroid-v0", ("ms_dev", "ms_val", "ms_test"))
+CENTROID = ("frontier", CENTROID_ENV, ("ms_dev", "ms_val", "ms_test"))
 
 
 @dataclass(frozen=True)

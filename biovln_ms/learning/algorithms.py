@@ -2,7 +2,6 @@
 
 from biovln_ms.errors import BioVLNError
 
-RL_ENV = "BioVLN-OpFace-RL-v0"  # the variant learned policies train and evaluate on
 # the env control mode each needs: SAC acts in a continuous Box ([forward, turn, stop] in [-1, 1]),
 # PPO and A2C in Discrete(4)
 SB3_CONTROL_MODES = {"ppo": "discrete", "a2c": "discrete", "sac": "continuous"}

@@ -22,7 +22,8 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
 from biovln_ms.errors import BioVLNError
-from biovln_ms.learning.algorithms import RL_ENV, SB3_CONTROL_MODES, algo_class
+from biovln_ms.learning.algorithms import SB3_CONTROL_MODES, algo_class
+from biovln_ms.variants import RL_ENV
 from biovln_ms.io_utils import atomic_write_bytes, atomic_write_text, save_figure
 
 

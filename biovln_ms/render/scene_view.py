@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from biovln_ms.variants import LAB_SCENE_ENV
 from biovln_ms.episodes.generator import EpisodeSampler
 from biovln_ms.render.goal_views import HEAD_HEIGHT, GoalViewRenderer
 from biovln_ms.scene.rules import scene_navigation
@@ -23,7 +24,7 @@ def render_overview(
     import biovln_ms.tasks.lab_scene_env  # noqa: F401  (registers the env)
 
     env = gym.make(
-        "BioVLN-LabScene-v0",
+        LAB_SCENE_ENV,
         specs=[spec],
         ceiling=False,
         render_size=size,

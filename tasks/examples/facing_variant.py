@@ -7,7 +7,7 @@ from dataclasses import replace
 from biovln_ms.metrics.measures import Measure, register_measure
 from biovln_ms.registration import register_biovln_env
 from biovln_ms.tasks.nav_env import BioVLNNavEnv
-from biovln_ms.variants import VARIANTS
+from biovln_ms.variants import BENCHMARK_ENV, VARIANTS
 
 
 @register_measure
@@ -34,7 +34,7 @@ class FacingFail(Measure):
         return m["stopped"][idx] & ~m["facing_success"][idx]
 
 
-BASE = VARIANTS["BioVLN-OpFace-v0"]
+BASE = VARIANTS[BENCHMARK_ENV]
 
 
 @register_biovln_env("MyLab-OpFaceFacing-v0", max_episode_steps=BASE.max_episode_steps)

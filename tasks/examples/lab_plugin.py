@@ -11,7 +11,7 @@ from biovln_ms.eval.methods import MethodSpec, register_method
 from biovln_ms.metrics.measures import Measure, Metric, rate, register_measure
 from biovln_ms.scene.templates import get_template, register_template
 from biovln_ms.tasks.sensors import register_sensor
-from biovln_ms.variants import VARIANTS
+from biovln_ms.variants import BENCHMARK_ENV, VARIANTS
 
 
 @register_measure
@@ -39,7 +39,7 @@ class Zone3FacingFail(Measure):
         return m["stopped"][idx] & ~m["zone3_facing_success"][idx]
 
 
-BASE = VARIANTS["BioVLN-OpFace-v0"]
+BASE = VARIANTS[BENCHMARK_ENV]
 register_variant(
     "MyLab-Zone3Facing-v0",
     replace(
