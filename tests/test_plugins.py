@@ -49,6 +49,7 @@ def test_the_strict_facing_angle_is_configuration():
     assert facing == {30.0: (True, True), 15.0: (False, False)}
 
 
+@pytest.mark.slow
 def test_a_plugin_variant_method_and_measure_run_in_eval_and_the_report(plugin, tmp_path):
     from biovln_ms.eval.harness import EvalConfig, evaluate
     from biovln_ms.eval.paper_tables import other_measures_table
@@ -114,7 +115,6 @@ def test_a_broken_plugin_is_one_line(tmp_path):
 
 
 def test_a_catalog_overlay_adds_instruments_and_refuses_a_taken_name(tmp_path, monkeypatch):
-    from biovln_ms import catalog
     from biovln_ms.catalog import CatalogError, load_catalog
 
     base = load_catalog()
@@ -131,4 +131,3 @@ def test_a_catalog_overlay_adds_instruments_and_refuses_a_taken_name(tmp_path, m
     monkeypatch.setenv("BIOVLN_CATALOG_OVERLAY", str(taken))
     with pytest.raises(CatalogError, match="already has an instrument named 'centrifuge'"):
         load_catalog()
-    catalog._default_catalog.cache_clear()

@@ -106,7 +106,7 @@ class _SceneEntry(TypedDict):
     sha256: _SHA256
     template: str
     seed: int
-    dressing: NotRequired[bool]  # generated with lab dressing (issue 18); absent: without
+    dressing: NotRequired[bool]  # generated with lab dressing; absent: without
 
 
 @with_config(_STRICT)
@@ -124,7 +124,7 @@ class _SplitEntry(TypedDict):
     files: dict[str, _FileEntry]
     missing: NotRequired[str | None]
     view_of: NotRequired[str | None]
-    dressing: NotRequired[bool]  # its scenes have lab dressing (issue 18); absent: they have none
+    dressing: NotRequired[bool]  # its scenes have lab dressing; absent: they have none
 
 
 @with_config(_STRICT)

@@ -16,7 +16,7 @@ from biovln_ms.eval.aggregate import PROTOCOL_INTERVALS
 from biovln_ms.eval.tables import STANDARD_MEASURES, fmt as _fmt, table_keys
 
 SPLITS = ["ms_dev", "ms_val", "ms_test", "two_room", "lsat_target"]  # the paper's
-#: the benchmark's splits (issue 15: the paper's and the Hard track), and its noise presets in order
+#: the benchmark's splits (the paper's and the Hard track), and its noise presets in order
 BENCH_SPLITS = ["ms_dev", "ms_val", "ms_test", "two_room", "lsat_target", "hard_val", "hard_test"]
 PRESETS = ("ideal", "realistic")
 CENTROID_ENV_SUFFIX = "@centroid"  # in its runs' names
