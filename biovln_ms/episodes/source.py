@@ -3,6 +3,7 @@ episodes, or lab-protocol episodes of the loaded protocol library)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -121,9 +122,23 @@ class DatasetEpisodes(EpisodeSource):
         return self.dataset.spec(scene_id)
 
 
+#: draws ``n`` episodes in a scene from a seed: single-goal (the episode model's sampler) or protocol ones
+Sampler = Callable[[SceneSpec, int, int], list[dict]]
+
+
+def single_goal_episodes(spec: SceneSpec, n: int, seed: int) -> list[dict]:
+    """``n`` single-goal episodes (:class:`~biovln_ms.episodes.generator.EpisodeSampler`)."""
+    return EpisodeSampler(spec).episodes(n, seed=seed)
+
+
+def protocol_episodes(spec: SceneSpec, n: int, seed: int) -> list[dict]:
+    """``n`` protocol episodes of the loaded library (shipped and user protocols: ``load_protocols``)."""
+    return ProtocolSampler(spec).protocol_episodes(n, seed, load_protocols())
+
+
 class GeneratedEpisodes(EpisodeSource):
-    """One scene generated from ``template``/``scene_seed`` for ``robot``'s footprint; ``n`` episodes sampled
-    in it."""
+    """One scene generated from ``template``/``scene_seed`` for ``robot``'s footprint; ``n`` episodes drawn
+    in it by ``sampler``."""
 
     def __init__(
         self,
@@ -132,6 +147,7 @@ class GeneratedEpisodes(EpisodeSource):
         n: int = 100,
         required_categories: tuple[str, ...] = (),
         robot: str = DEFAULT_ROBOT,
+        sampler: Sampler = single_goal_episodes,
     ) -> None:
         self._spec = generate_scene(
             template,
@@ -139,31 +155,7 @@ class GeneratedEpisodes(EpisodeSource):
             required_categories=required_categories,
             robot_radius=robot_spec(robot).footprint_radius,
         )
-        self.episodes = EpisodeSampler(self._spec).episodes(n, seed=scene_seed)
-
-    def spec(self, scene_id: str) -> SceneSpec:
-        return self._spec
-
-
-class GeneratedProtocolEpisodes(EpisodeSource):
-    """One scene generated from ``template`` / ``scene_seed`` for ``robot``'s footprint, with ``n`` protocol
-    episodes of the loaded library (shipped protocols and the user's, see ``load_protocols``)."""
-
-    def __init__(
-        self,
-        template: str = "two_room",
-        scene_seed: int = 0,
-        n: int = 100,
-        required_categories: tuple[str, ...] = (),
-        robot: str = DEFAULT_ROBOT,
-    ) -> None:
-        self._spec = generate_scene(
-            template,
-            scene_seed,
-            required_categories=required_categories,
-            robot_radius=robot_spec(robot).footprint_radius,
-        )
-        self.episodes = ProtocolSampler(self._spec).protocol_episodes(n, scene_seed, load_protocols())
+        self.episodes = sampler(self._spec, n, scene_seed)
 
     def spec(self, scene_id: str) -> SceneSpec:
         return self._spec
