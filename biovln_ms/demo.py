@@ -93,8 +93,7 @@ def _metrics_table(info: dict) -> list[str]:
     for name in VARIANTS[DEFAULT_ENV].measures:
         metric = measure_type(name).metric
         if metric is not None and metric.at == "end" and name in info:
-            a = metric.aggregates[0] if metric.aggregates else None
-            cols.append((f"{a.label} ({a.unit})" if a else metric.key, info[name]))
+            cols.append((metric.key, info[name]))  # the episode's value, as its record holds it
     cells = [f"{v:.3f}" if isinstance(v, float) else str(v) for _, v in cols]
     return [
         "| " + " | ".join(h for h, _ in cols) + " |",
