@@ -5,9 +5,16 @@ from __future__ import annotations
 from pathlib import Path
 
 from biovln_ms.catalog import load_catalog
-from biovln_ms.eval.harness import DEFAULT_ENV
+from biovln_ms.episode_video import record_episode
+from biovln_ms.episodes.generator import EpisodeSampler
+from biovln_ms.eval.harness import DEFAULT_ENV, EvalConfig, evaluate
 from biovln_ms.metrics.measures import measure_type
 from biovln_ms.render.asset_preview import contact_sheet
+from biovln_ms.render.scene_view import render_overview
+from biovln_ms.scene.generator import generate_scene
+from biovln_ms.scene.rules import scene_navigation
+from biovln_ms.scene.spec import save_spec
+from biovln_ms.splits import FOUR_CATEGORIES
 from biovln_ms.variants import VARIANTS
 
 
@@ -17,12 +24,6 @@ def run_demo(out_dir: Path, echo=print, lighting: str = "quality") -> dict[str, 
     an MP4 (egocentric view beside the map) with its metrics, the renders under the lighting preset
     ``lighting``; then oracle and frontier evaluated on MS VAL and the report (tables with the paper's
     numbers, plots, renders, one MP4)."""
-    from biovln_ms.splits import FOUR_CATEGORIES
-    from biovln_ms.episodes.generator import EpisodeSampler
-    from biovln_ms.scene.rules import scene_navigation
-    from biovln_ms.render.scene_view import render_overview
-    from biovln_ms.scene.generator import generate_scene
-    from biovln_ms.scene.spec import save_spec
     from biovln_ms.scene.topdown import save_map
 
     out_dir = Path(out_dir)
@@ -60,7 +61,6 @@ def run_demo(out_dir: Path, echo=print, lighting: str = "quality") -> dict[str, 
         f"{episode['goals'][0]['position'][:2]} | "
         f"{info['geodesic_distance']:.3f} | {info['euclidean_distance']:.3f} | {info['difficulty']} |",
     ]
-    from biovln_ms.episode_video import record_episode
 
     files["video"] = out_dir / "ms_val_episode0_oracle.mp4"
     m = record_episode(files["video"], split="ms_val", episode=0, policy="oracle", lighting=lighting)
@@ -74,7 +74,6 @@ def run_demo(out_dir: Path, echo=print, lighting: str = "quality") -> dict[str, 
     files["table"].write_text("\n".join(lines) + "\n")
 
     # The main job: evaluate oracle and frontier on MS VAL and write the report.
-    from biovln_ms.eval.harness import EvalConfig, evaluate
     from biovln_ms.eval.report import write_report
 
     for method in ("oracle", "frontier"):

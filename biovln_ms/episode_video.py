@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from biovln_ms.variants import BENCHMARK_ENV
 from biovln_ms.eval.methods import method_spec
+from biovln_ms.eval.rollout import rollout
+from biovln_ms.variants import BENCHMARK_ENV
 
 
 def record_episode(
@@ -22,7 +23,6 @@ def record_episode(
     """Record one episode; returns its final metrics."""
     import gymnasium as gym
 
-    import biovln_ms  # noqa: F401
     from biovln_ms.render.video import MapCanvas, side_by_side, write_mp4
 
     env = gym.make(
@@ -37,8 +37,6 @@ def record_episode(
         lighting=lighting,
     )
     try:
-        from biovln_ms.eval.rollout import rollout
-
         spec = method_spec(policy)
         frames, trail, canvas = [], [], None
         for st in rollout(env, spec.factory(), episode, spec.privileged):

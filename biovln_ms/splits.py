@@ -37,6 +37,8 @@ from pathlib import Path
 
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
+from biovln_ms.lsat.designer_scene import target_glb_path
+from biovln_ms.lsat.importer import import_glb
 from biovln_ms.protocols.episodes import hosted_protocols
 from biovln_ms.protocols.library import ProtocolLibrary, load_protocols
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
@@ -98,8 +100,6 @@ MOLBIO_EPISODES = 30
 
 def lsat_target_scene(robot: str = DEFAULT_ROBOT):
     """The shipped designer-authored GLB, imported for ``robot`` (markers: strategy 1; the rest: 2)."""
-    from biovln_ms.lsat.designer_scene import target_glb_path
-    from biovln_ms.lsat.importer import import_glb
 
     radius = robot_spec(robot, "robot").footprint_radius
     return import_glb(target_glb_path(), name="lsat_target", robot_radius=radius)[0]

@@ -10,6 +10,7 @@ import math
 import numpy as np
 import torch
 
+from biovln_ms.geometry import base_frame
 from biovln_ms.sensor_noise import DepthNoise, RGBNoise, frame_keys
 from biovln_ms.task_config import NavTaskConfig
 
@@ -52,7 +53,6 @@ class HeadCameraNoise:
         """Without GPS+compass the cameras' extrinsics are given relative to the robot's base at planar
         ``pose`` (the mount, as a robot knows it), not the world: world-frame extrinsics would tell the pose
         (:mod:`biovln_ms.geometry.base_frame`)."""
-        from biovln_ms.geometry import base_frame  # Numba's import only where it is used
 
         for cam in params.values():
             ext, c2w = cam["extrinsic_cv"], cam["cam2world_gl"]

@@ -58,17 +58,6 @@ LIGHT_IMPORTERS = {
     # the evaluation driver hands episodes to worker processes; it never builds an env or a policy itself
     "biovln_ms.eval.harness": "the evaluation driver",
 }
-#: modules under rework whose light function-level imports are not converted yet; remove an entry once its
-#: module imports at module level
-NOT_YET_CONVERTED = {
-    "biovln_ms.demo",
-    "biovln_ms.episode_video",
-    "biovln_ms.splits",
-    "biovln_ms.eval.report",
-    "biovln_ms.eval.figures",
-    "biovln_ms.tasks.nav_env",
-    "biovln_ms.tasks.observations",
-}
 
 _GRAPH_SCRIPT = """
 import json, sys
@@ -178,7 +167,7 @@ def test_function_level_imports_are_of_heavy_modules_only():
     heavy = _heavy_modules(modules)
     wrong = []
     for name, f in modules.items():
-        if _under(name, LIGHT_IMPORTERS) or name in NOT_YET_CONVERTED:
+        if _under(name, LIGHT_IMPORTERS):
             continue
         for line, target in _imports(ast.parse(f.read_text()), modules, in_function=True):
             if target.startswith("biovln_ms") and not (_under(target, ALLOWED_TARGETS) and heavy.get(target)):

@@ -13,10 +13,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from biovln_ms.variants import BENCHMARK_ENV
+from biovln_ms.baselines.frontier import FREE, OCCUPIED, FrontierPolicy
 from biovln_ms.eval import paper
-from biovln_ms.eval.methods import report_methods
 from biovln_ms.eval.aggregate import aggregate, record_error
+from biovln_ms.eval.methods import report_methods
 from biovln_ms.eval.paper_tables import (
     PROTOCOL_REPORT_SPLITS,
     SPLITS,
@@ -28,6 +28,8 @@ from biovln_ms.eval.paper_tables import (
     _ran,
 )
 from biovln_ms.eval.rollout import rollout
+from biovln_ms.scene.rules import scene_navigation
+from biovln_ms.variants import BENCHMARK_ENV
 
 
 def plot_sr(summ: dict, out: Path) -> Path:
@@ -177,9 +179,6 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
     ``hard_figure_title``."""
     import gymnasium as gym
 
-    import biovln_ms  # noqa: F401
-    from biovln_ms.baselines.frontier import FREE, OCCUPIED, FrontierPolicy
-    from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.topdown import draw_map
 
     pol = FrontierPolicy()

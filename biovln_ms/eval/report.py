@@ -19,6 +19,19 @@ from typing import Callable
 
 import numpy as np
 
+from biovln_ms.episode_video import record_episode
+from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+from biovln_ms.errors import BioVLNError
+from biovln_ms.eval.aggregate import (
+    INTERVALS,
+    PROTOCOL_UNITS,
+    UNITS,
+    aggregate,
+    aggregate_all,
+    kind_metrics,
+    record_error,
+    succeeded,
+)
 from biovln_ms.eval.figures import (
     hard_episode_figure,
     hard_episodes,
@@ -29,16 +42,6 @@ from biovln_ms.eval.figures import (
 )
 from biovln_ms.eval.harness import EvalConfig, episode_key, load_records, read_manifest, unique_records
 from biovln_ms.eval.methods import METHODS, report_methods
-from biovln_ms.eval.aggregate import (
-    INTERVALS,
-    kind_metrics,
-    PROTOCOL_UNITS,
-    UNITS,
-    aggregate,
-    aggregate_all,
-    record_error,
-    succeeded,
-)
 from biovln_ms.eval.paper_tables import (
     ALPHA,
     BENCH_SPLITS,
@@ -67,6 +70,8 @@ from biovln_ms.eval.stats import holm, mcnemar, wilson_interval
 from biovln_ms.eval.tables import BREAKDOWN_MEASURES, PROTOCOL_BREAKDOWN_MEASURES, REACH_MEASURES, table_keys
 from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.measured import machine
+from biovln_ms.robot_specs import DEFAULT_ROBOT
+from biovln_ms.splits import dataset_root, ensure_default_dataset
 
 
 def load_runs(results: Path, echo: Callable[[str], None] = print) -> dict[tuple[str, str], list[dict]]:
@@ -296,7 +301,6 @@ def tables_of(summ: dict) -> list[list[str]]:
 
 def split_sizes(ds) -> dict[str, int]:
     """Each split's episode count in the dataset ``ds`` (its manifest), for the partial-run labels."""
-    from biovln_ms.episodes.dataset import DatasetError
 
     out = {}
     for s in ds.split_names():
@@ -310,10 +314,6 @@ def split_sizes(ds) -> dict[str, int]:
 def write_report(
     results: Path, out: Path, dataset: str | None = None, videos: int = 1, hard_figures: int = 2, echo=print
 ) -> Path:
-    from biovln_ms.episodes.dataset import EpisodeDataset
-    from biovln_ms.splits import dataset_root, ensure_default_dataset
-    from biovln_ms.robot_specs import DEFAULT_ROBOT
-    from biovln_ms.errors import BioVLNError
 
     runs = load_runs(Path(results), echo)
     if not runs:
@@ -374,8 +374,6 @@ def write_report(
         )
         lines += [heading, ""] + [f"![{f.stem}](figures/{f.name})" for f in hard_files] + [""]
     if videos:
-        from biovln_ms.episode_video import record_episode
-
         (out / "videos").mkdir(exist_ok=True)
         vids = []
         for (m, s), recs in sorted(ran.items()):
