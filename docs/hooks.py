@@ -139,7 +139,7 @@ def _metrics(kind: str | None) -> str:
             if a is None:
                 cells = ["–", "–", "–", "–"]
             else:
-                ci = "Wilson" if a.how != "mean" else "–" if a.bounds is None else "bootstrap"
+                ci = {"wilson": "Wilson", "bootstrap": "bootstrap", None: "–"}[a.interval]
                 cells = [f"`{a.key}` ({a.label}, {a.how})", a.unit, over[a.over], ci]
             rows.append(f"| `{key}` | `{cls.uuid}` | {at[metric.at]} | " + " | ".join(cells) + " |")
     return "\n".join(rows)

@@ -70,9 +70,9 @@ def _range(bounds: tuple[float, float | None]) -> str:
 
 def intervals(protocol: bool = False) -> str:
     """What the ``*_ci95`` intervals are, for the metrics of that kind."""
-    aggs = [a for m, _ in kind_metrics(protocol).values() for a in m.aggregates if a.bounds is not None]
-    wilson = [a.label for a in aggs if a.how != "mean"]
-    boot = [f"{a.label} ({_range(a.bounds)})" for a in aggs if a.how == "mean"]
+    aggs = [a for m, _ in kind_metrics(protocol).values() for a in m.aggregates]
+    wilson = [a.label for a in aggs if a.interval == "wilson"]
+    boot = [f"{a.label} ({_range(a.bounds)})" for a in aggs if a.interval == "bootstrap"]
     return (
         f"95 % intervals (*_ci95, in the metric's unit): Wilson score for {', '.join(wilson)}; percentile "
         f"bootstrap of the mean ({BOOTSTRAP_RESAMPLES} resamples, numpy default_rng seed {BOOTSTRAP_SEED}) "
@@ -146,7 +146,7 @@ def _values(a: Aggregate, key: str, rows: list[dict]) -> list | None:
 def _aggregate(a: Aggregate, key: str, records: list[dict], ran: list[dict], wins: list[dict]) -> dict:
     """The entries of one aggregate (its value, interval and count) over a set of records."""
     n = len(records)
-    ci = f"{a.key}_ci95"
+    ci = a.interval_key
     if a.how == "stages":
         ok = {id(r) for r in ran}
         stage_n, stage_k = [0] * MAX_STAGES, [0] * MAX_STAGES
@@ -169,10 +169,10 @@ def _aggregate(a: Aggregate, key: str, records: list[dict], ran: list[dict], win
     rows = wins if a.over == "successes" else ran
     vals = _values(a, key, rows)
     if vals is None:
-        return {a.key: math.nan} | ({ci: [math.nan, math.nan]} if a.bounds is not None else {})
+        return {a.key: math.nan} | ({ci: [math.nan, math.nan]} if ci else {})
     values = [a.scale * float(v) for v in vals] + ([0.0] * (n - len(ran)) if a.over == "all" else [])
     out = {a.key: _mean(values)}
-    return out | ({ci: list(bootstrap_interval(values, *a.bounds))} if a.bounds is not None else {})
+    return out | ({ci: list(bootstrap_interval(values, *a.bounds))} if ci else {})
 
 
 def aggregate(records: Iterable[dict]) -> dict:

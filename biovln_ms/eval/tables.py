@@ -61,8 +61,7 @@ def headline(summary: dict) -> str:
 
 def _aggregate_keys(a: Aggregate) -> tuple[str, ...]:
     """The entries one aggregate adds to a summary: its count, value and interval."""
-    interval = a.how != "mean" or a.bounds is not None
-    return tuple(k for k in (a.count, a.key, f"{a.key}_ci95" if interval else None) if k)
+    return tuple(k for k in (a.count, a.key, a.interval_key) if k)
 
 
 def table_keys(measures: tuple[str, ...]) -> tuple[str, ...]:

@@ -171,6 +171,17 @@ class Aggregate:
     missing: float | None = None  # the value of a record without the metric (None: the aggregate is unknown)
     known_without_runs: bool = True  # a rate: 0 when no episode ran (False: unknown)
 
+    @property
+    def interval(self) -> str | None:
+        """Its 95 % interval: ``"wilson"`` for a rate (per stage too), ``"bootstrap"`` for a mean with
+        ``bounds``, None for a mean without."""
+        return "wilson" if self.how != "mean" else None if self.bounds is None else "bootstrap"
+
+    @property
+    def interval_key(self) -> str | None:
+        """The summary key of its interval (``sr_ci95``), None when it has none."""
+        return f"{self.key}_ci95" if self.interval else None
+
 
 @dataclass(frozen=True)
 class Metric:
