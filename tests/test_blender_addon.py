@@ -17,6 +17,24 @@ ROOT = Path(__file__).resolve().parents[1]
 BLENDER_PY = Path(os.environ.get("BIOVLN_BLENDER_PYTHON", ROOT / ".venv-blender" / "bin" / "python"))
 
 
+def test_addon_zip_holds_the_addon_package(tmp_path):
+    """The zip Blender installs: the add-on's package at its root, every module, the same bytes each time."""
+    import zipfile
+
+    from biovln_ms.lsat.addon_zip import ADDON_DIR
+
+    out = tmp_path / "addon.zip"
+    cmd = [sys.executable, "-m", "biovln_ms.cli", "lsat", "blender-addon", "-o", str(out)]
+    subprocess.run(cmd, check=True, capture_output=True)
+    names = zipfile.ZipFile(out).namelist()
+    assert "biovln_lsat/__init__.py" in names
+    assert sorted(names) == sorted(f"biovln_lsat/{f.name}" for f in ADDON_DIR.glob("*.py"))
+    again = tmp_path / "again.zip"
+    cmd = [sys.executable, "-m", "biovln_ms.cli", "lsat", "blender-addon", "-o", str(again)]
+    subprocess.run(cmd, check=True, capture_output=True)
+    assert out.read_bytes() == again.read_bytes()
+
+
 @pytest.mark.skipif(not BLENDER_PY.exists(), reason="no Blender Python (run scripts/install_blender.sh)")
 def test_addon_panel_operators_headless(tmp_path):
     subprocess.run(

@@ -95,18 +95,11 @@ def lsat_blender_addon(
     """Package the Blender add-on as a zip.
 
     Install it with Edit > Preferences > Add-ons > Install from Disk."""
-    import io
-    import zipfile
-
     from biovln_ms.io_utils import atomic_write_bytes
+    from biovln_ms.lsat.addon_zip import addon_zip_bytes
 
-    src = Path(__file__).parent / "lsat" / "blender_addon" / "biovln_lsat"
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
-        for f in sorted(src.glob("*.py")):
-            z.writestr(zipfile.ZipInfo(f"biovln_lsat/{f.name}", (1980, 1, 1, 0, 0, 0)), f.read_bytes())
     typer.echo(
-        f"wrote {atomic_write_bytes(out, buf.getvalue())} (install it from Blender's add-on preferences)"
+        f"wrote {atomic_write_bytes(out, addon_zip_bytes())} (install it from Blender's add-on preferences)"
     )
 
 
