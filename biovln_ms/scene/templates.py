@@ -4,12 +4,17 @@ A template lists floor rectangles (rooms, corridors, doorway passages), fixed fu
 instrument slots. Packaged templates live in ``biovln_ms/scene/templates/``; users add their own
 with :func:`register_template` (a path or a dict) or by putting JSON files in a folder named by the
 ``BIOVLN_TEMPLATE_PATH`` environment variable — the generator is never edited.
+
+Such a folder may hold other JSON (scene specs, episodes): a file there is a template by its content, a
+JSON object with the keys ``TEMPLATE_KEYS``. Any other file, and a template that does not load, is skipped
+with a one-line warning naming it, so one stray file never stops a command that needs no template of it.
 """
 
 from __future__ import annotations
 
 import importlib.util
 import json
+import logging
 import os
 from pathlib import Path
 from typing import Literal
@@ -20,7 +25,10 @@ from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import BioVLNError, describe_validation_error
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
+#: the keys that make a JSON file in a BIOVLN_TEMPLATE_PATH folder a template (no scene spec has slots)
+TEMPLATE_KEYS = ("rooms", "slots", "active_slots")
 Side = Literal["N", "S", "E", "W"]
+log = logging.getLogger(__name__)
 
 
 class TemplateError(BioVLNError):
@@ -145,6 +153,7 @@ class Template(_Strict):
 
 _REGISTRY: dict[str, Template] = {}
 _BUILTIN_LOADED = False
+_SKIPPED: dict[str, str] = {}  # file in a BIOVLN_TEMPLATE_PATH folder -> why it was not loaded
 
 
 def parse_template(obj: dict, source: str) -> Template:
@@ -218,7 +227,29 @@ def register_template(template: Template | dict | str | Path, override: bool = F
     return template
 
 
+def _register_user_file(path: Path) -> None:
+    """Register ``path`` from a BIOVLN_TEMPLATE_PATH folder when its content is a template; anything else
+    (another kind of JSON, a broken template, a name already taken) is skipped with a one-line warning."""
+    try:
+        obj = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        why = f"not readable JSON ({getattr(e, 'strerror', None) or e})"
+    else:
+        if isinstance(obj, dict) and all(k in obj for k in TEMPLATE_KEYS):
+            try:
+                register_template(parse_template(obj, str(path)))
+                return
+            except TemplateError as e:
+                why = f"not a valid template: {e.message}" + (f" (field '{e.field}')" if e.field else "")
+        else:
+            keys = ", ".join(f"'{k}'" for k in TEMPLATE_KEYS)
+            why = f"not a layout template (a template has {keys}; is it a scene spec?)"
+    _SKIPPED[str(path)] = why
+    log.warning("BIOVLN_TEMPLATE_PATH: skipped %s: %s", path, why)
+
+
 def _load_builtin() -> None:
+    """The packaged templates, then the template files in the BIOVLN_TEMPLATE_PATH folders."""
     global _BUILTIN_LOADED
     if _BUILTIN_LOADED:
         return
@@ -226,8 +257,8 @@ def _load_builtin() -> None:
     for path in sorted(TEMPLATE_DIR.glob("*.json")):
         register_template(path)
     for folder in filter(None, os.environ.get("BIOVLN_TEMPLATE_PATH", "").split(os.pathsep)):
-        for path in sorted(Path(folder).glob("*.json")):
-            register_template(path)
+        for path in sorted(p for p in Path(folder).glob("*.json") if p.is_file()):
+            _register_user_file(path)
 
 
 def template_names() -> list[str]:
@@ -240,7 +271,10 @@ def get_template(name: str | Template) -> Template:
         return name
     _load_builtin()
     if name not in _REGISTRY:
+        skipped = f"; skipped from BIOVLN_TEMPLATE_PATH: {', '.join(_SKIPPED)}" if _SKIPPED else ""
         raise TemplateError(
-            f"unknown template '{name}'", field="template", fix=f"use one of: {', '.join(sorted(_REGISTRY))}"
+            f"unknown template '{name}'",
+            field="template",
+            fix=f"use one of: {', '.join(sorted(_REGISTRY))}{skipped}",
         )
     return _REGISTRY[name]
