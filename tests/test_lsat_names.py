@@ -61,6 +61,25 @@ def test_names_that_are_parts_unknown_or_ambiguous_are_not_guessed(name, how, ca
     assert (m.category, m.how, m.candidates) == (None, how, candidates)
 
 
+@pytest.mark.parametrize("name", ["BSC_cabinet", "Cabinet BSC.001", "target_BSC Cabinet"])
+def test_the_more_specific_of_two_categories_in_a_name_wins(name):
+    m = match_category(name, "target_" if name.startswith("target") else None)
+    assert (m.category, m.how, m.set_aside) == ("biosafety_cabinet", "words", ("cabinet",))
+    assert not m.ambiguous
+
+
+@pytest.mark.parametrize(
+    "name, candidates",
+    [
+        ("Fridge cabinet", ("cabinet", "refrigerator")),  # neither names the other: still ambiguous
+        ("storage cabinet BSC", ("biosafety_cabinet", "cabinet")),  # "storage cabinet" is in no BSC phrase
+    ],
+)
+def test_categories_neither_more_specific_stay_ambiguous(name, candidates):
+    m = match_category(name)
+    assert (m.category, m.candidates, m.set_aside) == (None, candidates, ())
+
+
 def test_levenshtein_typos_still_match():
     m = match_category("target_refrigerater_2", "target_")
     assert (m.category, m.how, m.distance) == ("refrigerator", "fuzzy", 1)

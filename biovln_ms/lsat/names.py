@@ -6,8 +6,10 @@ The first rule that decides wins:
 2. words: the name's words (``catalog.name_tokens``: separators, camel case and digits split, numbers
    dropped) hold a category's name, display name or catalog synonym as consecutive words
    (``Refrigerator_large``, ``Fridge_02``, ``BSC-2``, ``Centrifuge 5424R``). A phrase inside a longer
-   matching one does not count (``Biosafety Cabinet`` is no storage ``cabinet``); phrases of several
-   categories are ambiguous; a part word after the phrase names a part, not an instrument
+   matching one does not count (``Biosafety Cabinet`` is no storage ``cabinet``); of two categories whose
+   phrases are both in the name, the more specific wins: the one with a phrase holding all the other's
+   matched words (``BSC cabinet``: a biosafety cabinet, whose name holds ``cabinet``); phrases of several
+   categories otherwise are ambiguous; a part word after the phrase names a part, not an instrument
    (``cabinet_door``, ``Bin_Shelf``);
 3. fuzzy: the normalised name (lower case, separators -> ``_``, Blender's ``.001`` and trailing ``_2``
    dropped) within Levenshtein distance 2 of a category's name or display name, for typos
@@ -73,6 +75,7 @@ class Match:
     distance: int | None
     candidates: tuple[str, ...] = ()  # for ambiguous names: the tied categories
     how: str = ""  # "name map", "words", "fuzzy", "part" (a part's name: no category), "" (no match)
+    set_aside: tuple[str, ...] = ()  # categories the name also holds, less specific than ``category``
 
     @property
     def ambiguous(self) -> bool:
@@ -104,12 +107,36 @@ def _by_words(name: str, key: str) -> Match | None:
     ]
     if not kept:
         return None
-    categories = tuple(sorted({c for _, _, c in kept}))
+    found = {c for _, _, c in kept}
+    general = _less_specific({c: [tuple(words[i:e]) for i, e, k in kept if k == c] for c in found})
+    if general == found:  # each names the other more specifically: none wins
+        general = set()
+    categories = tuple(sorted(found - general))
     if len(categories) > 1:
         return Match(name, key, None, 0, categories, "words")
     if PART_WORDS.intersection(words[max(e for _, e, _ in kept) :]):
         return Match(name, key, None, None, (), "part")
-    return Match(name, key, categories[0], 0, (), "words")
+    return Match(name, key, categories[0], 0, (), "words", tuple(sorted(general)))
+
+
+def _holds(phrase: tuple[str, ...], part: tuple[str, ...]) -> bool:
+    """Whether ``part`` is consecutive words of ``phrase``."""
+    return any(phrase[i : i + len(part)] == part for i in range(len(phrase) - len(part) + 1))
+
+
+def _less_specific(matched: dict[str, list[tuple[str, ...]]]) -> set[str]:
+    """The categories of ``matched`` (category -> its phrases found in a name) that another one found
+    there names more specifically: each of their found phrases lies inside one of its catalog phrases
+    (``cabinet`` inside ``biosafety cabinet``)."""
+    by_category: dict[str, list[tuple[str, ...]]] = {}
+    for phrase, category in load_catalog().phrases().items():
+        by_category.setdefault(category, []).append(phrase)
+    return {
+        c
+        for c, found in matched.items()
+        for d in matched
+        if d != c and all(any(_holds(p, f) for p in by_category[d]) for f in found)
+    }
 
 
 def _by_distance(name: str, key: str) -> Match:
