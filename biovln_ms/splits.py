@@ -36,6 +36,7 @@ import os
 from pathlib import Path
 
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+from biovln_ms.episodes.samplers import AnyInstanceEpisodes, ProtocolEpisodes
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.lsat.designer_scene import target_glb_path
 from biovln_ms.lsat.importer import import_glb
@@ -162,7 +163,7 @@ def paper_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
                 name,
                 [(generate_scene(t, seed, robot_radius=r), n, False) for t, seed, n in scenes],
                 description="Hard track: suite / open_plan / single_room held-out seeds, any instance counts",
-                hard_share=HARD_SHARE,
+                sampler=AnyInstanceEpisodes(HARD_SHARE),
             )
         )
     for name, base in HARD_DRESSED.items():
@@ -174,7 +175,7 @@ def paper_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
                     for t, seed, n in HARD_SPLITS[base]
                 ],
                 description=f"Hard track: the scenes of {base} with lab dressing, any instance counts",
-                hard_share=HARD_SHARE,
+                sampler=AnyInstanceEpisodes(HARD_SHARE),
             )
         )
     out.append(
@@ -226,7 +227,7 @@ def protocol_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
                 scenes,
                 description=f"lab protocols, K = 2-5 ordered goals: {count} scenes per template from seed "
                 f"{first_seed}",
-                protocols=library,
+                sampler=ProtocolEpisodes(library),
             )
         )
     return out
@@ -259,7 +260,7 @@ def molbio_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
                 scenes,
                 description=f"molecular-biology lab, new categories: seeds {first_seed}-"
                 f"{first_seed + count - 1}, {MOLBIO_EPISODES} per scene, any instance counts",
-                hard_share=0.0,
+                sampler=AnyInstanceEpisodes(hard_share=0.0),
             )
         )
     return out

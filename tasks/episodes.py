@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from biovln_ms.episodes.schema import Episode
 from biovln_ms.episodes.source import EPISODE_OPTIONS, EpisodeCursor
 from biovln_ms.geometry.navigation import NavGeometry
 from biovln_ms.metrics.measures import EpisodeContext
@@ -14,8 +15,8 @@ from biovln_ms.tasks.config_checks import EnvConfigError
 
 
 def choose_episodes(
-    cursor: EpisodeCursor, episodes: list[dict], rows, seed, options: dict, partial: bool
-) -> tuple[dict[int, int], list[dict], bool]:
+    cursor: EpisodeCursor, episodes: list[Episode], rows, seed, options: dict, partial: bool
+) -> tuple[dict[int, int], list[Episode], bool]:
     """The episode index of each reset sub-env of ``rows`` (the cursor's, a ``seed`` positioning it once;
     ``options`` may name one), every sub-env's episode after the reset, and whether a scene changes. A
     partial reset of a batched env cannot rebuild a sub-env's scene: its next episode is in the scene it
@@ -38,7 +39,7 @@ def choose_episodes(
     return chosen, after, changed
 
 
-def episode_context(ep: dict, spec: SceneSpec, nav: NavGeometry, cfg: NavTaskConfig) -> EpisodeContext:
+def episode_context(ep: Episode, spec: SceneSpec, nav: NavGeometry, cfg: NavTaskConfig) -> EpisodeContext:
     """An episode for the measures: every goal of the episode counts (one, or each instance of the category
     where any instance counts), with the geodesic to the nearest."""
     goals, distance_fns = [], []

@@ -21,6 +21,7 @@ from mani_skill.utils.structs.types import SimConfig
 from biovln_ms.agents.robots import NAV_AGENTS
 from biovln_ms.agents.robots.locomotion import swept_motion
 from biovln_ms.catalog import load_catalog
+from biovln_ms.episodes.schema import Episode
 from biovln_ms.episodes.source import EpisodeCursor, EpisodeSource, GeneratedEpisodes
 from biovln_ms.metrics.measure_set import MeasureSet
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, StepState
@@ -89,7 +90,7 @@ class BioVLNNavEnv(BaseEnv):
         self.category_names = load_catalog().goal_categories()
         n = int(kwargs.get("num_envs", 1))
         self._episode_index: list[int] = [self.cursor.first] * n  # per sub-env, into source.episodes
-        self._episodes: list[dict] = [self.source.episodes[self.cursor.first]] * n
+        self._episodes: list[Episode] = [self.source.episodes[self.cursor.first]] * n
         self._scene_ids: list[str | None] = [None] * n
         self._set_scenes()
         self._arm: FetchArm | None = None  # Fetch's arm model for the reach check, made at the first STOP
@@ -337,7 +338,7 @@ class BioVLNNavEnv(BaseEnv):
         return self.scene_specs[0]
 
     @property
-    def current_episode(self) -> dict:
+    def current_episode(self) -> Episode:
         """Sub-env 0's episode record (for evaluators and logs, not for policies)."""
         return self._episodes[0]
 

@@ -21,7 +21,8 @@ import numpy as np
 import torch
 
 from biovln_ms.constants import MAX_VISITS
-from biovln_ms.episodes.source import GeneratedEpisodes, protocol_episodes
+from biovln_ms.episodes.samplers import ProtocolEpisodes
+from biovln_ms.episodes.source import GeneratedEpisodes
 from biovln_ms.metrics.protocol_measures import ProtocolBatchContext, ProtocolEpisodeContext
 from biovln_ms.protocols.vocabulary import load_vocabulary
 from biovln_ms.task_config import EpisodeInfo, ProtocolTaskConfig
@@ -58,7 +59,7 @@ class BioVLNProtocolEnv(BioVLNNavEnv):
     keyword arguments (``wrong_stop``, ``subgoal_rule``, ``steps_per_goal`` among them)."""
 
     config: ProtocolTaskConfig = VARIANTS[PROTOCOL_ENV]
-    generated_episodes = partial(GeneratedEpisodes, sampler=protocol_episodes)
+    generated_episodes = partial(GeneratedEpisodes, sampler=ProtocolEpisodes())
     default_template = "two_room"  # it hosts every shipped protocol
 
     def _after_reconfigure(self, options: dict):

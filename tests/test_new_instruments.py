@@ -9,6 +9,7 @@ import pytest
 
 from biovln_ms.assetgen.generate import plans
 from biovln_ms.catalog import PAPER_GOAL_CATEGORIES, load_catalog
+from biovln_ms.episodes.samplers import AnyInstanceEpisodes
 from biovln_ms.paths import asset_glb
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.rules import check_consistency, check_layout
@@ -126,7 +127,7 @@ def test_molbio_splits_hold_every_new_category_on_seeds_no_other_split_uses():
     molbio = [spec.seed for s in splits for spec, _, _ in s.scenes]
     assert len(set(molbio)) == len(molbio) and not set(molbio) & used
     for s in splits:
-        assert s.hard_share == 0.0  # any instance counts, starts drawn as usual
+        assert s.sampler == AnyInstanceEpisodes(hard_share=0.0)  # any instance counts, starts drawn as usual
         held = {o.category for spec, _, _ in s.scenes for o in spec.goal_objects()}
         assert set(NEW) <= held, s.name
         assert all(spec.template == "molecular_biology" for spec, _, _ in s.scenes)

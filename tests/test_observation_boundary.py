@@ -120,13 +120,16 @@ def _policies(tmp_path, dataset):
 def dataset(tmp_path_factory):
     """Two MS VAL episodes of the held-out scene of seed 154, and a protocol episode there."""
     from biovln_ms.splits import FOUR_CATEGORIES
+    from biovln_ms.episodes.samplers import ProtocolEpisodes
     from biovln_ms.episodes.writer import SplitPlan, write_dataset
     from biovln_ms.protocols import load_protocols
     from biovln_ms.scene.generator import generate_scene
 
     root = tmp_path_factory.mktemp("data") / "ds"
     scene = generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES)
-    protocols = SplitPlan("protocol_val", [(scene, 1, False)], protocols=load_protocols(env=False))
+    protocols = SplitPlan(
+        "protocol_val", [(scene, 1, False)], sampler=ProtocolEpisodes(load_protocols(env=False))
+    )
     write_dataset(root, [SplitPlan("ms_val", [(scene, 2, False)]), protocols], progress=False)
     return root
 

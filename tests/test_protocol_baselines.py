@@ -15,6 +15,7 @@ import pytest
 import biovln_ms  # noqa: F401
 from biovln_ms.splits import FOUR_CATEGORIES
 from biovln_ms.episodes.dataset import EpisodeDataset
+from biovln_ms.episodes.samplers import ProtocolEpisodes
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.rollout import rollout
@@ -37,7 +38,7 @@ def dataset(tmp_path_factory) -> str:
     scene = generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES)
     library = load_protocols(env=False)
     plans = [
-        SplitPlan("protocol_val", [(scene, 3, False)], protocols=library),
+        SplitPlan("protocol_val", [(scene, 3, False)], sampler=ProtocolEpisodes(library)),
         SplitPlan("ms_val", [(scene, 2, False)]),
     ]
     write_dataset(root, plans, progress=False)

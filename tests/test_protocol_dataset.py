@@ -26,6 +26,7 @@ from biovln_ms.splits import (
 from biovln_ms.cli import app
 from biovln_ms.constants import MAX_VISITS, MIN_VISITS
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
+from biovln_ms.episodes.samplers import ProtocolEpisodes
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.episodes.generator import EpisodeError, keeps_start_rule
 from biovln_ms.protocols import load_protocols
@@ -205,7 +206,9 @@ def test_stats_show_k_routes_and_relations(protocol_dataset):
 def test_a_tampered_protocol_record_is_refused(tmp_path):
     root = tmp_path / "ds"
     write_dataset(
-        root, [SplitPlan("p", [(_scene("two_room", 700), 2, False)], protocols=LIBRARY)], progress=False
+        root,
+        [SplitPlan("p", [(_scene("two_room", 700), 2, False)], sampler=ProtocolEpisodes(LIBRARY))],
+        progress=False,
     )
     manifest = json.loads((root / "manifest.json").read_text())
     entry = manifest["splits"]["p"]["files"]["two_room_s700_v0"]
@@ -223,7 +226,9 @@ def test_a_tampered_protocol_record_is_refused(tmp_path):
 def test_a_small_protocol_build_is_byte_identical(tmp_path):
     plan = [
         SplitPlan(
-            "p", [(_scene("suite", 701), 6, False), (_scene("single_room", 701), 4, False)], protocols=LIBRARY
+            "p",
+            [(_scene("suite", 701), 6, False), (_scene("single_room", 701), 4, False)],
+            sampler=ProtocolEpisodes(LIBRARY),
         )
     ]
     for out in ("a", "b"):

@@ -15,6 +15,7 @@ import torch
 
 import biovln_ms  # noqa: F401
 from biovln_ms.splits import FOUR_CATEGORIES
+from biovln_ms.episodes.samplers import ProtocolEpisodes
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import PlacedInstrument
@@ -256,7 +257,9 @@ def dataset(tmp_path_factory):
     write_dataset(
         root,
         [
-            SplitPlan("protocol_val", [(two, 4, False), (single, 2, False)], protocols=library),
+            SplitPlan(
+                "protocol_val", [(two, 4, False), (single, 2, False)], sampler=ProtocolEpisodes(library)
+            ),
             SplitPlan("ms_val", [(held, 2, False)]),
         ],
         progress=False,

@@ -11,8 +11,8 @@ and renames it into place at the end, so a killed build never leaves a dataset t
 build into the same parent removes what a killed one left. Loading refuses a dataset made for another
 robot, agent radius or catalog (Habitat's NaN-SPL trap; a manifest without a ``robot`` field predates it
 and is the default robot's), any file whose hash does not match the manifest, any
-path that leads outside the folder, and anything malformed or over the limits below — always with one
-``DatasetError`` naming the file and the field.
+path that leads outside the folder, and anything malformed or over the limits below or an episode's
+(:mod:`biovln_ms.episodes.schema`) — always with one ``DatasetError`` naming the file and the field.
 
 This module reads and validates; building a dataset (``SplitPlan``, ``write_dataset``) is
 :mod:`biovln_ms.episodes.writer`.
@@ -23,21 +23,22 @@ from __future__ import annotations
 import gzip
 import hashlib
 import json
-import math
 import stat
 import zlib
 from collections import Counter
 from pathlib import Path, PurePosixPath
-from typing import Annotated, BinaryIO, Iterator, Literal
+from typing import Annotated, BinaryIO, Iterator
 
-from pydantic import AfterValidator, ConfigDict, Field, TypeAdapter, ValidationError, with_config
+from pydantic import Field, TypeAdapter, ValidationError, with_config
 from typing_extensions import NotRequired, TypedDict
 
 from biovln_ms.catalog import load_catalog
-from biovln_ms.constants import MAX_VISITS, MIN_VISITS, SCENE_GENERATOR_VERSION
+from biovln_ms.constants import SCENE_GENERATOR_VERSION
+from biovln_ms.episodes.schema import EPISODES, STRICT, Count, Episode
 from biovln_ms.errors import BioVLNError, describe_validation_error
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.loading import load_spec
+from biovln_ms.scene.rules import validate_spec
 from biovln_ms.scene.spec import MAX_COORDINATE, MAX_JSON_DEPTH, SceneSpec, SceneSpecError, json_depth
 from biovln_ms.scene.spec import MAX_FILE_BYTES as MAX_SCENE_FILE_BYTES
 
@@ -51,8 +52,6 @@ EPISODE_GENERATOR_VERSION = 2  # 2: no trivial episodes (generator.MIN_START_GEO
 MAX_MANIFEST_BYTES = 16 * 2**20
 MAX_EPISODE_FILE_BYTES = 256 * 2**20  # decompressed (read in bounded chunks), and on disk
 MAX_EPISODES_PER_SPLIT = 1_000_000
-MAX_GOALS = 64  # per episode
-MAX_VIEW_POINTS = 1024  # per goal
 _READ_CHUNK = 2**20
 _REBUILD = "rebuild it: biovln-ms dataset build --out DIR"
 
@@ -78,29 +77,13 @@ def _schema_error(e: ValidationError, source: str, prefix: str = "") -> DatasetE
     return DatasetError(_oneline(msg), source=source, field=_oneline(loc), fix=fix)
 
 
-# --- schemas (validated only: loading returns the JSON objects themselves, unchanged) -------------
-# strict: no "1.5" -> 1.5 or true -> 1 coercion; allow_inf_nan=False: NaN and +-inf refused; unknown
-# keys ignored. TypedDicts, not models: validating 1,000 episodes takes ~15 ms.
-_STRICT = ConfigDict(strict=True, allow_inf_nan=False)
+# --- the manifest's schema (validated only: loading returns the JSON object itself, unchanged; the episodes'
+# schema is biovln_ms.episodes.schema's) ---------------------------------------------------------------
 _SHA256 = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
 _RelPath = Annotated[str, Field(min_length=1, max_length=4096)]
-_Count = Annotated[int, Field(ge=0)]
-_Coord = Annotated[float, Field(ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
-_Distance = Annotated[float, Field(ge=0)]
 
 
-def _unit_quaternion(q: list[float]) -> list[float]:
-    if abs(math.hypot(*q) - 1.0) > 1e-3:
-        raise ValueError("must be a unit quaternion [w, x, y, z]")
-    return q
-
-
-_Vec2 = Annotated[list[_Coord], Field(min_length=2, max_length=2)]
-_Vec3 = Annotated[list[_Coord], Field(min_length=3, max_length=3)]
-_Quat = Annotated[list[float], Field(min_length=4, max_length=4), AfterValidator(_unit_quaternion)]
-
-
-@with_config(_STRICT)
+@with_config(STRICT)
 class _SceneEntry(TypedDict):
     file: _RelPath
     sha256: _SHA256
@@ -109,25 +92,25 @@ class _SceneEntry(TypedDict):
     dressing: NotRequired[bool]  # generated with lab dressing; absent: without
 
 
-@with_config(_STRICT)
+@with_config(STRICT)
 class _FileEntry(TypedDict):
     file: _RelPath
     sha256: _SHA256
-    episodes: _Count
+    episodes: Count
 
 
-@with_config(_STRICT)
+@with_config(STRICT)
 class _SplitEntry(TypedDict):
     description: NotRequired[str]
     scenes: list[str]
-    episodes: _Count
+    episodes: Count
     files: dict[str, _FileEntry]
     missing: NotRequired[str | None]
     view_of: NotRequired[str | None]
     dressing: NotRequired[bool]  # its scenes have lab dressing; absent: they have none
 
 
-@with_config(_STRICT)
+@with_config(STRICT)
 class _Manifest(TypedDict):
     robot: NotRequired[str]  # absent in manifests written before it: the default robot
     agent_radius: Annotated[float, Field(gt=0, le=MAX_COORDINATE)]
@@ -138,69 +121,7 @@ class _Manifest(TypedDict):
     splits: dict[str, _SplitEntry]
 
 
-@with_config(_STRICT)
-class _AgentState(TypedDict):
-    position: _Vec3
-    rotation: _Quat
-
-
-@with_config(_STRICT)
-class _ViewPoint(TypedDict):
-    agent_state: _AgentState
-
-
-@with_config(_STRICT)
-class _Goal(TypedDict):
-    position: _Vec3
-    radius: Annotated[float, Field(gt=0, le=MAX_COORDINATE)]
-    object_id: str
-    object_category: str
-    eq1_goal: _Vec2
-    view_points: Annotated[list[_ViewPoint], Field(max_length=MAX_VIEW_POINTS)]
-
-
-@with_config(_STRICT)
-class _Info(TypedDict):
-    geodesic_distance: _Distance
-    euclidean_distance: _Distance
-    difficulty: Literal["easy", "medium", "hard"]
-    start_clearance: _Coord
-    start_clearance_fallback: bool
-    cross_room: bool
-    any_instance: NotRequired[bool]  # the Hard track: every goal is an instance of the category; any counts
-    instances: NotRequired[Annotated[int, Field(ge=1, le=MAX_GOALS)]]
-    drawn_hard: NotRequired[bool]  # the start was drawn for a geodesic over 6 m
-
-
-@with_config(_STRICT)
-class _Protocol(TypedDict):
-    """A protocol episode's (``biovln_ms.protocols.episodes``): its goals are visited in order."""
-
-    id: Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$")]
-    k: Annotated[int, Field(ge=MIN_VISITS, le=MAX_VISITS)]
-    instruction: Annotated[str, Field(min_length=1, max_length=2**16)]
-    purposes: Annotated[list[str], Field(min_length=MIN_VISITS, max_length=MAX_VISITS)]
-    relations: Annotated[list[str | None], Field(min_length=MIN_VISITS, max_length=MAX_VISITS)]
-    needs_relation: _Count
-    legs: Annotated[list[_Distance], Field(min_length=MIN_VISITS, max_length=MAX_VISITS)]
-    route_length: _Distance
-
-
-@with_config(_STRICT)
-class _Episode(TypedDict):
-    episode_id: str
-    scene_id: str
-    start_position: _Vec3
-    start_rotation: _Quat
-    object_category: str
-    object_id: str
-    goals: Annotated[list[_Goal], Field(min_length=1, max_length=MAX_GOALS)]
-    info: _Info
-    protocol: NotRequired[_Protocol]  # a protocol split's episode: K ordered goals
-
-
 _MANIFEST = TypeAdapter(_Manifest)
-_EPISODES = TypeAdapter(list[_Episode])
 
 
 # --- bounded reading ------------------------------------------------------------------------------
@@ -507,7 +428,7 @@ class EpisodeDataset:
             path, src = self._resolve(rel, f"scenes.{scene}.file"), str(self.root / rel)
             _regular_size(path, src, MAX_SCENE_FILE_BYTES, "scene file")
             try:
-                spec = load_spec(path)
+                spec = validate_spec(load_spec(path), str(path))
             except SceneSpecError as e:
                 raise DatasetError(e.message, source=src, field=e.field, fix=e.fix) from None
             if spec.name != scene:
@@ -520,12 +441,12 @@ class EpisodeDataset:
             self._specs[scene] = spec
         return self._specs[scene]
 
-    def episodes(self, split: str) -> Iterator[dict]:
+    def episodes(self, split: str) -> Iterator[Episode]:
         info = self.split_info(split)
         for scene in info["scenes"]:
             yield from self._read_episodes(split, scene, info["files"][scene])
 
-    def _read_episodes(self, split: str, scene: str, entry: dict) -> list[dict]:
+    def _read_episodes(self, split: str, scene: str, entry: dict) -> list[Episode]:
         """The episodes of one file: bounded gunzip, JSON limits, schema, scene and category checks."""
         rel = entry["file"]
         path, src = self._resolve(rel, f"splits.{split}.files.{scene}.file"), str(self.root / rel)
@@ -557,7 +478,7 @@ class EpisodeDataset:
                 fix=_REBUILD,
             )
         try:
-            _EPISODES.validate_python(eps)
+            EPISODES.validate_python(eps)
         except ValidationError as e:
             raise _schema_error(e, src, "episodes") from None
         for i, ep in enumerate(eps):
@@ -601,7 +522,7 @@ class EpisodeDataset:
         }
 
 
-def _protocol_stats(eps: list[dict]) -> dict:
+def _protocol_stats(eps: list[Episode]) -> dict:
     """K, route lengths and spatial relations of a protocol split's episodes."""
     ps = [e["protocol"] for e in eps]
     routes = [p["route_length"] for p in ps]

@@ -29,6 +29,7 @@ from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
+from biovln_ms.episodes.schema import Episode, Goal
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.freespace import grow
 from biovln_ms.geometry.navigation import NavGeometry
@@ -104,7 +105,7 @@ class EpisodeSampler:
             )
 
     # --- goals ----------------------------------------------------------------------------------
-    def _target(self, o: ObjectSpec) -> dict:
+    def _target(self, o: ObjectSpec) -> Goal:
         nav = self.nav
         isl_poly = nav.islands[self.island]
         z3 = o.placed().zone3()
@@ -182,7 +183,7 @@ class EpisodeSampler:
             self._rasters[rooms] = np.stack([gx[ok], gy[ok], d], axis=1)
         return self._rasters[rooms]
 
-    def start_region(self, target: dict, rooms: tuple[str, ...] | None = None) -> tuple[Polygon, float]:
+    def start_region(self, target: Goal, rooms: tuple[str, ...] | None = None) -> tuple[Polygon, float]:
         """Where starts to ``target`` are drawn, and the clearance from obstacles they keep (cached).
 
         The floor at least ``min_start_clearance`` from obstacles, outside the success radius; when less
@@ -238,7 +239,7 @@ class EpisodeSampler:
                 return np.array([x[inside[0]], y[inside[0]]])
         raise EpisodeError("could not sample a start in a non-empty region (degenerate geometry)")
 
-    def _start(self, region: Polygon, target: dict, rng: np.random.Generator) -> tuple[np.ndarray, float]:
+    def _start(self, region: Polygon, target: Goal, rng: np.random.Generator) -> tuple[np.ndarray, float]:
         """A start in ``region`` that keeps the rule for ``target`` (rejection sampling), and its geodesic
         distance to the goal."""
         goal, r, oid = np.asarray(target["position"][:2]), target["radius"], target["object_id"]
@@ -258,7 +259,7 @@ class EpisodeSampler:
         )
 
     def _any_instance_start(
-        self, region: Polygon, targets: list[dict], hard: bool, rng: np.random.Generator
+        self, region: Polygon, targets: list[Goal], hard: bool, rng: np.random.Generator
     ) -> tuple[np.ndarray, np.ndarray]:
         """A start in ``region`` that keeps the rule for the nearest of ``targets`` and lies outside every
         target's radius; for a ``hard`` episode the first such start over ``HARD_GEODESIC`` from the
@@ -290,12 +291,12 @@ class EpisodeSampler:
 
     def any_instance_episodes(
         self, n: int, seed: int, hard_share: float = 0.5, id_offset: int = 0
-    ) -> list[dict]:
+    ) -> list[Episode]:
         """``n`` Hard-track episodes cycling over the scene's goal categories (shuffled): every instance
         of the category is a goal, nearest first; episode k is drawn hard when floor((k + 1) h) >
         floor(k h), h = ``hard_share``."""
         rng = np.random.default_rng([stable_seed(self.spec.name), seed, 1])
-        by_category: dict[str, list[dict]] = {}
+        by_category: dict[str, list[Goal]] = {}
         for o in self.spec.goal_objects():
             by_category.setdefault(o.category, []).append(self._targets[o.id])
         categories = sorted(by_category)
@@ -336,7 +337,7 @@ class EpisodeSampler:
         return out
 
     # --- episodes -------------------------------------------------------------------------------
-    def episodes(self, n: int, seed: int, cross_room: bool = False, id_offset: int = 0) -> list[dict]:
+    def episodes(self, n: int, seed: int, cross_room: bool = False, id_offset: int = 0) -> list[Episode]:
         """``n`` episodes cycling over the goal objects (shuffled); ``cross_room`` starts them in another
         room."""
         rng = np.random.default_rng([stable_seed(self.spec.name), seed])

@@ -1,17 +1,16 @@
-"""Where an env's episodes come from: a dataset split, or a scene generated on the fly (single-goal
-episodes, or lab-protocol episodes of the loaded protocol library)."""
+"""Where an env's episodes come from: a dataset split, or a scene generated on the fly and the episodes a
+sampler (:mod:`biovln_ms.episodes.samplers`) draws in it. Either way they are
+:class:`~biovln_ms.episodes.schema.Episode` objects."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
-from biovln_ms.episodes.generator import EpisodeSampler
-from biovln_ms.protocols.episodes import ProtocolSampler
-from biovln_ms.protocols.library import load_protocols
+from biovln_ms.episodes.samplers import Sampler, SceneSamplers, SingleGoalEpisodes
+from biovln_ms.episodes.schema import Episode
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.spec import SceneSpec
@@ -20,7 +19,7 @@ from biovln_ms.scene.spec import SceneSpec
 class EpisodeSource:
     """A list of episodes and the scene specs they need."""
 
-    episodes: list[dict]
+    episodes: list[Episode]
 
     def spec(self, scene_id: str) -> SceneSpec:
         raise NotImplementedError
@@ -122,23 +121,9 @@ class DatasetEpisodes(EpisodeSource):
         return self.dataset.spec(scene_id)
 
 
-#: draws ``n`` episodes in a scene from a seed: single-goal (the episode model's sampler) or protocol ones
-Sampler = Callable[[SceneSpec, int, int], list[dict]]
-
-
-def single_goal_episodes(spec: SceneSpec, n: int, seed: int) -> list[dict]:
-    """``n`` single-goal episodes (:class:`~biovln_ms.episodes.generator.EpisodeSampler`)."""
-    return EpisodeSampler(spec).episodes(n, seed=seed)
-
-
-def protocol_episodes(spec: SceneSpec, n: int, seed: int) -> list[dict]:
-    """``n`` protocol episodes of the loaded library (shipped and user protocols: ``load_protocols``)."""
-    return ProtocolSampler(spec).protocol_episodes(n, seed, load_protocols())
-
-
 class GeneratedEpisodes(EpisodeSource):
     """One scene generated from ``template``/``scene_seed`` for ``robot``'s footprint; ``n`` episodes drawn
-    in it by ``sampler``."""
+    in it by ``sampler`` from ``scene_seed``."""
 
     def __init__(
         self,
@@ -147,7 +132,7 @@ class GeneratedEpisodes(EpisodeSource):
         n: int = 100,
         required_categories: tuple[str, ...] = (),
         robot: str = DEFAULT_ROBOT,
-        sampler: Sampler = single_goal_episodes,
+        sampler: Sampler = SingleGoalEpisodes(),
     ) -> None:
         self._spec = generate_scene(
             template,
@@ -155,7 +140,7 @@ class GeneratedEpisodes(EpisodeSource):
             required_categories=required_categories,
             robot_radius=robot_spec(robot).footprint_radius,
         )
-        self.episodes = sampler(self._spec, n, scene_seed)
+        self.episodes = sampler.draw(SceneSamplers(), self._spec, n, scene_seed)
 
     def spec(self, scene_id: str) -> SceneSpec:
         return self._spec

@@ -1,7 +1,7 @@
 """Building a dataset (the format is :mod:`biovln_ms.episodes.dataset`'s): what each split holds
-(``SplitPlan``), and ``write_dataset``, which samples the episodes, writes the scene specs, the episode files
-and the manifest into a locked temporary folder and renames it into place, so a killed build never leaves
-a dataset that loads."""
+(``SplitPlan``: its scenes and the sampler drawing their episodes), and ``write_dataset``, which draws the
+episodes, writes the scene specs, the episode files and the manifest into a locked temporary folder and
+renames it into place, so a killed build never leaves a dataset that loads."""
 
 from __future__ import annotations
 
@@ -18,9 +18,8 @@ from pathlib import Path
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import SCENE_GENERATOR_VERSION
 from biovln_ms.episodes.dataset import DATASET_FORMAT_VERSION, EPISODE_GENERATOR_VERSION, DatasetError, sha256
-from biovln_ms.episodes.generator import EpisodeSampler, stable_seed
-from biovln_ms.protocols.episodes import ProtocolSampler
-from biovln_ms.protocols.library import ProtocolLibrary
+from biovln_ms.episodes.generator import stable_seed
+from biovln_ms.episodes.samplers import Sampler, SceneSamplers, SingleGoalEpisodes
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.spec import SceneSpec
 
@@ -37,15 +36,15 @@ def gz_json(obj) -> bytes:
 
 @dataclass
 class SplitPlan:
-    """What a split holds: (spec, episodes per scene, cross_room) per scene, or why it is missing."""
+    """What a split holds: (spec, episodes per scene, cross_room) per scene and the sampler drawing them,
+    or why it is missing."""
 
     name: str
     scenes: list[tuple[SceneSpec, int, bool]] = field(default_factory=list)
     missing: str | None = None
     description: str = ""
     view_of: str | None = None  # reuse these scenes' episode files from another split
-    hard_share: float | None = None  # the Hard track: any-instance episodes, this share drawn hard
-    protocols: ProtocolLibrary | None = None  # protocol episodes of these protocols (biovln_ms.protocols)
+    sampler: Sampler = field(default_factory=SingleGoalEpisodes)
 
 
 def _pid_running(pid: int) -> bool:
@@ -146,7 +145,7 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, robot:
         "scenes": {},
         "splits": {},
     }
-    samplers: dict[str, EpisodeSampler] = {}
+    scenes = SceneSamplers()  # shared by every split: a scene's geometry is built once
     total = sum(len(s.scenes) for s in splits if not s.view_of)
     bar = tqdm(total=total, desc="dataset scenes", disable=not progress)
     for split in splits:
@@ -181,14 +180,7 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, robot:
                 }
                 if spec.dressing:  # the generator option, recorded only when on
                     manifest["scenes"][spec.name]["dressing"] = True
-                samplers[spec.name] = EpisodeSampler(spec)
-            seed = stable_split_seed(split.name)
-            if split.protocols is not None:
-                eps = _protocol_sampler(samplers, spec).protocol_episodes(n, seed, split.protocols)
-            elif split.hard_share is None:
-                eps = samplers[spec.name].episodes(n, seed=seed, cross_room=cross)
-            else:
-                eps = samplers[spec.name].any_instance_episodes(n, seed=seed, hard_share=split.hard_share)
+            eps = split.sampler.draw(scenes, spec, n, stable_split_seed(split.name), cross_room=cross)
             blob = gz_json({"episodes": eps})
             rel = f"{split.name}/content/{spec.name}.json.gz"
             (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
@@ -209,14 +201,6 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, robot:
     else:
         tmp.rename(out)
     return manifest
-
-
-def _protocol_sampler(samplers: dict, spec: SceneSpec) -> ProtocolSampler:
-    """The protocol sampler of ``spec``'s scene, replacing (and reusing the geometry of) its plain one."""
-    sampler = samplers[spec.name]
-    if not isinstance(sampler, ProtocolSampler):
-        sampler = samplers[spec.name] = ProtocolSampler(spec, sampler.nav)
-    return sampler
 
 
 def stable_split_seed(name: str) -> int:

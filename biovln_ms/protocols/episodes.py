@@ -42,6 +42,7 @@ from biovln_ms.episodes.generator import (
     stable_seed,
     yaw_to_quat,
 )
+from biovln_ms.episodes.schema import Episode, Goal
 from biovln_ms.protocols.instructions import describable, instruction
 from biovln_ms.protocols.library import Protocol, ProtocolLibrary, load_protocols
 from biovln_ms.protocols.vocabulary import load_vocabulary
@@ -79,7 +80,7 @@ def hosted_protocols(scene: SceneSpec, library: Iterable[Protocol]) -> list[Prot
 class ProtocolSampler(EpisodeSampler):
     """Samples protocol episodes in one scene (the single-goal sampler's goals and starts)."""
 
-    def protocol_episodes(self, n: int, seed: int, library: ProtocolLibrary | None = None) -> list[dict]:
+    def protocol_episodes(self, n: int, seed: int, library: ProtocolLibrary | None = None) -> list[Episode]:
         """``n`` episodes cycling over the protocols of ``library`` (default: the shipped ones) the scene
         hosts, shuffled; every draw from ``numpy.random.default_rng([scene, seed, PROTOCOL_STREAM])``."""
         library = load_protocols(env=False) if library is None else library
@@ -94,7 +95,7 @@ class ProtocolSampler(EpisodeSampler):
             )
         rng = np.random.default_rng([stable_seed(self.spec.name), seed, PROTOCOL_STREAM])
         order = [hosted[i] for i in rng.permutation(len(hosted))]
-        out: list[dict] = []
+        out: list[Episode] = []
         while len(out) < n:
             if not order:
                 raise EpisodeError(
@@ -113,7 +114,7 @@ class ProtocolSampler(EpisodeSampler):
 
     def _episode(
         self, protocol: Protocol, pool: dict[str, list[str]], rng: np.random.Generator, episode_id: str
-    ) -> dict | None:
+    ) -> Episode | None:
         """One episode of ``protocol``, or None when no draw of its visits leaves start floor."""
         for _ in range(MAX_VISIT_DRAWS):
             visits = protocol.sample_order(rng)
@@ -175,7 +176,7 @@ class ProtocolSampler(EpisodeSampler):
         }
 
     def _route_start(
-        self, region, targets: list[dict], rng: np.random.Generator
+        self, region, targets: list[Goal], rng: np.random.Generator
     ) -> tuple[np.ndarray, float] | None:
         """A start in ``region`` (the first goal's start region less the later goals' discs) that keeps the
         single-goal rule for the first goal and lies outside every goal's success radius (checked exactly:

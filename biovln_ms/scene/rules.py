@@ -1,6 +1,7 @@
 """The layout rules every scene satisfies (paper §3.2-3.3), as checks that name what broke.
 
-Used by the generator (to retry a seed) and by the spec loader (to refuse a hand-edited spec).
+Used by the generator (to retry a seed) and, through ``validate_spec``, wherever a spec is read (to refuse a
+hand-edited one): loading a spec (:mod:`biovln_ms.scene.loading`) checks its limits and schema only.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from biovln_ms.constants import SUPPORT_EDGE_MARGIN
 from biovln_ms.geometry.freespace import free_space, island_of
 from biovln_ms.geometry.navigation import NavGeometry
 from biovln_ms.geometry.zones import goal_position, placement_z, zone2_disjoint
-from biovln_ms.scene.spec import ObjectSpec, SceneSpec
+from biovln_ms.scene.spec import DESIGNER_TEMPLATE, ObjectSpec, SceneSpec, SceneSpecError
 
 if TYPE_CHECKING:
     from biovln_ms.geometry.navigation import NavGeometry
@@ -75,6 +76,20 @@ def _index(spec: SceneSpec, obj: ObjectSpec) -> str:
 DESIGNER_RULES = frozenset(
     {"catalog", "Eq. 3", "Eq. 4", "support", "inside rooms", "goal navigable", "goals mutually reachable"}
 )
+
+
+def validate_spec(spec: SceneSpec, source: str = "<scene spec>") -> SceneSpec:
+    """``spec`` if it is consistent with the catalog and keeps the layout rules (a designer-authored scene:
+    ``DESIGNER_RULES`` only), else ``SceneSpecError`` naming ``source``, the field and the rule of the
+    first problem, with how many more there are."""
+    for problems in (check_consistency(spec), check_layout(spec)):
+        if spec.template == DESIGNER_TEMPLATE:
+            problems = [p for p in problems if p.rule in DESIGNER_RULES]
+        if problems:
+            p = problems[0]
+            more = f" (+{len(problems) - 1} more)" if len(problems) > 1 else ""
+            raise SceneSpecError(f"{p.message}{more}", source=source, field=p.field, fix=f"rule: {p.rule}")
+    return spec
 
 
 def check_consistency(spec: SceneSpec) -> list[Violation]:
