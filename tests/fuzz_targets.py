@@ -147,13 +147,17 @@ def _spec_setup(tmp: Path):
 
 def _spec_dict(state, seed: int, tmp: Path) -> str:
     from biovln_ms.scene.loading import parse_spec
+    from biovln_ms.scene.rules import validate_spec
 
     bad = mutate_json(state, np.random.default_rng(seed))
-    return classify(lambda: parse_spec(bad if isinstance(bad, dict) else {"x": bad}), finite_everywhere)
+    return classify(
+        lambda: validate_spec(parse_spec(bad if isinstance(bad, dict) else {"x": bad})), finite_everywhere
+    )
 
 
 def _spec_file(state, seed: int, tmp: Path) -> str:
     from biovln_ms.scene.loading import load_spec
+    from biovln_ms.scene.rules import validate_spec
 
     rng = np.random.default_rng(seed)
     raw = json.dumps(state).encode()
@@ -161,7 +165,7 @@ def _spec_file(state, seed: int, tmp: Path) -> str:
     path = tmp / f"spec_{seed}.json"
     path.write_bytes(raw)
     try:
-        return classify(lambda: load_spec(path), finite_everywhere)
+        return classify(lambda: validate_spec(load_spec(path), str(path)), finite_everywhere)
     finally:
         path.unlink()
 
@@ -468,8 +472,13 @@ def _dataset(state: dict, seed: int, tmp: Path) -> str:
 TARGETS: dict[str, Target] = {
     t.name: t
     for t in (
-        Target("spec_dict", "scene spec objects (parse_spec)", _spec_setup, _spec_dict),
-        Target("spec_file", "scene spec files (load_spec): bytes and JSON edits", _spec_setup, _spec_file),
+        Target("spec_dict", "scene spec objects (parse_spec, validate_spec)", _spec_setup, _spec_dict),
+        Target(
+            "spec_file",
+            "scene spec files (load_spec, validate_spec): bytes and JSON edits",
+            _spec_setup,
+            _spec_file,
+        ),
         Target("dataset", "dataset manifests, episode records and episode files", _dataset_setup, _dataset),
         Target("sb3_zip", "Stable-Baselines3 checkpoints (load_sb3_model)", _sb3_setup, _sb3_zip),
         Target("bc_checkpoint", "BC checkpoints (load_bc)", _bc_setup, _bc_checkpoint),

@@ -12,6 +12,7 @@ import pytest
 
 from biovln_ms.lsat.designer_scene import target_glb_path
 from biovln_ms.scene.loading import parse_spec
+from biovln_ms.scene.rules import validate_spec
 
 ROOT = Path(__file__).resolve().parents[1]
 BLENDER_PY = Path(os.environ.get("BIOVLN_BLENDER_PYTHON", ROOT / ".venv-blender" / "bin" / "python"))
@@ -64,8 +65,8 @@ def test_addon_panel_operators_headless(tmp_path):
     assert res["import_export"] == ["FINISHED"] and res["coverage"].startswith(
         "8 instruments, 6 marker goals"
     )
-    spec = parse_spec(
-        json.loads((tmp_path / "out" / "scene.json").read_text())
+    spec = validate_spec(
+        parse_spec(json.loads((tmp_path / "out" / "scene.json").read_text()))
     )  # Blender's own GLB, re-imported
     assert len(spec.goal_objects()) == 8
     for suffix in ("report.md", "goals.json", "lsat.json", "usda"):

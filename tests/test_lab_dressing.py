@@ -11,6 +11,7 @@ from biovln_ms.errors import CatalogError
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.rules import check_layout, scene_free_space
 from biovln_ms.scene.loading import parse_spec
+from biovln_ms.scene.rules import validate_spec
 from biovln_ms.scene.spec import SceneSpecError
 
 SCENES = [("single_room", 150), ("two_room", 0), ("suite", 402), ("open_plan", 452), ("molecular_biology", 3)]
@@ -36,7 +37,7 @@ def test_dressed_scenes_keep_the_instruments_and_pass_every_rule(dressed):
         assert [o.model_dump() for o in d.instruments] == [o.model_dump() for o in plain.instruments]
         assert [o.model_dump() for o in d.furniture] == [o.model_dump() for o in plain.furniture]
         assert (
-            parse_spec(json.loads(d.to_json())).to_json() == d.to_json()
+            validate_spec(parse_spec(json.loads(d.to_json()))).to_json() == d.to_json()
         )  # schema, catalog and layout rules
         assert generate_scene(t, seed, dressing=True).to_json() == d.to_json()  # same seed, same bytes
     cats = {o.category for d in dressed.values() for o in d.dressing}
@@ -83,17 +84,17 @@ def test_a_dressing_piece_in_a_goals_zone_3_is_refused(dressed):
     row = next(r for r in data["dressing"] if r["id"] == stool.id)
     row["position"][:2] = list(goal.goal)
     with pytest.raises(SceneSpecError, match="rule: dressing clear of goals"):
-        parse_spec(data)
+        validate_spec(parse_spec(data))
     row["position"][2] = 0.5  # not resting on the floor
     with pytest.raises(SceneSpecError, match="Eq. 4"):
-        parse_spec(data)
+        validate_spec(parse_spec(data))
 
 
 def test_dressing_must_be_in_the_dressing_list():
     s = json.loads(generate_scene("single_room", 150, dressing=True).to_json())
     s["furniture"].append(s["dressing"].pop())
     with pytest.raises(SceneSpecError, match="is lab dressing: it belongs in dressing"):
-        parse_spec(s)
+        validate_spec(parse_spec(s))
 
 
 def test_dressing_holds_for_fetch():

@@ -8,7 +8,7 @@ import pytest
 
 from biovln_ms.llm.client import JSONChatClient, LLMConfig
 from biovln_ms.lsat.layout import LayoutError, load_request, parse_request, solve_layout, suggest_request
-from biovln_ms.scene.rules import check_consistency, check_layout
+from biovln_ms.scene.rules import check_consistency, check_layout, validate_spec
 from biovln_ms.scene.loading import parse_spec
 
 REQUEST = {
@@ -95,7 +95,7 @@ def test_yaml_request_and_solve_cli(tmp_path):
         text=True,
     )
     assert r.returncode == 0, r.stderr
-    parse_spec(json.loads((tmp_path / "lab.json").read_text()))
+    validate_spec(parse_spec(json.loads((tmp_path / "lab.json").read_text())))
     assert (tmp_path / "lab.png").read_bytes()[:4] == b"\x89PNG"
 
 

@@ -17,6 +17,7 @@ from biovln_ms.lsat.gltf import GLTFError, read_gltf
 from biovln_ms.lsat.importer import LSATImportError, import_glb
 from biovln_ms.lsat.names import match_category, normalise
 from biovln_ms.scene.loading import parse_spec
+from biovln_ms.scene.rules import validate_spec
 
 
 @pytest.mark.parametrize(
@@ -89,7 +90,7 @@ def test_import_recovers_the_designers_layout(imported):
         )  # face from geometry/rotation
         assert (o.goal_source == "marker") == (marker is not None)
     assert spec.template == "lsat"
-    parse_spec(json.loads(spec.to_json()))  # the spec round-trips through validation
+    validate_spec(parse_spec(json.loads(spec.to_json())))  # the spec round-trips through validation
 
 
 def test_import_cli_writes_spec_and_report(tmp_path):

@@ -7,7 +7,7 @@ import pytest
 
 from biovln_ms.geometry.zones import zone2_disjoint
 from biovln_ms.scene.generator import GenerationError, generate_scene
-from biovln_ms.scene.rules import check_consistency, check_layout, scene_free_space
+from biovln_ms.scene.rules import check_consistency, check_layout, scene_free_space, validate_spec
 from biovln_ms.scene.loading import load_spec, parse_spec
 from biovln_ms.scene.spec import SceneSpecError, save_spec
 from biovln_ms.scene.templates import (
@@ -193,7 +193,7 @@ def test_hand_edited_spec_errors_name_field_and_rule(edit, field, rule, tmp_path
     p = tmp_path / "edited.json"
     p.write_text(json.dumps(obj))
     with pytest.raises(SceneSpecError) as e:
-        load_spec(p)
+        validate_spec(load_spec(p), str(p))
     msg = str(e.value)
     assert str(p) in msg and f"field '{field}" in msg
     if rule:
@@ -207,8 +207,10 @@ def test_moving_an_instrument_onto_another_is_refused():
     a["position"][0] += dx[0]
     a["position"][1] += dx[1]
     a["goal"] = [a["goal"][0] + dx[0], a["goal"][1] + dx[1]]
-    with pytest.raises(SceneSpecError, match="rule:"):
-        parse_spec(obj, "edited")
+    spec = parse_spec(obj, "edited")  # loading checks the schema, not the layout rules
+    with pytest.raises(SceneSpecError, match="rule:") as e:
+        validate_spec(spec, "edited")
+    assert "edited" in str(e.value) and e.value.field.startswith("instruments[")
 
 
 def test_cli_generate_and_map(tmp_path):

@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 from biovln_ms.errors import BioVLNError
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.loading import load_spec, parse_spec
+from biovln_ms.scene.rules import validate_spec
 from biovln_ms.scene.spec import (
     MAX_COORDINATE,
     MAX_FILE_BYTES,
@@ -85,12 +86,12 @@ FINDINGS = [
 def test_bad_values_are_refused_naming_the_field(valid, name, edit, field, tmp_path):
     obj = _edited(valid, edit)
     with pytest.raises(SceneSpecError) as e:
-        parse_spec(obj, "edited")
+        validate_spec(parse_spec(obj, "edited"), "edited")
     assert e.value.field == field, str(e.value)
     p = tmp_path / "edited.json"
     p.write_text(json.dumps(obj))  # Python writes NaN / Infinity, which json.loads reads back
     with pytest.raises(SceneSpecError) as e:
-        load_spec(p)
+        validate_spec(load_spec(p), str(p))
     assert str(p) in str(e.value) and f"field '{field}'" in str(e.value)
 
 
@@ -251,7 +252,7 @@ _BASE = json.loads(generate_scene("two_room", 4).to_json())
 @given(mutated_specs(_BASE))
 def test_mutated_specs_parse_finite_or_raise_biovln_error(obj):
     try:
-        spec = parse_spec(obj, "fuzz")
+        spec = validate_spec(parse_spec(obj, "fuzz"), "fuzz")
     except BioVLNError:
         return
     assert all(math.isfinite(x) for x in _floats(spec.model_dump()))
@@ -263,4 +264,4 @@ def test_valid_specs_still_load(tmp_path: Path):
         spec = generate_scene(template, seed)
         p = tmp_path / f"{spec.name}.json"
         p.write_text(spec.to_json())
-        assert load_spec(p).to_json() == spec.to_json()
+        assert validate_spec(load_spec(p)).to_json() == spec.to_json()

@@ -27,7 +27,8 @@ def export_nav2_cmd(
     map), costmap parameters and a preview PNG."""
     from biovln_ms.bridges.nav2 import export_nav2
     from biovln_ms.scene.loading import load_spec
+    from biovln_ms.scene.rules import validate_spec
 
-    spec = load_spec(spec_path)
+    spec = validate_spec(load_spec(spec_path), str(spec_path))
     files = export_nav2(spec, out, resolution)
     typer.echo(f"wrote {len(files)} files to {out}: {', '.join(f.name for f in files)}")

@@ -73,12 +73,13 @@ def lsat_export(
     A scene's goals (BioVLN JSON), the LSAT intermediate format and/or a USD stage for Isaac Sim."""
     from biovln_ms.lsat.exporters import goal_json, lsat_json, write_json, write_usd
     from biovln_ms.scene.loading import load_spec
+    from biovln_ms.scene.rules import validate_spec
 
     if not (goals or lsat or usd):
         raise BioVLNError(
             "nothing to export", field="--goals/--lsat/--usd", fix="name at least one output file"
         )
-    spec = load_spec(spec_path)
+    spec = validate_spec(load_spec(spec_path), str(spec_path))
     for path, write in (
         (goals, lambda p: write_json(goal_json(spec), p)),
         (lsat, lambda p: write_json(lsat_json(spec), p)),

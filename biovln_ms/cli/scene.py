@@ -106,8 +106,9 @@ def scene_generate(
 def scene_validate(spec_path: Path = typer.Argument(..., help="Scene spec JSON.")) -> None:
     """Check a spec: schema, catalog, layout rules."""
     from biovln_ms.scene.loading import load_spec
+    from biovln_ms.scene.rules import validate_spec
 
-    spec = load_spec(spec_path)
+    spec = validate_spec(load_spec(spec_path), str(spec_path))
     typer.echo(
         f"{spec_path}: valid ({spec.name}, {len(spec.instruments)} instruments, "
         f"{len(spec.furniture)} furniture)"
@@ -127,11 +128,11 @@ def scene_map(
 
     Walls, furniture, Zones 1/2/3, faces, goals, success radii, navigable area; optionally islands and one
     episode's start, goal, view points and shortest path."""
-    from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.loading import load_spec
+    from biovln_ms.scene.rules import scene_navigation, validate_spec
     from biovln_ms.scene.topdown import save_map
 
-    spec = load_spec(spec_path)
+    spec = validate_spec(load_spec(spec_path), str(spec_path))
     ep, radius = None, spec.robot_radius
     if dataset is not None and episode is not None:
         ep, radius = _find_episode(dataset, split, episode, spec.name)
@@ -149,6 +150,7 @@ def scene_export(
     A node per object named by id, category in extras and COLOR_0."""
     from biovln_ms.scene.export_glb import export_scene_glb
     from biovln_ms.scene.loading import load_spec
+    from biovln_ms.scene.rules import validate_spec
 
-    spec = load_spec(spec_path)
+    spec = validate_spec(load_spec(spec_path), str(spec_path))
     typer.echo(f"wrote {export_scene_glb(spec, out)} ({len(spec.objects())} objects)")

@@ -52,7 +52,7 @@ from biovln_ms.lsat.names import (
 )
 from biovln_ms.scene.generator import rooms_from_rects
 from biovln_ms.scene.loading import parse_spec
-from biovln_ms.scene.rules import check_layout
+from biovln_ms.scene.rules import check_layout, validate_spec
 from biovln_ms.scene.spec import (
     DESIGNER_TEMPLATE,
     SCHEMA_VERSION,
@@ -561,7 +561,7 @@ def _assign_markers(placed: _Placed, markers: list[_Marker], report: ImportRepor
 def _assemble(
     name: str, shell: _Shell, placed: _Placed, robot_radius: float, report: ImportReport
 ) -> SceneSpec:
-    """The designer scene spec, validated by ``parse_spec`` (a broken designer rule is refused, naming the
+    """The designer scene spec, validated by ``validate_spec`` (a broken designer rule is refused, naming the
     object); the other generator rules become report warnings. A scene without instruments is refused."""
 
     cat = load_catalog()
@@ -587,7 +587,7 @@ def _assemble(
         "instruments": [o.model_dump() for o in placed.instruments],
     }
     try:
-        spec = parse_spec(obj, source=report.source)
+        spec = validate_spec(parse_spec(obj, source=report.source), report.source)
     except SceneSpecError as e:
         fix = e.fix or "move the named object in the authoring tool"
         raise LSATImportError(
@@ -606,7 +606,7 @@ def import_glb(
 ) -> tuple[SceneSpec, ImportReport]:
     """Read, interpret and validate a designer GLB: rooms, classify (``names``: the user's name map, which
     wins), adopt instruments for orphan markers, place, assign markers, assemble. The spec passes
-    ``parse_spec`` (designer rules); the report says where each goal came from."""
+    ``validate_spec`` (designer rules); the report says where each goal came from."""
 
     path = Path(path)
     scene = read_gltf(path, allow_external=allow_external)

@@ -276,13 +276,13 @@ def _attempt(
         instruments=instruments,
     )
     # Round-trip through canonical JSON so the returned spec is exactly what a saved file loads as.
-    spec = parse_spec(json.loads(spec.to_json()), check_rules=False)
+    spec = parse_spec(json.loads(spec.to_json()))
     violations = check_layout(spec)
     if dressing and not violations:
         pieces = dress(spec, cat, np.random.default_rng([seed, attempt, DRESSING_STREAM]), radius)
         data = json.loads(spec.to_json())
         data.update(name=spec.name + DRESSED_SUFFIX, dressing=[o.model_dump(mode="json") for o in pieces])
-        spec = parse_spec(json.loads(SceneSpec.model_validate(data).to_json()), check_rules=False)
+        spec = parse_spec(json.loads(SceneSpec.model_validate(data).to_json()))
         violations = check_layout(spec)
     return spec, violations
 

@@ -1,9 +1,9 @@
-"""Reading a scene spec: the file's limits (size, UTF-8, nesting), the schema, then the spec's consistency
-with the catalog and the layout rules (:mod:`biovln_ms.scene.rules`).
+"""Reading a scene spec: the file's limits (size, UTF-8, nesting), the counts, then the schema.
 
-The types and their limits are :mod:`biovln_ms.scene.spec`'s; the rules check those types. Loading
-applies both, so it sits above them: the spec module never needs the rules, and the rules never need the
-loader.
+The types and their limits are :mod:`biovln_ms.scene.spec`'s. Loading gives a well-formed spec, not yet a
+valid lab: its consistency with the catalog and the layout rules are
+:func:`biovln_ms.scene.rules.validate_spec`'s, which every reader of a user's or a dataset's spec calls
+next (the generator checks its own drafts' rules itself).
 """
 
 from __future__ import annotations
@@ -14,9 +14,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from biovln_ms.errors import describe_validation_error
-from biovln_ms.scene.rules import DESIGNER_RULES, check_consistency, check_layout
 from biovln_ms.scene.spec import (
-    DESIGNER_TEMPLATE,
     MAX_FILE_BYTES,
     MAX_JSON_DEPTH,
     MAX_OBJECTS,
@@ -62,9 +60,9 @@ def _check_counts(obj: dict, source: str) -> None:
         )
 
 
-def parse_spec(obj: dict, source: str = "<scene spec>", check_rules: bool = True) -> SceneSpec:
-    """Validate a spec object: size limits, schema, then consistency with the catalog and the layout
-    rules. Every problem raises ``SceneSpecError`` naming the field."""
+def parse_spec(obj: dict, source: str = "<scene spec>") -> SceneSpec:
+    """The spec of a JSON object: version, list sizes, then the schema (no layout rule: ``validate_spec``).
+    Every problem raises ``SceneSpecError`` naming the field."""
     if not isinstance(obj, dict):
         raise SceneSpecError("a scene spec must be a JSON object", source=source)
     version = obj.get("schema_version")
@@ -77,26 +75,15 @@ def parse_spec(obj: dict, source: str = "<scene spec>", check_rules: bool = True
         )
     _check_counts(obj, source)
     try:
-        spec = SceneSpec.model_validate(obj)
+        return SceneSpec.model_validate(obj)
     except ValidationError as e:
         field, msg = describe_validation_error(e)
         fix = _LIMIT_FIXES.get(e.errors()[0]["type"])
         raise SceneSpecError(msg, source=source, field=field, fix=fix) from None
-    if check_rules:
-        for problems in (check_consistency(spec), check_layout(spec)):
-            if spec.template == DESIGNER_TEMPLATE:  # designer-authored (LSAT): only the rules it must keep
-                problems = [p for p in problems if p.rule in DESIGNER_RULES]
-            if problems:
-                p = problems[0]
-                more = f" (+{len(problems) - 1} more)" if len(problems) > 1 else ""
-                raise SceneSpecError(
-                    f"{p.message}{more}", source=source, field=p.field, fix=f"rule: {p.rule}"
-                )
-    return spec
 
 
-def load_spec(path: str | Path, check_rules: bool = True) -> SceneSpec:
-    """Read and validate a spec file: size, UTF-8 and nesting limits first, then ``parse_spec``."""
+def load_spec(path: str | Path) -> SceneSpec:
+    """Read a spec file: size, UTF-8 and nesting limits first, then ``parse_spec``."""
     path = Path(path)
     src = str(path)
 
@@ -132,4 +119,4 @@ def load_spec(path: str | Path, check_rules: bool = True) -> SceneSpec:
         where = f" at line {e.lineno} column {e.colno}" if isinstance(e, json.JSONDecodeError) else ""
         msg = e.msg if isinstance(e, json.JSONDecodeError) else str(e)
         raise refuse(f"not valid JSON{where}: {msg}", "fix the JSON syntax, or regenerate the spec") from None
-    return parse_spec(obj, src, check_rules)
+    return parse_spec(obj, src)

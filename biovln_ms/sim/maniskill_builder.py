@@ -16,7 +16,7 @@ import trimesh
 from mani_skill.utils.scene_builder import SceneBuilder
 from mani_skill.utils.scene_builder.registration import register_scene_builder
 
-from biovln_ms.scene.rules import scene_free_space
+from biovln_ms.scene.rules import scene_free_space, validate_spec
 from biovln_ms.sim.sapien_builder import BuiltScene, add_lights, add_spec_to_scene
 from biovln_ms.scene.loading import load_spec
 from biovln_ms.scene.spec import SceneSpec
@@ -25,7 +25,7 @@ SpecLike = Union[SceneSpec, str, Path]
 
 
 def as_spec(s: SpecLike) -> SceneSpec:
-    return s if isinstance(s, SceneSpec) else load_spec(s)
+    return s if isinstance(s, SceneSpec) else validate_spec(load_spec(s), str(s))
 
 
 @register_scene_builder("BioVLN-Lab")
