@@ -1,6 +1,9 @@
 """The report's figures, drawn with matplotlib: SR by method and split, the protocol stages, safety, the
 runs' trajectories on the top-down map and the hard-episode figures (the frontier agent re-run). Kept out
-of the tables' module so that rendering tables never imports matplotlib."""
+of the tables' module so that rendering tables never imports matplotlib.
+
+Each figure is laid out once, labelled where no label overlaps another, and fitted to its content
+(:mod:`biovln_ms.scene.topdown`): legends sit outside the axes and nothing is cut off at an edge."""
 
 from __future__ import annotations
 
@@ -12,12 +15,15 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.lines import Line2D
+from matplotlib.patches import FancyArrow
 
 from biovln_ms.baselines.frontier import FREE, OCCUPIED, FrontierPolicy
 from biovln_ms.eval import paper
 from biovln_ms.eval.aggregate import aggregate, record_error
 from biovln_ms.eval.methods import report_methods
 from biovln_ms.eval.paper_tables import (
+    BENCH_SPLITS,
     PROTOCOL_REPORT_SPLITS,
     SPLITS,
     _get,
@@ -29,7 +35,13 @@ from biovln_ms.eval.paper_tables import (
 )
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.scene.rules import scene_navigation
+from biovln_ms.scene.topdown import draw_map, fit_figure, label_goals, legend_outside, place_labels
 from biovln_ms.variants import BENCHMARK_ENV
+
+SUCCESS_COLOR, FAILURE_COLOR, START_COLOR = "#2ca02c", "#d62728", "#1f77b4"
+END_POSE_GID, END_MARK_GID = "end_pose", "end_mark"  # gids of a trajectory's end arrow and its mark
+END_ARROW = 0.45  # m: length of the arrow along a trajectory's final heading
+MCR_LIMIT = 0.5  # m: the clearance VRT counts violations of
 
 
 def plot_sr(summ: dict, out: Path) -> Path:
@@ -37,7 +49,7 @@ def plot_sr(summ: dict, out: Path) -> Path:
     values as black ticks, a partial run's bar hatched."""
     methods = [m for m in report_methods() if any(_ran(summ, m, s) for s in SPLITS)]
     splits = [s for s in SPLITS if any(_ran(summ, m, s) for m in methods)]
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig, ax = plt.subplots(figsize=(9, 4), layout="constrained")
     w = 0.8 / max(len(methods), 1)
     for i, m in enumerate(methods):
         x = np.arange(len(splits)) + i * w
@@ -55,8 +67,8 @@ def plot_sr(summ: dict, out: Path) -> Path:
     ax.set_ylabel("success rate (%)")
     ax.set_ylim(0, 105)
     ax.set_title("SR by method and split (bars: ours with 95 % CI, hatched: partial run; ticks: paper)")
-    ax.legend(fontsize=8, ncol=3)
-    fig.tight_layout()
+    legend_outside(ax)
+    fit_figure(fig)
     fig.savefig(out, dpi=120)
     plt.close(fig)
     return out
@@ -71,7 +83,9 @@ def plot_protocol_stages(summ: dict, out: Path) -> Path | None:
     ]
     if not splits:
         return None
-    fig, axes = plt.subplots(1, len(splits), figsize=(6.5 * len(splits), 4), squeeze=False)
+    fig, axes = plt.subplots(
+        1, len(splits), figsize=(6.5 * len(splits), 4), squeeze=False, layout="constrained"
+    )
     labels = ["SR", *(f"stage {i}" for i in range(1, 6))]
     for ax, s in zip(axes[0], splits):
         ran = [r for r, p in summ["runs"].items() if p.get(s, {}).get("protocol")]
@@ -92,54 +106,195 @@ def plot_protocol_stages(summ: dict, out: Path) -> Path | None:
         ax.set_ylabel("success (%)")
         ax.set_title(f"{s}: SR and per-stage success, 95 % CI")
         ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2)
-    fig.tight_layout()
+    fit_figure(fig)
     fig.savefig(out, dpi=120)
     plt.close(fig)
     return out
+
+
+def _split_order(splits) -> list[str]:
+    """The benchmark's splits in their order, then the protocol splits, then any other by name."""
+    known = [*BENCH_SPLITS, *PROTOCOL_REPORT_SPLITS]
+    return [x for x in known if x in splits] + sorted(set(splits) - set(known))
+
+
+def safety_figure(runs):
+    """Safety: each run's MCR (mean minimum clearance) against its VRT, one panel per split on shared axes.
+    A method keeps its colour in every panel, hollow under a noise preset; each point is labelled with its
+    run, the labels placed where none overlaps another (:func:`~biovln_ms.scene.topdown.place_labels`)."""
+    points: dict[str, list[tuple[str, float, float]]] = {}
+    for (m, s), recs in sorted(runs.items()):
+        a = aggregate(recs)
+        if math.isfinite(a["mcr"]) and math.isfinite(a["vrt"]):  # else every episode errored
+            points.setdefault(s, []).append((m, a["mcr"], a["vrt"]))
+    splits = _split_order(points) or ["none"]
+    cols = min(3, len(splits))
+    rows = math.ceil(len(splits) / cols)
+    fig, axes = plt.subplots(
+        rows,
+        cols,
+        figsize=(4.6 * cols, 3.6 * rows),
+        squeeze=False,
+        sharex=True,
+        sharey=True,
+        layout="constrained",
+    )
+    bases = list(dict.fromkeys(_parts(m)[0] for pts in points.values() for m, _, _ in pts))
+    palette = plt.get_cmap("tab10" if len(bases) <= 10 else "tab20")
+    color = {b: palette(i % palette.N) for i, b in enumerate(bases)}
+    for k, ax in enumerate(axes.flat):
+        if k >= len(splits):
+            ax.remove()
+            continue
+        for m, x, y in points.get(splits[k], []):
+            c = color[_parts(m)[0]]
+            ideal = _parts(m)[1] == "ideal"
+            ax.scatter(x, y, s=36, facecolors=c if ideal else "white", edgecolors=c, linewidths=1.5, zorder=3)
+        ax.axvline(MCR_LIMIT, color=FAILURE_COLOR, ls="--", lw=1)
+        ax.set_title(
+            paper.SPLIT_LABELS.get(splits[k], splits[k]) if points else "no run with a finite MCR/VRT"
+        )
+        if k % cols == 0:
+            ax.set_ylabel(f"VRT (% of poses within {MCR_LIMIT} m)")
+        if k + cols >= len(splits):
+            ax.set_xlabel("MCR (m, mean over episodes)")
+            ax.xaxis.set_tick_params(labelbottom=True)
+    legend_outside(
+        axes.flat[cols - 1],
+        [
+            Line2D([], [], marker="o", ls="", color="0.3", label="ideal sensing"),
+            Line2D([], [], marker="o", ls="", color="0.3", markerfacecolor="white", label="noise preset"),
+            Line2D([], [], color=FAILURE_COLOR, ls="--", lw=1, label=f"MCR = {MCR_LIMIT} m"),
+        ],
+        title="Safety: clearance vs violations",
+        title_fontsize=8,
+    )
+    for ax, split in zip(axes.flat, splits):
+        pts = points.get(split, [])
+        place_labels(ax, [(x, y) for _, x, y in pts], [_label(m) for m, _, _ in pts], fontsize=7)
+    fit_figure(fig)
+    return fig
 
 
 def plot_safety(runs, out: Path) -> Path:
-    fig, ax = plt.subplots(figsize=(6, 4.5))
-    for (m, s), recs in sorted(runs.items()):
-        a = aggregate(recs)
-        if not (math.isfinite(a["mcr"]) and math.isfinite(a["vrt"])):  # every episode errored
-            continue
-        ax.scatter(a["mcr"], a["vrt"], s=40)
-        ax.annotate(f"{m} {s}", (a["mcr"], a["vrt"]), fontsize=7, xytext=(3, 3), textcoords="offset points")
-    ax.axvline(0.5, color="#d62728", ls="--", lw=1)
-    ax.set_xlabel("MCR (m, mean over episodes)")
-    ax.set_ylabel("VRT (% of poses within 0.5 m)")
-    ax.set_title("Safety: minimum clearance vs violation rate")
-    fig.tight_layout()
+    """Write :func:`safety_figure`."""
+    fig = safety_figure(runs)
     fig.savefig(out, dpi=120)
     plt.close(fig)
     return out
 
 
-def plot_trajectories(recs: list[dict], specs, out: Path, title: str, limit: int = 6) -> Path:
-    from biovln_ms.scene.topdown import draw_map
+def _end_heading(rec: dict, p: np.ndarray) -> float | None:
+    """The final heading of an episode: its last recorded one, else the direction of its last move; None
+    for an episode that never moved and recorded none."""
+    headings = rec.get("headings") or []
+    if headings:
+        return float(headings[-1])
+    steps = np.diff(p, axis=0)
+    moved = steps[np.linalg.norm(steps, axis=1) > 1e-6]
+    return float(math.atan2(moved[-1][1], moved[-1][0])) if len(moved) else None
 
+
+def draw_trajectory(ax, rec: dict) -> None:
+    """One episode's path (green: success, red: failure), its start, and its end pose: an arrow along the
+    final heading (gid ``END_POSE_GID``) and a success (circle) or failure (cross) mark (``END_MARK_GID``)."""
+    p = np.asarray(rec["positions"], float).reshape(-1, 2)
+    ok = bool(rec["success"])
+    color = SUCCESS_COLOR if ok else FAILURE_COLOR
+    ax.plot(p[:, 0], p[:, 1], "-", color=color, lw=1.6, alpha=0.85, zorder=9)
+    ax.plot(*p[0], "o", color=START_COLOR, ms=5, zorder=10)
+    yaw = _end_heading(rec, p)
+    if yaw is not None:
+        arrow = FancyArrow(
+            *p[-1],
+            END_ARROW * math.cos(yaw),
+            END_ARROW * math.sin(yaw),
+            width=0.04,
+            head_width=0.16,
+            head_length=0.13,
+            length_includes_head=True,
+            color=color,
+            ec="black",
+            lw=0.4,
+            zorder=11,
+        )
+        arrow.set_gid(END_POSE_GID)
+        ax.add_patch(arrow)
+    (mark,) = ax.plot(
+        *p[-1],
+        "o" if ok else "X",
+        ms=7 if ok else 8,
+        color=color,
+        markeredgecolor="black" if ok else "white",
+        markeredgewidth=0.8,
+        zorder=12,
+    )
+    mark.set_gid(END_MARK_GID)
+
+
+def trajectory_handles() -> list:
+    """Legend entries of :func:`draw_trajectory`."""
+    return [
+        Line2D([], [], color=SUCCESS_COLOR, lw=1.6, label="path, success"),
+        Line2D([], [], color=FAILURE_COLOR, lw=1.6, label="path, failure"),
+        Line2D([], [], marker="o", ls="", color=START_COLOR, ms=5, label="start"),
+        Line2D(
+            [],
+            [],
+            marker="o",
+            ls="",
+            color=SUCCESS_COLOR,
+            markeredgecolor="black",
+            ms=7,
+            label="end: success",
+        ),
+        Line2D(
+            [],
+            [],
+            marker="X",
+            ls="",
+            color=FAILURE_COLOR,
+            markeredgecolor="white",
+            ms=8,
+            label="end: failure",
+        ),
+        Line2D([], [], marker=r"$\rightarrow$", ls="", color="black", ms=12, label="final heading"),
+    ]
+
+
+def trajectories_figure(recs: list[dict], specs, title: str, limit: int = 6):
+    """Up to ``limit`` episodes of each of the first two scenes on their top-down maps
+    (:func:`draw_trajectory`), the legend outside on the right."""
     by_scene: dict = {}
     for r in recs:
         if record_error(r) is None:  # an errored episode has no trajectory
             by_scene.setdefault(r["scene_id"], []).append(r)
-    scenes = list(by_scene)[:2]
-    fig, axes = plt.subplots(1, len(scenes), figsize=(7 * len(scenes), 5.5), squeeze=False)
+    scenes = list(by_scene)[:2] or [None]
+    fig, axes = plt.subplots(
+        1, len(scenes), figsize=(7 * len(scenes), 5.5), squeeze=False, layout="constrained"
+    )
+    drawn = []
     for ax, scene in zip(axes[0], scenes):
-        draw_map(specs(scene), ax, show_free=False, title=f"{title}: {scene}")
+        if scene is None:
+            ax.set_title(f"{title}: no episode ran")
+            continue
+        spec = specs(scene)
+        draw_map(spec, ax, show_free=False, title=f"{title}: {scene}", goal_labels=False)
+        ends = []
         for r in by_scene[scene][:limit]:
-            p = np.asarray(r["positions"])
-            ax.plot(
-                p[:, 0],
-                p[:, 1],
-                "-",
-                color="#2ca02c" if r["success"] else "#d62728",
-                lw=1.6,
-                alpha=0.85,
-                zorder=9,
-            )
-            ax.plot(*p[0], "o", color="#1f77b4", ms=5, zorder=10)
-    fig.tight_layout()
+            draw_trajectory(ax, r)
+            ends += [r["positions"][0], r["positions"][-1]]
+        drawn.append((ax, spec, ends))
+    legend_outside(axes[0][-1], trajectory_handles())
+    for ax, spec, ends in drawn:
+        label_goals(ax, spec, avoid=ends)
+    fit_figure(fig)
+    return fig
+
+
+def plot_trajectories(recs: list[dict], specs, out: Path, title: str, limit: int = 6) -> Path:
+    """Write :func:`trajectories_figure`."""
+    fig = trajectories_figure(recs, specs, title, limit)
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return out
@@ -179,8 +334,6 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
     ``hard_figure_title``."""
     import gymnasium as gym
 
-    from biovln_ms.scene.topdown import draw_map
-
     pol = FrontierPolicy()
     env = gym.make(
         BENCHMARK_ENV,
@@ -197,8 +350,8 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
             info = st.info
         spec = env.unwrapped.scene_spec
         nav = scene_navigation(spec)
-        fig, ax = plt.subplots(figsize=(9, 7))
-        draw_map(spec, ax, show_free=False)
+        fig, ax = plt.subplots(figsize=(9, 7), layout="constrained")
+        draw_map(spec, ax, show_free=False, goal_labels=False)
         lo, hi = pol.map.lo, pol.map.hi
         g = pol.map.grid[lo[0] : hi[0], lo[1] : hi[1]]
         img = np.zeros((*g.shape, 4))
@@ -219,11 +372,12 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
             zorder=10,
             label="frontier",
         )
-        ax.plot(*rec["start"], "o", color="#1f77b4", ms=9, zorder=11)
-        ax.plot(*rec["goal"], "X", color="#d62728", ms=11, zorder=11)
+        ax.plot(*rec["start"], "o", color=START_COLOR, ms=9, zorder=11, label="start")
+        ax.plot(*rec["goal"], "X", color=FAILURE_COLOR, ms=11, zorder=11, label="goal")
         ax.set_title(hard_figure_title(rec, bool(info["success"])), fontsize=9)
-        ax.legend(loc="upper left", fontsize=8)
-        fig.tight_layout()
+        legend_outside(ax)
+        label_goals(ax, spec)
+        fit_figure(fig)
         fig.savefig(out, dpi=110)
         plt.close(fig)
     finally:

@@ -1,5 +1,10 @@
 """Top-down map of a scene spec (PNG): walls, furniture, Zones 1/2/3, face arrows, goals with their
-success radii, and the robot's navigable area. Episodes can be overlaid (start, goal, path)."""
+success radii, and the robot's navigable area. Episodes can be overlaid (start, goal, path).
+
+Figures are laid out once (matplotlib's constrained layout where there are panels, then frozen), text
+labels are placed where they overlap no other label (:func:`place_labels`), and the figure is then fitted
+to its content (:func:`fit_figure`): a legend outside the axes, an axis label or a title is never cut off.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +16,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Circle, FancyArrow, Polygon as MplPolygon  # noqa: E402
+from matplotlib.layout_engine import PlaceHolderLayoutEngine  # noqa: E402
+from matplotlib.text import Text  # noqa: E402
+from matplotlib.transforms import Bbox  # noqa: E402
 
 from biovln_ms.catalog import load_catalog  # noqa: E402
 from biovln_ms.scene.rules import scene_free_space  # noqa: E402
@@ -18,6 +26,13 @@ from biovln_ms.scene.spec import SceneSpec  # noqa: E402
 
 DRESSING_COLOR = "#c8b89a"  # lab dressing: bodies in the way, no zones
 UNKNOWN_COLOR = "#999999"  # a category the catalog lacks
+LABEL_GID = "label"  # the gid of every label place_labels adds
+LABEL_RINGS = (4.0, 9.0, 15.0, 23.0, 33.0, 46.0, 62.0)  # points from the anchor, nearest first
+LABEL_ANGLES = (45, 0, 90, -45, 135, 180, -90, -135, 22, 68, 158, -22, -68, -158, 112, -112)  # degrees
+LABEL_PAD = 1.5  # points of clearance kept around each label's text
+ANCHOR_CLEARANCE = 5.0  # points: no label covers this square around an anchor (its marker)
+MAP_MARGIN = 0.4  # m of floor shown around the rooms
+MAP_WIDTH, MAP_MAX_HEIGHT = 9.0, 8.0  # inches of a map's axes (a deep scene: its height)
 
 
 def category_color(category: str) -> str:
@@ -40,10 +55,141 @@ def _draw_geom(ax, geom, **kw):
             _poly(ax, np.asarray(hole.coords), facecolor="white", edgecolor="none")
 
 
-def draw_map(spec: SceneSpec, ax=None, show_free: bool = True, title: str | None = None):
-    """Draw the scene on a matplotlib axis (created when None); returns the axis."""
+def _overlaps(boxes: np.ndarray, others: np.ndarray) -> np.ndarray:
+    """Area each of ``boxes`` (K, 4: x0, y0, x1, y1) shares with each of ``others`` (N, 4): (K, N)."""
+    lo = np.maximum(boxes[:, None, :2], others[None, :, :2])
+    hi = np.minimum(boxes[:, None, 2:], others[None, :, 2:])
+    return np.clip(hi - lo, 0.0, None).prod(axis=2)
+
+
+def _spots() -> tuple[np.ndarray, list[tuple[str, str]], np.ndarray]:
+    """The candidate spots, nearest first: (K, 2) offsets in points, the text alignment that puts the label
+    on the side of its anchor the offset points to, and each spot's ring."""
+    offsets, aligns, rings = [], [], []
+    for ring in LABEL_RINGS:
+        for angle in LABEL_ANGLES:
+            c, s = np.cos(np.radians(angle)), np.sin(np.radians(angle))
+            offsets.append((ring * c, ring * s))
+            aligns.append(
+                ("left" if c > 0.3 else "right" if c < -0.3 else "center",
+                 "bottom" if s > 0.3 else "top" if s < -0.3 else "center")
+            )  # fmt: skip
+            rings.append(ring)
+    return np.asarray(offsets), aligns, np.asarray(rings)
+
+
+def freeze_layout(fig) -> None:
+    """Apply the figure's layout engine once and switch it off, with each axes' aspect applied: the axes stay
+    where they are from here, so what is placed in pixels (labels) stays placed. Add every panel, title and
+    legend first."""
+    engine = fig.get_layout_engine()
+    if engine is not None and not isinstance(engine, PlaceHolderLayoutEngine):
+        engine.execute(fig)
+        fig.set_layout_engine("none")
+    for ax in fig.axes:
+        ax.apply_aspect()
+
+
+def fit_figure(fig, pad: float = 0.08) -> None:
+    """Freeze the layout, then resize the figure to its content (axes, their decorations, labels and
+    legends) plus ``pad`` inches, each axes keeping its size in inches: nothing sticks out of the figure, no
+    margin is left empty, and labels placed in pixels keep their places. Legends belong to axes
+    (``ax.legend``); a figure-level legend would not move with them."""
+    freeze_layout(fig)
+    renderer = fig.canvas.get_renderer()
+    boxes = []
+    for ax in fig.axes:
+        extra = [*ax.texts, *([ax.get_legend()] if ax.get_legend() is not None else [])]
+        boxes.append(ax.get_tightbbox(renderer, bbox_extra_artists=extra))
+    box = Bbox.union([b for b in boxes if b is not None])
+    dpi = fig.dpi
+    x0, y0 = box.x0 / dpi - pad, box.y0 / dpi - pad
+    w, h = box.width / dpi + 2 * pad, box.height / dpi + 2 * pad
+    width, height = fig.get_size_inches()
+    for ax in fig.axes:
+        p = ax.get_position()
+        ax.set_position(
+            [(p.x0 * width - x0) / w, (p.y0 * height - y0) / h, p.width * width / w, p.height * height / h]
+        )
+    fig.set_size_inches(w, h)
+
+
+def place_labels(ax, anchors, texts, fontsize: float = 7, avoid=(), **text_kw) -> list:
+    """Label each anchor (data x, y) with its text at the nearest spot, on rings around it, where the label
+    overlaps no other label, covers no anchor nor point of ``avoid`` (data x, y: other markers) and stays
+    inside the axes; a label off its anchor's side is tied to it by a thin line. Where no spot is free, the
+    one overlapping least. Labels are placed in pixels, so the layout is frozen first
+    (:func:`freeze_layout`). Returns the annotations (gid ``LABEL_GID``)."""
+    anchors = [tuple(map(float, a)) for a in anchors]
+    if not anchors:
+        return []
+    fig = ax.figure
+    freeze_layout(fig)
+    renderer = fig.canvas.get_renderer()
+    px = fig.dpi / 72.0
+    frame = np.asarray(ax.get_window_extent(renderer).extents)
+    points = ax.transData.transform(np.asarray(anchors))
+    r = ANCHOR_CLEARANCE * px
+    taken = [np.array([x - r, y - r, x + r, y + r]) for x, y in points]
+    marks = ax.transData.transform(np.asarray(avoid, float).reshape(-1, 2))
+    taken += [np.array([x - r, y - r, x + r, y + r]) for x, y in marks]
+    offsets, aligns, rings = _spots()
+    shift_x = {"left": 0.0, "center": 0.5, "right": 1.0}
+    shift_y = {"bottom": 0.0, "center": 0.5, "top": 1.0}
+    out = []
+    for i, ((x, y), anchor, text) in enumerate(zip(points, anchors, texts)):
+        ext = Text(0, 0, text, fontsize=fontsize, figure=fig).get_window_extent(renderer)
+        pad = LABEL_PAD * px
+        w, h = ext.width + 2 * pad, ext.height + 2 * pad
+        x0 = x + offsets[:, 0] * px - np.array([shift_x[a] for a, _ in aligns]) * (w - 2 * pad) - pad
+        y0 = y + offsets[:, 1] * px - np.array([shift_y[b] for _, b in aligns]) * (h - 2 * pad) - pad
+        boxes = np.stack([x0, y0, x0 + w, y0 + h], axis=1)
+        others = np.asarray(taken[:i] + taken[i + 1 :]).reshape(-1, 4)  # all but its own anchor
+        outside = w * h - _overlaps(boxes, frame[None])[:, 0]
+        cost = _overlaps(boxes, others).sum(axis=1) + 4 * outside
+        free = np.flatnonzero(cost < 1e-6)  # px²: rounding leaves a box inside the frame a speck outside
+        k = int(free[0]) if len(free) else int(np.argmin(cost))
+        ha, va = aligns[k]
+        far = rings[k] > LABEL_RINGS[1]
+        arrow = {"arrowstyle": "-", "lw": 0.5, "color": "0.35", "shrinkA": 0, "shrinkB": 2} if far else None
+        out.append(
+            ax.annotate(
+                text,
+                anchor,
+                xytext=tuple(offsets[k]),
+                textcoords="offset points",
+                ha=ha,
+                va=va,
+                fontsize=fontsize,
+                arrowprops=arrow,
+                gid=LABEL_GID,
+                **text_kw,
+            )
+        )
+        taken.append(boxes[k])
+    return out
+
+
+def label_goals(ax, spec: SceneSpec, avoid=()) -> list:
+    """Each goal object's id beside its goal star (:func:`place_labels`), clear of the points ``avoid``."""
+    goals = [o for o in [*spec.furniture, *spec.instruments] if o.is_goal]
+    return place_labels(
+        ax,
+        [o.goal for o in goals],
+        [o.id for o in goals],
+        avoid=avoid,
+        zorder=8,
+        bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.75},
+    )
+
+
+def draw_map(
+    spec: SceneSpec, ax=None, show_free: bool = True, title: str | None = None, goal_labels: bool = True
+):
+    """Draw the scene on a matplotlib axis (created when None); returns the axis. ``goal_labels``: name the
+    goals now; a caller that still adds legends or panels passes False and calls :func:`label_goals` last."""
     if ax is None:
-        _, ax = plt.subplots(figsize=(9, 7))
+        _, ax = map_axes(spec)
     for r in spec.rooms:
         _poly(ax, r.polygon, facecolor="#f4f4f0", edgecolor="none", zorder=0)
     if show_free:
@@ -115,16 +261,17 @@ def draw_map(spec: SceneSpec, ax=None, show_free: bool = True, title: str | None
                 Circle(g, o.success_radius, facecolor="none", edgecolor=color, lw=1.0, ls=":", zorder=6)
             )
             ax.plot(*g, marker="*", ms=13, color=color, markeredgecolor="black", zorder=7)
-            ax.annotate(o.id, g, xytext=(4, 6), textcoords="offset points", fontsize=7, zorder=8)
     xs = [x for r in spec.rooms for x, _ in r.polygon]
     ys = [y for r in spec.rooms for _, y in r.polygon]
-    ax.set_xlim(min(xs) - 0.4, max(xs) + 0.4)
-    ax.set_ylim(min(ys) - 0.4, max(ys) + 0.4)
+    ax.set_xlim(min(xs) - MAP_MARGIN, max(xs) + MAP_MARGIN)
+    ax.set_ylim(min(ys) - MAP_MARGIN, max(ys) + MAP_MARGIN)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title(title or f"{spec.name} ({spec.template}, seed {spec.seed})")
     ax.grid(True, lw=0.3, alpha=0.5)
+    if goal_labels:
+        label_goals(ax, spec)
     return ax
 
 
@@ -210,22 +357,62 @@ def draw_episode(ax, episode: dict, path=None) -> None:
     )
 
 
-def save_map(spec: SceneSpec, out: str | Path, episode: dict | None = None, nav=None, dpi: int = 130) -> Path:
-    """Write the map PNG; with ``episode`` (and its scene's ``nav``) overlay islands, start, goal,
-    view points and the shortest path."""
-    fig, ax = plt.subplots(figsize=(10, 8))
-    draw_map(spec, ax)
+def episode_handles(with_path: bool) -> list:
+    """Legend entries of an episode overlay (:func:`draw_episode`)."""
+    from matplotlib.lines import Line2D
+
+    path = [Line2D([], [], color="#1f77b4", lw=2.2, label="shortest path")] if with_path else []
+    return [
+        Line2D([], [], marker="o", color="none", markerfacecolor="#1f77b4", markeredgecolor="white", ms=9,
+               label="start (arrow: heading)"),
+        Line2D([], [], marker="X", color="none", markerfacecolor="#d62728", markeredgecolor="white", ms=10,
+               label="episode goal"),
+        Line2D([], [], marker=">", color="none", markerfacecolor="#444444", ms=6, label="view points"),
+        *path,
+    ]  # fmt: skip
+
+
+def legend_outside(ax, handles=None, **kw):
+    """The axes' legend beside it on the right, top-aligned (:func:`fit_figure` makes room for it)."""
+    kw = {"loc": "upper left", "bbox_to_anchor": (1.02, 1.0), "borderaxespad": 0.0, "fontsize": 8, **kw}
+    return ax.legend(handles=handles, **kw) if handles is not None else ax.legend(**kw)
+
+
+def map_axes(spec: SceneSpec, width: float = MAP_WIDTH, max_height: float = MAP_MAX_HEIGHT):
+    """A figure holding one axes sized to the scene's extent (``width`` inches wide, or ``max_height`` high
+    for a deep scene) and filling it; :func:`fit_figure` then adds the margins its decorations need."""
+    xs = [x for r in spec.rooms for x, _ in r.polygon]
+    ys = [y for r in spec.rooms for _, y in r.polygon]
+    aspect = (max(ys) - min(ys) + 2 * MAP_MARGIN) / (max(xs) - min(xs) + 2 * MAP_MARGIN)
+    w = min(width, max_height / aspect)
+    fig = plt.figure(figsize=(w, w * aspect))
+    return fig, fig.add_axes((0.0, 0.0, 1.0, 1.0))
+
+
+def map_figure(spec: SceneSpec, episode: dict | None = None, nav=None):
+    """The map as a figure: the scene, its legend outside the axes on the right, with ``episode`` (and its
+    scene's ``nav``) the islands, start, goal, view points and shortest path; goal labels placed last and
+    the figure fitted to its content."""
+    fig, ax = map_axes(spec)
+    draw_map(spec, ax, goal_labels=False)
     if nav is not None:
         draw_islands(ax, nav)
+    path = None
     if episode is not None:
-        path = None
         if nav is not None:
             path = nav.shortest_path(episode["start_position"][:2], episode["goals"][0]["position"][:2])
         draw_episode(ax, episode, path)
-    ax.legend(
-        handles=legend_handles(bool(spec.dressing)), loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8
-    )
-    fig.tight_layout()
+    handles = legend_handles(bool(spec.dressing))
+    handles += episode_handles(path is not None) if episode is not None else []
+    legend_outside(ax, handles)
+    label_goals(ax, spec)
+    fit_figure(fig)
+    return fig
+
+
+def save_map(spec: SceneSpec, out: str | Path, episode: dict | None = None, nav=None, dpi: int = 130) -> Path:
+    """Write the map PNG (:func:`map_figure`)."""
+    fig = map_figure(spec, episode, nav)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=dpi)
