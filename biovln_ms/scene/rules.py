@@ -63,6 +63,11 @@ def scene_navigation(
     return NavGeometry(scene_free_space(spec, r), r, grid_resolution)
 
 
+def _at(obj: ObjectSpec) -> str:
+    """The object as a rule message names it: its id and where it stands (x, y in m)."""
+    return f"'{obj.id}' at ({obj.position[0]:.2f}, {obj.position[1]:.2f})"
+
+
 def _index(spec: SceneSpec, obj: ObjectSpec) -> str:
     if obj in spec.instruments:
         return f"instruments[{spec.instruments.index(obj)}]"
@@ -105,7 +110,7 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
                 Violation(
                     "catalog",
                     f"{where}.category",
-                    f"unknown category '{o.category}'; known: {', '.join(cat.names())}",
+                    f"{_at(o)}: unknown category '{o.category}'; known: {', '.join(cat.names())}",
                     (o.id,),
                 )
             )
@@ -116,7 +121,7 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
                 Violation(
                     "catalog",
                     f"{where}.category",
-                    f"'{o.category}' is {'' if a.mount else 'not '}lab dressing: it belongs in "
+                    f"{_at(o)}: '{o.category}' is {'' if a.mount else 'not '}lab dressing: it belongs in "
                     f"{'dressing' if a.mount else 'furniture or instruments'}",
                     (o.id,),
                 )
@@ -127,7 +132,7 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
                 Violation(
                     "catalog",
                     f"{where}.size",
-                    f"{list(o.size)} differs from the catalog's {list(a.dimensions)}",
+                    f"{_at(o)}: size {list(o.size)} differs from the catalog's {list(a.dimensions)}",
                     (o.id,),
                 )
             )
@@ -140,8 +145,8 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
                     Violation(
                         "Eq. 3",
                         f"{where}.face",
-                        f"{list(o.face)} is not the catalog face {a.face} turned by yaw {o.yaw:.4f} "
-                        f"({[round(v, 4) for v in expect]})",
+                        f"{_at(o)}: face {list(o.face)} is not the catalog face {a.face} turned by yaw "
+                        f"{o.yaw:.4f} ({[round(v, 4) for v in expect]})",
                         (o.id,),
                     )
                 )
@@ -152,7 +157,7 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
                         Violation(
                             "catalog",
                             f"{where}.{key}",
-                            f"{getattr(o, key)} differs from the catalog's {getattr(a, key)}",
+                            f"{_at(o)}: {key} {getattr(o, key)} differs from the catalog's {getattr(a, key)}",
                             (o.id,),
                         )
                     )
@@ -162,7 +167,7 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
                     Violation(
                         "Eq. 1",
                         f"{where}.goal",
-                        f"{list(o.goal)} is not c + f(d + delta) = {[round(v, 4) for v in g]}",
+                        f"{_at(o)}: goal {list(o.goal)} is not c + f(d + delta) = {[round(v, 4) for v in g]}",
                         (o.id,),
                     )
                 )
@@ -170,7 +175,12 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
             sup = supports.get(o.support)
             if sup is None:
                 out.append(
-                    Violation("Eq. 4", f"{where}.support", "a table-top instrument needs a support", (o.id,))
+                    Violation(
+                        "Eq. 4",
+                        f"{where}.support",
+                        f"{_at(o)}: a table-top instrument needs a support",
+                        (o.id,),
+                    )
                 )
                 continue
             top = cat.support_heights.get(sup.category)
@@ -179,7 +189,7 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
                     Violation(
                         "Eq. 4",
                         f"{where}.support",
-                        f"'{sup.category}' has no support height in the catalog",
+                        f"{_at(o)} stands on '{sup.category}', which has no support height in the catalog",
                         (o.id,),
                     )
                 )
@@ -190,14 +200,17 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
                     Violation(
                         "Eq. 4",
                         f"{where}.position",
-                        f"z = {o.position[2]} but on '{sup.id}' (top {top} m) it must be {z:.4f}",
+                        f"{_at(o)}: z = {o.position[2]} but on '{sup.id}' (top {top} m) it must be {z:.4f}",
                         (o.id,),
                     )
                 )
             if not sup.placed().zone1().buffer(TOL).contains(o.placed().zone1()):
                 out.append(
                     Violation(
-                        "support", f"{where}.position", f"not fully on its support '{sup.id}'", (o.id, sup.id)
+                        "support",
+                        f"{where}.position",
+                        f"{_at(o)} is not fully on its support '{sup.id}'",
+                        (o.id, sup.id),
                     )
                 )
         elif abs(o.position[2] - a.mount_height - o.size[2] / 2) > 1e-3:
@@ -206,7 +219,8 @@ def check_consistency(spec: SceneSpec) -> list[Violation]:
                 Violation(
                     "Eq. 4",
                     f"{where}.position",
-                    f"z = {o.position[2]} but a {what} object rests at {a.mount_height + o.size[2] / 2:.4f}",
+                    f"{_at(o)}: z = {o.position[2]} but a {what} object rests at "
+                    f"{a.mount_height + o.size[2] / 2:.4f}",
                     (o.id,),
                 )
             )
@@ -233,7 +247,7 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
         if not floor.buffer(TOL).contains(p.zone1()):
             out.append(
                 Violation(
-                    "inside rooms", f"{where}.position", f"'{o.id}' is not inside the rooms' floor", (o.id,)
+                    "inside rooms", f"{where}.position", f"{_at(o)} is not inside the rooms' floor", (o.id,)
                 )
             )
         if o.placement == "wall" and o.face is not None and o.d_half is not None:
@@ -243,7 +257,7 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
                     Violation(
                         "flush with wall",
                         f"{where}.position",
-                        f"the back of '{o.id}' is not against a wall",
+                        f"the back of {_at(o)} is not against a wall",
                         (o.id,),
                     )
                 )
@@ -252,7 +266,7 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
                     Violation(
                         "faces interior (Eq. 3)",
                         f"{where}.yaw",
-                        f"'{o.id}' does not face the room interior",
+                        f"{_at(o)} does not face the room interior",
                         (o.id,),
                     )
                 )
@@ -269,7 +283,7 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
                     Violation(
                         "faces a free edge",
                         f"{where}.yaw",
-                        f"'{o.id}' does not face an edge of '{o.support}'",
+                        f"{_at(o)} does not face an edge of '{o.support}'",
                         (o.id,),
                     )
                 )
@@ -281,7 +295,7 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
                 Violation(
                     "Zone 2 disjoint (Eq. 2)",
                     f"{_index(spec, b)}.position",
-                    f"Zone 2 of '{a.id}' and '{b.id}' overlap",
+                    f"Zone 2 of {_at(a)} and {_at(b)} overlap",
                     (a.id, b.id),
                 )
             )
@@ -293,7 +307,7 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
         where = _index(spec, o)
         if not floor.buffer(TOL).contains(z3) or z3.buffer(-1e-3).intersects(wall_geom):
             out.append(
-                Violation("Zone 3 clear", f"{where}.position", f"Zone 3 of '{o.id}' crosses a wall", (o.id,))
+                Violation("Zone 3 clear", f"{where}.position", f"Zone 3 of {_at(o)} crosses a wall", (o.id,))
             )
         for b in objs:
             if b.id == o.id or _related(o, b):
@@ -303,7 +317,7 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
                     Violation(
                         "Zone 3 clear",
                         f"{where}.position",
-                        f"Zone 3 of '{o.id}' overlaps Zone 1/2 of '{b.id}'",
+                        f"Zone 3 of {_at(o)} overlaps Zone 1/2 of {_at(b)}",
                         (o.id, b.id),
                     )
                 )
@@ -317,7 +331,7 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
                 Violation(
                     "goal navigable",
                     f"{_index(spec, o)}.goal",
-                    f"goal of '{o.id}' is not on navigable floor "
+                    f"goal ({o.goal[0]:.2f}, {o.goal[1]:.2f}) of {_at(o)} is not on navigable floor "
                     f"for a {spec.robot_radius if radius is None else radius} m robot",
                     (o.id,),
                 )
@@ -326,11 +340,15 @@ def check_layout(spec: SceneSpec, radius: float | None = None) -> list[Violation
             islands.setdefault(isl, []).append(o.id)
     if len(islands) > 1:
         groups = sorted(islands.values(), key=len)
+        goals = {o.id: o.goal for o in spec.goal_objects()}
+        where = " | ".join(
+            ", ".join(f"'{i}' goal ({goals[i][0]:.2f}, {goals[i][1]:.2f})" for i in group) for group in groups
+        )
         out.append(
             Violation(
                 "goals mutually reachable",
                 "instruments",
-                f"goals lie on {len(islands)} separate islands: {groups}",
+                f"goals lie on {len(islands)} separate islands: {where}",
                 tuple(groups[0]),
             )
         )
@@ -352,13 +370,13 @@ def _dressing_rules(spec: SceneSpec, floor, walls: list, placed: dict) -> list[V
         where = f"dressing[{i}].position"
         z1 = placed[d.id].zone1()
         if not floor.buffer(TOL).contains(z1):
-            out.append(Violation("inside rooms", where, f"'{d.id}' is not inside the rooms' floor", (d.id,)))
+            out.append(Violation("inside rooms", where, f"{_at(d)} is not inside the rooms' floor", (d.id,)))
         if d.category in on_walls:
             back = LineString(placed[d.id].zone1_corners()[[2, 3]])  # the model +Y side: its back
             if min((w.distance(back) for w in walls), default=math.inf) > WALL_FLUSH:
                 out.append(
                     Violation(
-                        "flush with wall", where, f"the back of '{d.id}' is not against a wall", (d.id,)
+                        "flush with wall", where, f"the back of {_at(d)} is not against a wall", (d.id,)
                     )
                 )
         for g in goals:
@@ -370,7 +388,7 @@ def _dressing_rules(spec: SceneSpec, floor, walls: list, placed: dict) -> list[V
                     Violation(
                         "dressing clear of goals",
                         where,
-                        f"'{d.id}' stands in Zone 2/3 of '{g.id}'",
+                        f"{_at(d)} stands in Zone 2/3 of {_at(g)}",
                         (d.id, g.id),
                     )
                 )
@@ -379,6 +397,6 @@ def _dressing_rules(spec: SceneSpec, floor, walls: list, placed: dict) -> list[V
                 continue
             if z1.intersection(placed[o.id].zone1().buffer(DRESSING_GAP, join_style=2)).area > 1e-6:
                 out.append(
-                    Violation("dressing clear of bodies", where, f"'{d.id}' overlaps '{o.id}'", (d.id, o.id))
+                    Violation("dressing clear of bodies", where, f"{_at(d)} overlaps {_at(o)}", (d.id, o.id))
                 )
     return out
