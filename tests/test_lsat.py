@@ -332,3 +332,46 @@ def test_exported_procedural_scene_imports_back(tmp_path, template, seed):
         assert abs(math.remainder(b.yaw - o.yaw, 2 * math.pi)) < 2e-3, o.id
         if o.is_goal:
             assert b.goal == pytest.approx(o.goal, abs=3e-3), o.id
+
+
+def test_a_failing_import_lists_every_problem_and_still_writes_its_report(tmp_path):
+    """A 3 m designer bench (the catalog's is 5.94 m, so it leaves the room), a table-top instrument on the
+    floor and a bin beyond the floor: all three named with their coordinates, in the one-line error and
+    in the report written beside the spec."""
+    import subprocess
+    import sys
+
+    import trimesh
+
+    from biovln_ms.geometry.frames import Z_UP_TO_Y_UP
+    from biovln_ms.lsat.designer_scene import build_designer_scene
+
+    kept = [row for row in LAYOUT if row[0] not in ("Lab Bench", "Mini Centrifuge", "Pipette Stand")]
+    scene = build_designer_scene(kept)
+    for name, size, centre in (
+        ("Bench 3m", (3.0, 1.55, 0.76), (1.6, 2.2, 0.38)),
+        ("Minifuge", (0.66, 0.5, 0.43), (2.6, 1.0, 0.215)),
+        ("Bin outside", (0.38, 0.37, 0.51), (9.0, 1.0, 0.255)),
+    ):
+        scene.add_geometry(
+            trimesh.creation.box(size),
+            node_name=name,
+            geom_name=name,
+            transform=Z_UP_TO_Y_UP @ trimesh.transformations.translation_matrix(centre),
+        )
+    glb = tmp_path / "bench.glb"
+    glb.write_bytes(scene.export(file_type="glb"))
+    out = tmp_path / "lab.json"
+    cmd = [sys.executable, "-m", "biovln_ms.cli", "lsat", "import", str(glb), "-o", str(out)]
+    r = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    assert r.returncode != 0 and not out.exists()
+    expected = [
+        "`Bin outside` at (9.00, 1.00): a waste_bin standing outside every floor",
+        "`Minifuge` at (2.60, 1.00): a table-top mini_centrifuge standing on no bench or table",
+        "`Bench 3m`: 'lab_bench_0' at (1.60, 2.20) is not inside the rooms' floor [rule: inside rooms]",
+    ]
+    error = r.stderr.strip()
+    assert "3 problems: 1) " in error and all(e in error for e in expected) and "more)" not in error
+    report = (tmp_path / "lab.report.md").read_text()
+    assert "## The import failed: 3 problems" in report and all(e in report for e in expected)
+    assert str(tmp_path / "lab.report.md") in error  # the error says where the report is

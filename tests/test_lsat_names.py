@@ -209,6 +209,32 @@ def test_designer_glb_names_resolve_and_an_orphan_marker_keeps_its_goal(designer
     assert report.coverage()["instruments_from_markers"] == ["Heracell VIOS 160i"]
 
 
+def test_ambiguous_names_beside_their_markers_keep_instrument_and_goal(tmp_path):
+    """A biosafety cabinet named with both 'BSC' and 'cabinet', and a fridge named 'Fridge cabinet', each
+    with its marker: the first is the more specific category, the second is the one its marker names."""
+    renamed = {
+        "BSC-2": ("BSC cabinet", "target_biosafety_cabinet"),
+        "Fridge_02": ("Fridge cabinet", "target_refrigerator.001"),
+    }
+    layout = [
+        (renamed[r[0]][0], r[1], r[2], r[3], r[4], renamed[r[0]][1], (0.55, 0.0)) if r[0] in renamed else r
+        for r in LAYOUT
+    ]
+    path = tmp_path / "ambiguous.glb"
+    path.write_bytes(build_designer_scene(layout).export(file_type="glb"))
+    spec, report = import_glb(path)
+    got = {r["node"]: (r["category"], r["goal_strategy"]) for r in report.instruments}
+    assert got["BSC cabinet"] == ("biosafety_cabinet", 1) and got["Fridge cabinet"] == ("refrigerator", 1)
+    assert not report.ambiguous and None not in {m["assigned_to"] for m in report.markers}
+    assert [(r["node"], r["category"], r["by"].split(",")[0]) for r in report.settled] == [
+        ("BSC cabinet", "biosafety_cabinet", "the more specific name"),
+        ("Fridge cabinet", "refrigerator", "marker `target_refrigerator.001`"),
+    ]
+    md = report.to_markdown()
+    assert "## Ambiguous names settled" in md and "`BSC cabinet`: biosafety_cabinet or cabinet" in md
+    assert "Markers without an instrument" not in md
+
+
 def test_name_map_wins_over_words_and_synonyms(designer_glb, tmp_path):
     path = tmp_path / "map.yaml"
     path.write_text(

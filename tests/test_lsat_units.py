@@ -14,7 +14,6 @@ from biovln_ms.lsat import importer
 from biovln_ms.lsat.gltf import GLTFScene, Node, read_gltf
 from biovln_ms.lsat.importer import (
     ImportReport,
-    LSATImportError,
     _assemble,
     _assign_markers,
     _classify,
@@ -142,7 +141,7 @@ def test_classify_sorts_nodes_into_objects_markers_and_reported_names(tmp_path, 
         {"name": "target_mystery", "at": (1, 0.5)},
     )
     report = ImportReport("hand")
-    found, markers, loose = _classify(scene, report)
+    found, markers, loose, ambiguous = _classify(scene, report)
     assert [(f.node.name, f.category, len(f.points)) for f in found] == [
         ("Refrigerator", "refrigerator", 16),
         ("centrifuge.001", "centrifuge", 8),
@@ -152,6 +151,9 @@ def test_classify_sorts_nodes_into_objects_markers_and_reported_names(tmp_path, 
     assert report.unmatched == ["target_lamp", "Sofa"]  # "mystery lid" is claimed by its ambiguous parent
     assert [n.name for n in loose] == ["Sofa"]  # a node, not a marker, an instrument could be made of
     assert [a["node"] for a in report.ambiguous] == ["Mystery Box", "target_mystery"]
+    assert [(a.node.name, a.candidates, len(a.points)) for a in ambiguous] == [
+        ("Mystery Box", ("cabinet", "incubator"), 16)  # with its lid; a marker may settle it
+    ]
     assert report.warnings == ["'cabinet' (cabinet) has no mesh: skipped"]
 
 
@@ -183,6 +185,61 @@ def test_adopt_gives_an_orphan_marker_the_nearest_loose_mesh_never_a_group_holdi
     ]  # to its door
 
 
+def test_a_marker_settles_the_ambiguous_mesh_beside_it(tmp_path):
+    scene = _scene(
+        tmp_path,
+        FLOOR,
+        {"name": "Fridge cabinet", "box": (0.1, 3.0, 0, 0.99, 3.91, 1.78)},  # refrigerator or cabinet
+        {"name": "target_refrigerator", "at": (0.5, 2.4)},
+        {"name": "Fridge cabinet.001", "box": (4.0, 3.0, 0, 4.89, 3.91, 1.78)},  # no marker: stays ambiguous
+        {
+            "name": "BSC cabinet",
+            "box": (2.0, 0.1, 0, 3.34, 0.9, 2.1),
+        },  # the more specific: a biosafety cabinet
+        {"name": "target_biosafety_cabinet", "at": (2.67, 1.6)},
+    )
+    report = ImportReport("hand")
+    found, markers = _adopt(scene, _classify(scene, report), report)
+    assert [(f.node.name, f.category) for f in found] == [
+        ("BSC cabinet", "biosafety_cabinet"),
+        ("Fridge cabinet", "refrigerator"),
+    ]
+    assert [(m.node.name, m.instrument) for m in markers] == [
+        ("target_refrigerator", "Fridge cabinet"),
+        ("target_biosafety_cabinet", None),  # its instrument is recognised by name
+    ]
+    assert report.ambiguous == [{"node": "Fridge cabinet.001", "candidates": ["cabinet", "refrigerator"]}]
+    assert report.settled == [
+        {
+            "node": "BSC cabinet",
+            "candidates": ["biosafety_cabinet", "cabinet"],
+            "category": "biosafety_cabinet",
+            "by": "the more specific name",
+        },
+        {
+            "node": "Fridge cabinet",
+            "candidates": ["cabinet", "refrigerator"],
+            "category": "refrigerator",
+            "by": "marker `target_refrigerator`, 0.60 m away",
+        },
+    ]
+    assert not report.adopted and "Fridge cabinet" not in report.unmatched
+
+
+def test_a_marker_nearer_a_recognised_instrument_settles_nothing(tmp_path):
+    scene = _scene(
+        tmp_path,
+        FLOOR,
+        {"name": "Refrigerator", "box": (0.1, 3.0, 0, 0.99, 3.91, 1.78)},
+        {"name": "Fridge cabinet", "box": (1.5, 3.0, 0, 2.39, 3.91, 1.78)},
+        {"name": "target_refrigerator", "at": (0.5, 2.6)},
+    )
+    report = ImportReport("hand")
+    found, markers = _adopt(scene, _classify(scene, report), report)
+    assert [f.node.name for f in found] == ["Refrigerator"] and markers[0].instrument is None
+    assert [a["node"] for a in report.ambiguous] == ["Fridge cabinet"] and not report.settled
+
+
 def test_place_snaps_a_table_top_instrument_onto_its_support(tmp_path):
     scene = _scene(
         tmp_path,
@@ -207,12 +264,24 @@ def test_place_snaps_a_table_top_instrument_onto_its_support(tmp_path):
     assert report.warnings == [snapped]
 
 
-def test_place_refuses_a_table_top_instrument_without_support(tmp_path):
-    scene = _scene(tmp_path, FLOOR, {"name": "Mini Centrifuge", "box": (1.67, 1.7, 0.78, 2.33, 2.2, 1.21)})
+def test_place_leaves_out_a_table_top_instrument_without_support_and_one_off_the_floor(tmp_path):
+    scene = _scene(
+        tmp_path,
+        FLOOR,
+        {"name": "Mini Centrifuge", "box": (1.67, 1.7, 0.78, 2.33, 2.2, 1.21)},
+        {"name": "Waste Bin", "box": (6.81, 1.0, 0, 7.19, 1.37, 0.51)},  # beyond the floor's x = 6
+        {"name": "Refrigerator", "box": (0.1, 3.0, 0, 0.99, 3.91, 1.78)},
+    )
     report = ImportReport("hand")
     rects, _ = _rooms(scene, report)
-    with pytest.raises(LSATImportError, match="stands on no bench or table"):
-        _place(scene, _classify(scene, report).found, rects, report)
+    placed = _place(scene, _classify(scene, report).found, rects, report)
+    assert [o.id for o in placed.instruments] == ["refrigerator_0"]  # the others are problems, not objects
+    assert report.problem_lines() == [
+        "`Mini Centrifuge` at (2.00, 1.95): a table-top mini_centrifuge standing on no bench or table "
+        "(put it on a 'Lab Bench' or 'Lab Table' node)",
+        "`Waste Bin` at (7.00, 1.19): a waste_bin standing outside every floor (move it onto a floor mesh, "
+        "or add a floor under it)",
+    ]
 
 
 def test_assign_markers_strategy_1_nearest_of_the_category_strategy_2_for_the_rest():
@@ -255,14 +324,23 @@ def test_assign_markers_ignores_a_second_marker_and_one_without_instrument():
     assert report.warnings == [ignored]
 
 
-def test_assemble_refuses_an_instrument_outside_the_rooms():
+def test_assemble_reports_every_broken_designer_rule_with_node_and_coordinates():
     shell = _Shell(*rooms_from_rects([("room_0", "room", (0.0, 0.0, 6.0, 4.0))], 3.0))
     report = ImportReport("hand")
     inside = _assign_markers(_placed(_object("refrigerator_0", "refrigerator", (3.0, 3.5))), [], report)
     spec = _assemble("lab", shell, inside, ROBOT_RADIUS, report)
     assert (spec.name, spec.template, [o.id for o in spec.instruments]) == ("lab", "lsat", ["refrigerator_0"])
-    outside = _placed(_object("refrigerator_0", "refrigerator", (8.0, 2.0)))
-    with pytest.raises(LSATImportError, match="hand.*the imported scene breaks a rule"):
-        _assemble("lab", shell, outside, ROBOT_RADIUS, ImportReport("hand"))
-    with pytest.raises(LSATImportError, match="no instrument found"):
-        _assemble("lab", shell, _placed(), ROBOT_RADIUS, ImportReport("hand"))
+    assert not report.problems
+    outside = _placed(
+        _object("refrigerator_0", "refrigerator", (8.0, 2.0)), _object("waste_bin_0", "waste_bin", (7.0, 1.0))
+    )
+    report = ImportReport("hand")
+    _assemble("lab", shell, outside, ROBOT_RADIUS, report)
+    lines = report.problem_lines()
+    for node, xy in (("refrigerator_0", "(8.00, 2.00)"), ("waste_bin_0", "(7.00, 1.00)")):
+        line = f"`{node}`: '{node}' at {xy} is not inside the rooms' floor [rule: inside rooms]"
+        assert line in lines
+    assert len(lines) > 2  # their goals are off the floor too: every problem, not the first
+    report = ImportReport("hand")
+    assert _assemble("lab", shell, _placed(), ROBOT_RADIUS, report) is None
+    assert report.problems[0]["message"].startswith("no instrument found")

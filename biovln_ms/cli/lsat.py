@@ -41,16 +41,16 @@ def lsat_import(
 ) -> None:
     """Import a designer-authored GLB (paper P1).
 
-    Goals from target_* markers (strategy 1) or from geometry + Eq. 1 (strategy 2)."""
+    Goals from target_* markers (strategy 1) or from geometry + Eq. 1 (strategy 2). A failing import lists
+    every problem, and its report is written all the same."""
     from biovln_ms.io_utils import atomic_write_text
     from biovln_ms.lsat.importer import import_glb
     from biovln_ms.lsat.name_map import load_name_map
 
     name_map = load_name_map(names) if names else None
-    spec, rep = import_glb(glb, name=name, allow_external=allow_external, names=name_map)
+    rpath = report or out.with_suffix(".report.md")  # written even when the import fails
+    spec, rep = import_glb(glb, name=name, allow_external=allow_external, names=name_map, report_path=rpath)
     atomic_write_text(out, spec.to_json())
-    rpath = report or out.with_suffix(".report.md")
-    atomic_write_text(rpath, rep.to_markdown())
     c = rep.coverage()
     adopted = len(c["instruments_from_markers"])
     typer.echo(

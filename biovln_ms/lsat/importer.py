@@ -8,8 +8,11 @@ What a designer's GLB needs (node names; Blender duplicates such as ``.001`` are
   ``Fridge_02``, ``BSC-2``, ``centrifuge.001``; ``biovln_ms.lsat.names``, an optional name map first),
   or carrying ``extras.category`` (our ``scene export`` writes it); their parts may be children;
 - optionally ``target_<category>`` empties: world-space goals (**strategy 1**), each given to the
-  nearest instrument of its category. A marker with no recognised instrument of its category within
-  MARKER_REACH takes the nearest unrecognised mesh there as that instrument, flagged in the report.
+  nearest instrument of its category. A marker settles the category of a mesh beside it whose name is
+  ambiguous between that category and others (within MARKER_REACH); a marker with no recognised
+  instrument of its category there takes the nearest unrecognised mesh as that instrument, flagged in the
+  report. A name holding two categories where one names the other more specifically (``BSC cabinet``) is
+  the more specific one (``biovln_ms.lsat.names``); the report lists every ambiguity so settled.
 
 **Strategy 2** (an instrument without a marker): the footprint's minimum-area rectangle gives the centre
 and the orientation; which of the four sides is the operational face is told from geometry when the
@@ -21,7 +24,9 @@ measured footprint more than 5 cm off is reported.
 
 Designer scenes keep free placement: the spec's ``template`` is ``lsat`` and only the rules a scene must
 keep (catalog, Eq. 3, Eq. 4, inside rooms, goals navigable and mutually reachable) refuse it; the other
-generator rules are listed as warnings in the coverage report.
+generator rules are listed as warnings in the coverage report. An import that fails collects every problem
+first (each naming the designer's node and where it stands), lists them all in its error and its report,
+and writes the report when asked to (``report_path``) whether it succeeds or not.
 """
 
 from __future__ import annotations
@@ -40,6 +45,7 @@ from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import ROBOT_RADIUS
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import placement_z, rot2, wrap_angle
+from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.lsat.gltf import GLTFScene, Node, read_gltf
 from biovln_ms.lsat.names import (
     FACE_PART_WORDS,
@@ -52,7 +58,7 @@ from biovln_ms.lsat.names import (
 )
 from biovln_ms.scene.generator import rooms_from_rects
 from biovln_ms.scene.loading import parse_spec
-from biovln_ms.scene.rules import check_layout, validate_spec
+from biovln_ms.scene.rules import DESIGNER_RULES, check_consistency, check_layout
 from biovln_ms.scene.spec import (
     DESIGNER_TEMPLATE,
     SCHEMA_VERSION,
@@ -95,7 +101,26 @@ class ImportReport:
     ambiguous: list[dict] = field(default_factory=list)
     # markers whose instrument was recognised only by them: marker, node, category, distance (m)
     adopted: list[dict] = field(default_factory=list)
+    # names of several categories settled: node, candidates, category, by (the more specific name, a marker)
+    settled: list[dict] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    # what makes the import fail: node (the designer's, or None), at ([x, y] or None), rule, message
+    problems: list[dict] = field(default_factory=list)
+
+    def problem(self, message: str, node: str | None = None, at=None, rule: str | None = None) -> None:
+        """Record a problem that fails the import; the import goes on to find the others."""
+        xy = None if at is None else [round(float(at[0]), 3), round(float(at[1]), 3)]
+        self.problems.append({"node": node, "at": xy, "rule": rule, "message": message})
+
+    def problem_lines(self) -> list[str]:
+        """Each problem in one line: the designer's node, where it stands, what is wrong, the rule."""
+        lines = []
+        for p in self.problems:
+            who = [f"`{p['node']}`"] if p["node"] is not None else []
+            who += [f"at ({p['at'][0]:.2f}, {p['at'][1]:.2f})"] if p["at"] is not None else []
+            rule = f" [rule: {p['rule']}]" if p["rule"] else ""
+            lines.append(f"{' '.join(who)}: {p['message']}{rule}" if who else f"{p['message']}{rule}")
+        return lines
 
     def coverage(self) -> dict:
         goals = [i for i in self.instruments if i["is_goal"]]
@@ -109,6 +134,8 @@ class ImportReport:
             "unmatched_names": len(self.unmatched),
             "ambiguous_names": len(self.ambiguous),
             "instruments_from_markers": [a["node"] for a in self.adopted],
+            "ambiguous_settled": len(self.settled),
+            "problems": len(self.problems),
         }
 
     def to_markdown(self) -> str:
@@ -118,14 +145,12 @@ class ImportReport:
             f"goals from markers (strategy 1): {c['goals_strategy1']}; from geometry + Eq. 1 "
             f"(strategy 2): {c['goals_strategy2']}; missing: {len(c['missing'])}."
         )
-        lines = [
-            f"# LSAT import of `{self.source}`",
-            "",
-            summary,
-            "",
-            "| id | node | category | goal from | face from |",
-            "|---|---|---|---|---|",
-        ]
+        lines = [f"# LSAT import of `{self.source}`", ""]
+        if self.problems:
+            n = len(self.problems)
+            lines += [f"## The import failed: {n} problem{'s' if n > 1 else ''}", ""]
+            lines += [f"- {x}" for x in self.problem_lines()] + [""]
+        lines += [summary, "", "| id | node | category | goal from | face from |", "|---|---|---|---|---|"]
         for i in self.instruments:
             strat = {1: "marker (strategy 1)", 2: "Eq. 1 (strategy 2)", None: "–"}[i["goal_strategy"]]
             lines.append(f"| {i['id']} | `{i['node']}` | {i['category']} | {strat} | {i['face_from']} |")
@@ -136,6 +161,13 @@ class ImportReport:
                     f"`{a['marker']}`: the nearest unrecognised mesh, `{a['node']}` ({a['distance']:.2f} m "
                     f"away), taken as {a['category']}; rename it or add it to the --names map to confirm"
                     for a in self.adopted
+                ],
+            ),
+            (
+                "Ambiguous names settled",
+                [
+                    f"`{r['node']}`: {' or '.join(r['candidates'])} -> {r['category']} ({r['by']})"
+                    for r in self.settled
                 ],
             ),
             ("Markers without an instrument", c["markers_unassigned"]),
@@ -169,13 +201,23 @@ class _Marker(NamedTuple):
     instrument: str | None = None
 
 
+class _Ambiguous(NamedTuple):
+    """A node whose name says several categories (``candidates``), with the world points of its subtree:
+    a marker of one of them beside it settles which."""
+
+    node: Node
+    candidates: tuple[str, ...]
+    points: np.ndarray
+
+
 class _Classified(NamedTuple):
-    """What the non-shell nodes are: objects to place, markers to assign, and the nodes that are neither
-    (reported as unmatched)."""
+    """What the non-shell nodes are: objects to place, markers to assign, the nodes that are neither
+    (reported as unmatched), and the ambiguous ones a marker may settle."""
 
     found: list[_Found]
     markers: list[_Marker]
     loose: list[Node]
+    ambiguous: tuple[_Ambiguous, ...] = ()
 
 
 class _Footprint(NamedTuple):
@@ -287,7 +329,7 @@ def _category(node: Node, names: NameMap | None) -> Match:
 
 def _rooms(scene: GLTFScene, report: ImportReport) -> tuple[list[RoomRect], float]:
     """The rooms (one per ``floor*`` mesh: its axis-aligned footprint) and the wall height (the highest
-    ``wall*`` mesh, else DEFAULT_WALL_HEIGHT); no usable floor is refused."""
+    ``wall*`` mesh, else DEFAULT_WALL_HEIGHT); no usable floor is a problem (no rooms)."""
     floors = [n for n in scene.nodes if _is_floor(n.name)]
     rects, tops = [], []
     for n in floors:
@@ -306,12 +348,11 @@ def _rooms(scene: GLTFScene, report: ImportReport) -> tuple[list[RoomRect], floa
         rects.append((f"room_{len(rects)}", "room", corners))
         tops.append(float(pts[:, 2].max()))
     if not rects:
-        raise LSATImportError(
-            f"no floor: no mesh node named 'floor...' of at least {MIN_FLOOR_SIDE:g} x {MIN_FLOOR_SIDE:g} m",
-            source=report.source,
-            field="nodes",
-            fix="name the floor mesh 'floor' (one per room: 'floor_lab', 'floor_corridor')",
+        report.problem(
+            f"no floor: no mesh node named 'floor...' of at least {MIN_FLOOR_SIDE:g} x {MIN_FLOOR_SIDE:g} m "
+            "(name the floor mesh 'floor', one per room: 'floor_lab', 'floor_corridor')"
         )
+        return [], DEFAULT_WALL_HEIGHT
     if max(tops) - min(tops) > FLOOR_LEVEL_TOLERANCE or abs(min(tops)) > FLOOR_LEVEL_TOLERANCE:
         report.warnings.append(
             f"floor tops range {min(tops):.3f}..{max(tops):.3f} m: BioVLN assumes the floor at z = 0"
@@ -329,8 +370,18 @@ def _marker(node: Node, report: ImportReport, names: NameMap | None) -> _Marker 
     elif m.category is None:
         report.unmatched.append(node.name)
     else:
+        _settled(report, node.name, m)
         return _Marker(node, m.category)
     return None
+
+
+def _settled(report: ImportReport, node: str, m: Match) -> None:
+    """Report a name of several categories that the more specific one settled."""
+    if m.set_aside:
+        candidates = sorted({m.category, *m.set_aside})
+        report.settled.append(
+            {"node": node, "candidates": candidates, "category": m.category, "by": "the more specific name"}
+        )
 
 
 def _preorder(scene: GLTFScene) -> list[Node]:
@@ -348,10 +399,11 @@ def _classify(scene: GLTFScene, report: ImportReport, names: NameMap | None = No
     """Sort the nodes (the room shell, lights and cameras aside) into markers and objects of a catalog
     category; an object (matched or ambiguous) claims its subtree as its parts, and so does a node the name
     map calls no instrument. Names matching no category (the loose nodes), or several (never guessed), and
-    objects without a mesh are reported."""
+    objects without a mesh are reported; the ambiguous ones with a mesh are kept for the markers."""
     found: list[_Found] = []
     markers: list[_Marker] = []
     loose: list[Node] = []
+    ambiguous: list[_Ambiguous] = []
     claimed: set[int] = set()
     for n in _preorder(scene):
         if n.parent in claimed:
@@ -367,6 +419,8 @@ def _classify(scene: GLTFScene, report: ImportReport, names: NameMap | None = No
         if m.ambiguous or (m.category is None and m.how == "name map"):
             if m.ambiguous:
                 report.ambiguous.append({"node": n.name, "candidates": list(m.candidates)})
+                if len(pts := scene.subtree_points(n)) >= 3:
+                    ambiguous.append(_Ambiguous(n, m.candidates, pts))
             claimed.add(n.index)
             continue
         if m.category is None:
@@ -379,8 +433,9 @@ def _classify(scene: GLTFScene, report: ImportReport, names: NameMap | None = No
         if len(pts) < 3:
             report.warnings.append(f"'{n.name}' ({m.category}) has no mesh: skipped")
             continue
+        _settled(report, n.name, m)
         found.append(_Found(n, m.category, pts))
-    return _Classified(found, markers, loose)
+    return _Classified(found, markers, loose, tuple(ambiguous))
 
 
 def _hull_distance(points: np.ndarray, xy: np.ndarray) -> float:
@@ -389,12 +444,17 @@ def _hull_distance(points: np.ndarray, xy: np.ndarray) -> float:
 
 
 def _adopt(scene: GLTFScene, c: _Classified, report: ImportReport) -> tuple[list[_Found], list[_Marker]]:
-    """A marker with no recognised instrument of its category within MARKER_REACH takes the nearest loose
-    node there (the topmost one holding neither a recognised object nor a marker) as that instrument; the
-    report flags it, and the node and its parts leave ``report.unmatched``."""
+    """A marker settles the nearest ambiguous node within MARKER_REACH whose candidates hold its category
+    (unless a recognised instrument of that category is nearer): the node is an instrument of the marker's
+    category, moved in the report from the ambiguous names to the settled ones. A marker with no
+    instrument of its category within MARKER_REACH takes the nearest loose node there (the topmost one
+    holding neither a recognised or ambiguous object nor a marker) as that instrument; the report flags
+    it, and the node and its parts leave ``report.unmatched``."""
     found, markers = list(c.found), []
     taken = {m.index for f in found for m in scene.subtree(f.node)}
+    taken |= {m.index for a in c.ambiguous for m in scene.subtree(a.node)}
     taken |= {m.node.index for m in c.markers}
+    pool = list(c.ambiguous)
     groups: list[tuple[Node, np.ndarray]] = []
     inside: set[int] = set()
     for n in c.loose:
@@ -409,6 +469,21 @@ def _adopt(scene: GLTFScene, c: _Classified, report: ImportReport) -> tuple[list
         near = [
             f for f in found if f.category == mk.category and _hull_distance(f.points, xy) <= MARKER_REACH
         ]
+        settle = [
+            (_hull_distance(a.points, xy), k) for k, a in enumerate(pool) if mk.category in a.candidates
+        ]
+        settle = [(d, k) for d, k in settle if d <= MARKER_REACH]
+        if settle and min(settle)[0] < min((_hull_distance(f.points, xy) for f in near), default=math.inf):
+            d, k = min(settle)
+            a = pool.pop(k)
+            found.append(_Found(a.node, mk.category, a.points))
+            markers.append(mk._replace(instrument=a.node.name))
+            report.ambiguous[:] = [x for x in report.ambiguous if x["node"] != a.node.name]
+            by = f"marker `{mk.node.name}`, {d:.2f} m away"
+            report.settled.append(
+                {"node": a.node.name, "candidates": list(a.candidates), "category": mk.category, "by": by}
+            )
+            continue
         dist = [(_hull_distance(pts, xy), k) for k, (_, pts) in enumerate(groups)]
         if near or not dist or min(dist)[0] > MARKER_REACH:
             markers.append(mk)
@@ -448,10 +523,10 @@ def _pose(scene: GLTFScene, f: _Found, report: ImportReport) -> _Pose | None:
 
 def _rest(
     f: _Found, centre: np.ndarray, furniture: list[ObjectSpec], report: ImportReport
-) -> tuple[str | None, float]:
+) -> tuple[str | None, float] | None:
     """The support and centre height: a table-top instrument is snapped onto the furniture under its centre
-    at the Eq. 4 height (none there is refused); anything else stands on the floor. A bottom more than
-    SUPPORT_TOLERANCE off is reported."""
+    at the Eq. 4 height (none there is a problem: None); anything else stands on the floor. A bottom more
+    than SUPPORT_TOLERANCE off is reported."""
     cat = load_catalog()
     a = cat.get(f.category)
     bottom = float(f.points[:, 2].min())
@@ -463,12 +538,13 @@ def _rest(
         return None, a.dimensions[2] / 2
     sup = next((o for o in furniture if o.placed().zone1().contains(Point(centre))), None)
     if sup is None:
-        raise LSATImportError(
-            f"table-top instrument '{f.node.name}' stands on no bench or table",
-            source=report.source,
-            field=f.node.name,
-            fix="put it on a 'Lab Bench' or 'Lab Table' node",
+        report.problem(
+            f"a table-top {f.category} standing on no bench or table (put it on a 'Lab Bench' or 'Lab "
+            "Table' node)",
+            f.node.name,
+            centre,
         )
+        return None
     top = cat.support_heights[sup.category]
     if abs(bottom - top) > SUPPORT_TOLERANCE:
         report.warnings.append(
@@ -490,7 +566,8 @@ def _object_id(f: _Found, taken: dict[str, dict], counts: Counter) -> str:
 
 def _place(scene: GLTFScene, found: list[_Found], rects: list[RoomRect], report: ImportReport) -> _Placed:
     """Pose, room, support and id of each found object: furniture first (the supports), each kind in tree
-    order. Goal objects get their Eq. 1 goal here; an object outside every floor is refused."""
+    order. Goal objects get their Eq. 1 goal here; an object outside every floor or a table-top one on no
+    support is a problem, and left out."""
     cat = load_catalog()
     floor_boxes = {rid: box(*rect) for rid, _, rect in rects}
     placed = _Placed([], [], {})
@@ -501,13 +578,17 @@ def _place(scene: GLTFScene, found: list[_Found], rects: list[RoomRect], report:
             continue
         room = next((rid for rid, poly in floor_boxes.items() if poly.contains(Point(pose.centre))), None)
         if room is None:
-            raise LSATImportError(
-                f"'{f.node.name}' stands outside every floor",
-                source=report.source,
-                field=f.node.name,
-                fix="move it onto a floor mesh, or add a floor under it",
+            report.problem(
+                f"a {f.category} standing outside every floor (move it onto a floor mesh, or add a floor "
+                "under it)",
+                f.node.name,
+                pose.centre,
             )
-        support, z = _rest(f, pose.centre, placed.furniture, report)
+            continue
+        rest = _rest(f, pose.centre, placed.furniture, report)
+        if rest is None:
+            continue
+        support, z = rest
         obj_id = _object_id(f, placed.rows, counts)
         a = cat.get(f.category)
         flag = f.node.extras.get("is_goal")  # our exporter says which furniture is a goal; else the catalog
@@ -560,18 +641,15 @@ def _assign_markers(placed: _Placed, markers: list[_Marker], report: ImportRepor
 
 def _assemble(
     name: str, shell: _Shell, placed: _Placed, robot_radius: float, report: ImportReport
-) -> SceneSpec:
-    """The designer scene spec, validated by ``validate_spec`` (a broken designer rule is refused, naming the
-    object); the other generator rules become report warnings. A scene without instruments is refused."""
+) -> SceneSpec | None:
+    """The designer scene spec, checked against the catalog and the layout rules: each broken designer rule
+    (``DESIGNER_RULES``) is a problem naming the designer's node, the other generator rules are report
+    warnings. None (a problem) when there is no instrument or the spec breaks its schema."""
 
     cat = load_catalog()
     if not placed.instruments:
-        raise LSATImportError(
-            "no instrument found",
-            source=report.source,
-            field="nodes",
-            fix=f"name instrument nodes by category ({', '.join(cat.names())})",
-        )
+        report.problem(f"no instrument found (name instrument nodes by category: {', '.join(cat.names())})")
+        return None
     obj = {
         "schema_version": SCHEMA_VERSION,
         "name": name,
@@ -587,14 +665,34 @@ def _assemble(
         "instruments": [o.model_dump() for o in placed.instruments],
     }
     try:
-        spec = validate_spec(parse_spec(obj, source=report.source), report.source)
+        spec = parse_spec(obj, source=report.source)
     except SceneSpecError as e:
-        fix = e.fix or "move the named object in the authoring tool"
-        raise LSATImportError(
-            f"the imported scene breaks a rule: {e.message}", source=report.source, field=e.field, fix=fix
-        ) from None
-    report.warnings += [f"generator rule '{v.rule}': {v.message}" for v in check_layout(spec)]
+        report.problem(f"the imported scene is not a valid spec: field '{e.field}': {e.message}")
+        return None
+    nodes = {row["id"]: row["node"] for row in placed.rows.values()}
+    broken = [v for v in check_consistency(spec) if v.rule in DESIGNER_RULES]
+    if not broken:  # the layout rules assume objects that agree with the catalog
+        for v in check_layout(spec):
+            if v.rule in DESIGNER_RULES:
+                broken.append(v)
+            else:
+                report.warnings.append(f"generator rule '{v.rule}': {v.message}")
+    for v in broken:
+        report.problem(v.message, nodes.get(v.objects[0]) if v.objects else None, rule=v.rule)
     return spec
+
+
+def _failure(report: ImportReport, report_path: Path | None) -> LSATImportError:
+    """The import's error: every problem in one line, numbered, and where the report lists them."""
+    lines = report.problem_lines()
+    n = len(lines)
+    listed = lines[0] if n == 1 else "; ".join(f"{i}) {x}" for i, x in enumerate(lines, 1))
+    where = f"; the report {report_path} lists them" if report_path is not None else ""
+    return LSATImportError(
+        f"{n} problem{'s' if n > 1 else ''}: {listed}",
+        source=report.source,
+        fix=f"move, rename or add the named nodes in the authoring tool{where}",
+    )
 
 
 def import_glb(
@@ -603,16 +701,33 @@ def import_glb(
     allow_external: bool = False,
     robot_radius: float = ROBOT_RADIUS,
     names: NameMap | None = None,
+    report_path: str | Path | None = None,
 ) -> tuple[SceneSpec, ImportReport]:
     """Read, interpret and validate a designer GLB: rooms, classify (``names``: the user's name map, which
-    wins), adopt instruments for orphan markers, place, assign markers, assemble. The spec passes
-    ``validate_spec`` (designer rules); the report says where each goal came from."""
+    wins), settle ambiguous names and adopt instruments for orphan markers, place, assign markers,
+    assemble. The spec keeps the designer rules; the report says where each goal came from. Every problem
+    found fails the import at the end, all of them in one ``LSATImportError``; ``report_path``: the
+    Markdown report is written there whether the import succeeds or fails (else nothing is written)."""
 
     path = Path(path)
-    scene = read_gltf(path, allow_external=allow_external)
+    report_path = None if report_path is None else Path(report_path)
     report = ImportReport(str(path))
-    rects, wall_height = _rooms(scene, report)
-    shell = _Shell(*rooms_from_rects(rects, wall_height))
-    found, markers = _adopt(scene, _classify(scene, report, names), report)
-    placed = _assign_markers(_place(scene, found, rects, report), markers, report)
-    return _assemble(name or path.stem, shell, placed, robot_radius, report), report
+    try:
+        scene = read_gltf(path, allow_external=allow_external)
+        rects, wall_height = _rooms(scene, report)
+        if not rects:
+            raise _failure(report, report_path)
+        shell = _Shell(*rooms_from_rects(rects, wall_height))
+        found, markers = _adopt(scene, _classify(scene, report, names), report)
+        placed = _assign_markers(_place(scene, found, rects, report), markers, report)
+        spec = _assemble(name or path.stem, shell, placed, robot_radius, report)
+        if report.problems:
+            raise _failure(report, report_path)
+        return spec, report
+    except BioVLNError as e:
+        if not report.problems:  # the GLB itself could not be read
+            report.problem(e.message)
+        raise
+    finally:
+        if report_path is not None:
+            atomic_write_text(report_path, report.to_markdown())

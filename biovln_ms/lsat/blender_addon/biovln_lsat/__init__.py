@@ -129,13 +129,12 @@ class BIOVLN_OT_import_export(bpy.types.Operator):
         bpy.ops.export_scene.gltf(
             filepath=str(glb), export_format="GLB", export_yup=True, use_selection=False
         )
-        try:
-            spec, report = import_glb(glb, name=name)
+        try:  # the report is written even when the import fails: it lists every problem
+            spec, report = import_glb(glb, name=name, report_path=out / f"{name}.report.md")
         except BioVLNError as e:
             self.report({"ERROR"}, str(e))
             return {"CANCELLED"}
         atomic_write_text(out / f"{name}.json", spec.to_json())
-        atomic_write_text(out / f"{name}.report.md", report.to_markdown())
         write_json(goal_json(spec), out / f"{name}.goals.json")
         write_json(lsat_json(spec, report), out / f"{name}.lsat.json")
         try:
