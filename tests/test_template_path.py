@@ -30,7 +30,7 @@ def template_folder(tmp_path, monkeypatch):
     (folder / "broken.json").write_text(json.dumps(broken))
     monkeypatch.setenv("BIOVLN_TEMPLATE_PATH", str(folder))
     monkeypatch.setattr(templates, "_REGISTRY", {})
-    monkeypatch.setattr(templates, "_SKIPPED", {})
+    monkeypatch.setattr(templates, "_SKIPPED", {}, raising=False)
     monkeypatch.setattr(templates, "_BUILTIN_LOADED", False)
     return folder
 
