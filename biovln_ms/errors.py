@@ -18,14 +18,27 @@ class BioVLNError(Exception):
     def __str__(self) -> str:
         parts = []
         if self.source:
-            parts.append(str(self.source))
+            parts.append(one_line(str(self.source)))
         if self.field:
-            parts.append(f"field '{self.field}'")
+            parts.append(f"field '{one_line(str(self.field), MAX_FIELD)}'")
         head = ": ".join(parts)
-        text = f"{head}: {self.message}" if head else self.message
+        message = one_line(str(self.message))
+        text = f"{head}: {message}" if head else message
         if self.fix:
-            text += f" (fix: {self.fix})"
+            text += f" (fix: {one_line(str(self.fix))})"
         return text
+
+
+#: characters of a field name an error shows (a key of a crafted file can be a megabyte long)
+MAX_FIELD = 120
+
+
+def one_line(text: str, limit: int | None = None) -> str:
+    """``text`` with every line break and other unprintable character escaped (an error stays one line,
+    whatever the file it quotes holds), cut to ``limit`` characters."""
+    if not text.isprintable():
+        text = "".join(c if c.isprintable() else ascii(c)[1:-1] for c in text)
+    return text if limit is None or len(text) <= limit else text[: limit - 3] + "..."
 
 
 class CatalogError(BioVLNError):

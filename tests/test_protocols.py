@@ -242,7 +242,9 @@ def test_bad_protocol_file_is_one_line(case: str, tmp_path: Path) -> None:
 
 def test_not_json_is_one_line(tmp_path: Path) -> None:
     _write(tmp_path, "broken.json", '{"id": "x",')
-    with pytest.raises(ProtocolError, match=r"broken\.json: not valid JSON at line 1: .*\(fix: ") as info:
+    with pytest.raises(
+        ProtocolError, match=r"broken\.json: protocol is not valid JSON at line 1 column \d+: .*\(fix: "
+    ) as info:
         load_protocols(extra_dirs=[tmp_path])
     assert "\n" not in str(info.value)
 

@@ -156,18 +156,29 @@ def _pgm(img: np.ndarray) -> bytes:
     return f"P5\n{w} {h}\n255\n".encode() + np.ascontiguousarray(img, np.uint8).tobytes()
 
 
+def _one_line(text: str) -> str:
+    """``text`` with its line breaks, CRs, NULs and other control characters escaped (a spec's name)."""
+    return text if text.isprintable() else ascii(text)[1:-1]
+
+
+def _comment(text: str) -> str:
+    """``text`` as one YAML comment line: escaped, so that it can neither end the comment and add keys nor
+    make the file unreadable."""
+    return f"# {_one_line(text)}\n"
+
+
 def _map_yaml(image: str, mode: str, grid: MapGrid, comment: str) -> str:
     ox, oy = grid.origin
-    return (
-        f"# {comment}\n"
-        f"image: {image}\n"
-        f"mode: {mode}\n"
-        f"resolution: {grid.resolution!r}\n"
-        f"origin: [{ox!r}, {oy!r}, 0.0]\n"
-        "negate: 0\n"
-        f"occupied_thresh: {OCCUPIED_THRESH}\n"
-        f"free_thresh: {FREE_THRESH}\n"
-    )
+    meta = {
+        "image": image,
+        "mode": mode,
+        "resolution": float(grid.resolution),
+        "origin": [float(ox), float(oy), 0.0],
+        "negate": 0,
+        "occupied_thresh": OCCUPIED_THRESH,
+        "free_thresh": FREE_THRESH,
+    }
+    return _comment(comment) + yaml.safe_dump(meta, sort_keys=False, default_flow_style=None)
 
 
 def _params_yaml(robot_radius: float) -> str:
@@ -250,7 +261,7 @@ def _preview(spec: SceneSpec, m: Nav2Maps, path: Path) -> Path:
     )
     ax.set_xlabel("x (m, frame map)")
     ax.set_ylabel("y (m)")
-    ax.set_title(f"{spec.name}: Nav2 map {grid.width} x {grid.height} px at {grid.resolution} m")
+    ax.set_title(f"{_one_line(spec.name)}: Nav2 map {grid.width} x {grid.height} px at {grid.resolution} m")
     fig.tight_layout()
     return save_figure(fig, path, dpi=130)
 
@@ -301,8 +312,10 @@ def export_nav2(spec: SceneSpec, out: str | Path, resolution: float = 0.05) -> l
         ),
         atomic_write_text(
             out / "goals.yaml",
-            f"# {name}: goal poses (geometry_msgs/PoseStamped), at the Eq. 1 goal facing the operational\n"
-            "# face; orientation is the quaternion x, y, z, w of the yaw about z\n"
+            _comment(
+                f"{name}: goal poses (geometry_msgs/PoseStamped), at the Eq. 1 goal facing the operational"
+            )
+            + "# face; orientation is the quaternion x, y, z, w of the yaw about z\n"
             + yaml.safe_dump({"frame_id": "map", "goals": m.goals}, sort_keys=False),
         ),
         atomic_write_text(out / "nav2_params.yaml", _params_yaml(radius)),

@@ -36,6 +36,18 @@ _RECORDABLE = ", ".join(m for m in report_methods() if METHODS[m].recordable)  #
 _LEARNED = ", ".join(m for m in report_methods() if "checkpoint" in METHODS[m].options)
 
 
+def given_path(value: str | Path) -> Path:
+    """A path option's value, refused when empty: ``Path("")`` is the current folder, which nobody means
+    by ``--record ''`` (a unset shell variable)."""
+    if isinstance(value, Path):
+        return value
+    if not value.strip():
+        raise typer.BadParameter("an empty path would be the current folder: name a file or folder")
+    if "\x00" in value:
+        raise typer.BadParameter("a path cannot hold a NUL character")
+    return Path(value)
+
+
 def _lighting_option(default: str = "fast"):
     from biovln_ms.render.lighting import LIGHTING
 

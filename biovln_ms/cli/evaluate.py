@@ -15,9 +15,11 @@ from biovln_ms.cli.common import (
     _lighting_option,
     _methods_help,
     app,
+    given_path,
 )
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import report_methods
+from biovln_ms.limits import MAX_WORKERS
 from biovln_ms.variants import BENCHMARK_ENV
 
 
@@ -101,22 +103,26 @@ def eval_cmd(
         ..., "--method", "-m", help=f"Method: {', '.join(report_methods())}.", autocompletion=report_methods
     ),
     split: str = typer.Option("ms_dev", "--split", "-s", help="Dataset split."),
-    out: Path = typer.Option(Path("results"), "--out", "-o", help="Results folder."),
-    dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
+    out: Path = typer.Option(Path("results"), "--out", "-o", help="Results folder.", parser=given_path),
+    dataset: Optional[Path] = typer.Option(
+        None, help="Dataset folder (default: built on first use).", parser=given_path
+    ),
     env_id: Optional[str] = typer.Option(
         None,
         "--env",
         help="Env variant, e.g. BioVLN-Centroid-v0 (default: BioVLN-OpFace-v0, or the method's own above).",
     ),
-    workers: Optional[int] = typer.Option(None, help="Worker processes (default: one per core)."),
-    max_episodes: Optional[int] = typer.Option(None, help="Only the first N episodes."),
+    workers: Optional[int] = typer.Option(
+        None, min=1, max=MAX_WORKERS, help="Worker processes (default: one per core)."
+    ),
+    max_episodes: Optional[int] = typer.Option(None, min=1, help="Only the first N episodes (default: all)."),
     ray_address: Optional[str] = typer.Option(
         None,
         help="Run on Ray: 'local' (a local instance), 'auto' or "
         "'ray://host:port' (a cluster); --workers actors.",
     ),
     record: Optional[Path] = typer.Option(
-        None, "--record", help="Record trajectories (TrajectoryRecorder) here."
+        None, "--record", help="Record trajectories (TrajectoryRecorder) here.", parser=given_path
     ),
     record_mode: str = typer.Option(
         "full", help="full (RGB PNGs + depth) or trace (positions/actions only)."
@@ -124,6 +130,7 @@ def eval_cmd(
     checkpoint: Optional[Path] = typer.Option(
         None,
         help=f"Checkpoint of a learned method ({_LEARNED}): bc.pt for bc, a Stable-Baselines3 .zip for RL.",
+        parser=given_path,
     ),
     detector: Optional[str] = typer.Option(
         None, help="vlfm: 'gt' (default, simulator segmentation) or 'owlvit:/local/dir'."
@@ -134,7 +141,9 @@ def eval_cmd(
     parser: Optional[str] = typer.Option(
         None, help="protocol_language: 'rule' (default, offline) or 'llm' (an LLM reads the instruction)."
     ),
-    name: Optional[str] = typer.Option(None, help="Results folder name (default: the method)."),
+    name: Optional[str] = typer.Option(
+        None, help="Results folder name: letters, digits, _ - . + @ (default: the method)."
+    ),
     noise: str = typer.Option(
         "ideal", help="Noise preset: ideal (the paper) or realistic; the run is named METHOD+PRESET."
     ),
@@ -147,6 +156,7 @@ def eval_cmd(
         None,
         "--export-handoff",
         help="Write each successful episode's hand-off JSON here (final base pose, joints, scene).",
+        parser=given_path,
     ),
     fresh_scene: bool = typer.Option(
         False,
@@ -226,8 +236,12 @@ def benchmark_cmd(
         "--checkpoints",
         help="METHOD=PATH of learned methods, comma-separated (default: the suite trains them).",
     ),
-    workers: Optional[int] = typer.Option(None, help="Worker processes (default: one per core)."),
-    dataset: Optional[Path] = typer.Option(None, help="Dataset folder (default: built on first use)."),
+    workers: Optional[int] = typer.Option(
+        None, min=1, max=MAX_WORKERS, help="Worker processes (default: one per core)."
+    ),
+    dataset: Optional[Path] = typer.Option(
+        None, help="Dataset folder (default: built on first use).", parser=given_path
+    ),
 ) -> None:
     from biovln_ms.errors import BioVLNError
     from biovln_ms.eval.suite import PROTOCOL_METHODS, SUITE_METHODS, SUITE_NOISE, SUITE_SPLITS, run_suite

@@ -22,12 +22,10 @@ from __future__ import annotations
 
 import gzip
 import hashlib
-import json
-import stat
 import zlib
 from collections import Counter
-from pathlib import Path, PurePosixPath
-from typing import Annotated, BinaryIO, Iterator
+from pathlib import Path
+from typing import Annotated, Iterator
 
 from pydantic import Field, TypeAdapter, ValidationError, with_config
 from typing_extensions import NotRequired, TypedDict
@@ -36,10 +34,12 @@ from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import SCENE_GENERATOR_VERSION
 from biovln_ms.episodes.schema import EPISODES, STRICT, Count, Episode
 from biovln_ms.errors import BioVLNError, describe_validation_error
+from biovln_ms.io_utils import READ_CHUNK, inside, parse_json, read_bounded, regular_size
+from biovln_ms.limits import Identifier
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.loading import load_spec
 from biovln_ms.scene.rules import validate_spec
-from biovln_ms.scene.spec import MAX_COORDINATE, MAX_JSON_DEPTH, SceneSpec, SceneSpecError, json_depth
+from biovln_ms.scene.spec import MAX_COORDINATE, MAX_JSON_DEPTH, SceneSpec, SceneSpecError  # noqa: F401
 from biovln_ms.scene.spec import MAX_FILE_BYTES as MAX_SCENE_FILE_BYTES
 
 #: 2: the lsat_target split and marker goals; 3: the Hard track (any instance); 4: protocol splits (ordered
@@ -52,8 +52,8 @@ EPISODE_GENERATOR_VERSION = 2  # 2: no trivial episodes (generator.MIN_START_GEO
 MAX_MANIFEST_BYTES = 16 * 2**20
 MAX_EPISODE_FILE_BYTES = 256 * 2**20  # decompressed (read in bounded chunks), and on disk
 MAX_EPISODES_PER_SPLIT = 1_000_000
-_READ_CHUNK = 2**20
 _REBUILD = "rebuild it: biovln-ms dataset build --out DIR"
+_LISTED = " is missing (listed in the manifest)"
 
 
 class DatasetError(BioVLNError):
@@ -87,7 +87,7 @@ _RelPath = Annotated[str, Field(min_length=1, max_length=4096)]
 class _SceneEntry(TypedDict):
     file: _RelPath
     sha256: _SHA256
-    template: str
+    template: Identifier
     seed: int
     dressing: NotRequired[bool]  # generated with lab dressing; absent: without
 
@@ -102,9 +102,9 @@ class _FileEntry(TypedDict):
 @with_config(STRICT)
 class _SplitEntry(TypedDict):
     description: NotRequired[str]
-    scenes: list[str]
+    scenes: list[Identifier]
     episodes: Count
-    files: dict[str, _FileEntry]
+    files: dict[Identifier, _FileEntry]
     missing: NotRequired[str | None]
     view_of: NotRequired[str | None]
     dressing: NotRequired[bool]  # its scenes have lab dressing; absent: they have none
@@ -117,71 +117,11 @@ class _Manifest(TypedDict):
     catalog_sha256: str
     scene_generator_version: int
     episode_generator_version: int
-    scenes: dict[str, _SceneEntry]
-    splits: dict[str, _SplitEntry]
+    scenes: dict[Identifier, _SceneEntry]
+    splits: dict[Identifier, _SplitEntry]
 
 
 _MANIFEST = TypeAdapter(_Manifest)
-
-
-# --- bounded reading ------------------------------------------------------------------------------
-def _regular_size(path: Path, source: str, limit: int, what: str) -> int:
-    """The size of ``path``, a regular file (never a FIFO or device, which could block or never end)."""
-    try:
-        st = path.stat()
-    except FileNotFoundError:
-        listed = "" if what == "manifest" else " (listed in the manifest)"
-        raise DatasetError(f"the {what} is missing{listed}", source=source, fix=_REBUILD) from None
-    except (OSError, ValueError) as e:
-        raise DatasetError(f"cannot read the {what} ({e})", source=source, fix=_REBUILD) from None
-    if not stat.S_ISREG(st.st_mode):
-        raise DatasetError(f"the {what} is not a regular file", source=source, fix=_REBUILD)
-    if st.st_size > limit:
-        raise DatasetError(
-            f"{what} is {st.st_size:,} bytes, more than the limit of {limit // 2**20} MiB",
-            source=source,
-            fix=_REBUILD,
-        )
-    return st.st_size
-
-
-def _read_bounded(stream: BinaryIO, limit: int) -> bytes | None:
-    """All of ``stream``, read in chunks, or None as soon as it is over ``limit`` bytes (a gzip bomb
-    stops there)."""
-    chunks, n = [], 0
-    while chunk := stream.read(_READ_CHUNK):
-        n += len(chunk)
-        if n > limit:
-            return None
-        chunks.append(chunk)
-    return b"".join(chunks)
-
-
-def _parse_json(raw: bytes, source: str, what: str):
-    """JSON of ``raw`` after the UTF-8 and depth checks; every failure is one ``DatasetError``."""
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise DatasetError(
-            f"{what} is not UTF-8 text (byte 0x{raw[e.start]:02x} at offset {e.start})",
-            source=source,
-            fix=_REBUILD,
-        ) from None
-    depth = json_depth(raw)
-    if depth > MAX_JSON_DEPTH:
-        raise DatasetError(
-            f"{what} JSON is nested {depth} levels deep, more than the limit of {MAX_JSON_DEPTH}",
-            source=source,
-            fix=_REBUILD,
-        )
-    try:
-        return json.loads(text)
-    except RecursionError:  # unreachable after the depth check; kept so no input gives a traceback
-        raise DatasetError(f"{what} JSON is nested too deeply", source=source, fix=_REBUILD) from None
-    except ValueError as e:  # JSONDecodeError, or an integer literal with too many digits
-        where = f" at line {e.lineno} column {e.colno}" if isinstance(e, json.JSONDecodeError) else ""
-        msg = e.msg if isinstance(e, json.JSONDecodeError) else str(e)
-        raise DatasetError(f"{what} is not valid JSON{where}: {msg}", source=source, fix=_REBUILD) from None
 
 
 def sha256(data: bytes) -> str:
@@ -305,17 +245,17 @@ class EpisodeDataset:
                 source=src,
                 fix="copy the manifest into the dataset folder, or rebuild the dataset",
             )
-        _regular_size(path, src, MAX_MANIFEST_BYTES, "manifest")
+        regular_size(path, MAX_MANIFEST_BYTES, "manifest", error=DatasetError, source=src, fix=_REBUILD)
         try:
             with path.open("rb") as f:
-                raw = _read_bounded(f, MAX_MANIFEST_BYTES)
+                raw = read_bounded(f, MAX_MANIFEST_BYTES)
         except OSError as e:
             raise DatasetError(f"cannot read the manifest ({e.strerror or e})", source=src) from None
         if raw is None:
             raise DatasetError(
                 f"manifest is larger than the limit of {MAX_MANIFEST_BYTES // 2**20} MiB", source=src
             )
-        m = _parse_json(raw, src, "manifest")
+        m = parse_json(raw, src, "manifest", error=DatasetError, fix=_REBUILD)
         if not isinstance(m, dict):
             raise DatasetError(
                 f"the manifest must be a JSON object, not {type(m).__name__}", source=src, fix=_REBUILD
@@ -332,6 +272,9 @@ class EpisodeDataset:
                 return DatasetError(message, source=self._manifest_path, field=field, fix=fix)
 
             total = 0
+            if len(set(split["scenes"])) != len(split["scenes"]):
+                twice = next(x for x in split["scenes"] if split["scenes"].count(x) > 1)
+                raise refuse(f"{where}.scenes", f"scene {_show(twice)} is listed twice")
             for scene in split["scenes"]:
                 if scene not in split["files"]:
                     raise refuse(f"{where}.files", f"no file for scene {_show(scene)} of {where}.scenes")
@@ -352,39 +295,26 @@ class EpisodeDataset:
 
     def _resolve(self, rel: str, entry: str) -> Path:
         """The real path of manifest entry ``entry`` (path ``rel``); refused unless inside the folder."""
-
-        def refuse(message: str) -> DatasetError:
-            return DatasetError(
-                message,
-                source=self._manifest_path,
-                field=_oneline(entry),
-                fix="list files by their relative path inside the dataset folder, or rebuild it",
-            )
-
-        pure = PurePosixPath(rel)
-        if "\x00" in rel:
-            raise refuse(f"path {_show(rel)} holds a NUL character")
-        if pure.is_absolute() or Path(rel).is_absolute():
-            raise refuse(f"absolute path {_show(rel)}: files must be inside the dataset folder")
-        if ".." in pure.parts:
-            raise refuse(f"path {_show(rel)} leads outside the dataset folder ('..')")
-        try:
-            path = (self._base / rel).resolve()
-        except (OSError, RuntimeError, ValueError) as e:
-            raise refuse(f"path {_show(rel)} cannot be resolved ({_oneline(str(e))})") from None
-        if not path.is_relative_to(self._base):
-            raise refuse(
-                f"path {_show(rel)} leads outside the dataset folder (a symbolic link to {_show(str(path))})"
-            )
-        return path
+        return inside(
+            self._base,
+            rel,
+            error=DatasetError,
+            source=self._manifest_path,
+            field=_oneline(entry),
+            fix="list files by their relative path inside the dataset folder, or rebuild it",
+            place="the dataset folder",
+            nested=True,
+        ).resolve()
 
     def _check(self, rel: str, digest: str, entry: str, limit: int) -> None:
         path, src = self._resolve(rel, entry), str(self.root / rel)
-        _regular_size(path, src, limit, "file")
+        regular_size(
+            path, limit, "file", error=DatasetError, source=src, fix=_REBUILD, missing="the file" + _LISTED
+        )
         h, n = hashlib.sha256(), 0
         try:
             with path.open("rb") as f:
-                while n <= limit and (chunk := f.read(_READ_CHUNK)):
+                while n <= limit and (chunk := f.read(READ_CHUNK)):
                     h.update(chunk)
                     n += len(chunk)
         except OSError as e:
@@ -426,7 +356,15 @@ class EpisodeDataset:
                 raise DatasetError(f"unknown scene '{scene}'", field="scene_id")
             rel = self.manifest["scenes"][scene]["file"]
             path, src = self._resolve(rel, f"scenes.{scene}.file"), str(self.root / rel)
-            _regular_size(path, src, MAX_SCENE_FILE_BYTES, "scene file")
+            regular_size(
+                path,
+                MAX_SCENE_FILE_BYTES,
+                "scene file",
+                error=DatasetError,
+                source=src,
+                fix=_REBUILD,
+                missing="the scene file" + _LISTED,
+            )
             try:
                 spec = validate_spec(load_spec(path), str(path))
             except SceneSpecError as e:
@@ -447,13 +385,21 @@ class EpisodeDataset:
             yield from self._read_episodes(split, scene, info["files"][scene])
 
     def _read_episodes(self, split: str, scene: str, entry: dict) -> list[Episode]:
-        """The episodes of one file: bounded gunzip, JSON limits, schema, scene and category checks."""
+        """The episodes of one file: bounded gunzip, JSON limits, schema, scene, category and unique ids."""
         rel = entry["file"]
         path, src = self._resolve(rel, f"splits.{split}.files.{scene}.file"), str(self.root / rel)
-        _regular_size(path, src, MAX_EPISODE_FILE_BYTES, "episode file")
+        regular_size(
+            path,
+            MAX_EPISODE_FILE_BYTES,
+            "episode file",
+            error=DatasetError,
+            source=src,
+            fix=_REBUILD,
+            missing="the episode file" + _LISTED,
+        )
         try:
             with path.open("rb") as f, gzip.GzipFile(fileobj=f, mode="rb") as g:
-                raw = _read_bounded(g, MAX_EPISODE_FILE_BYTES)
+                raw = read_bounded(g, MAX_EPISODE_FILE_BYTES)
         except (OSError, EOFError, zlib.error) as e:
             raise DatasetError(
                 f"not a readable gzip file ({_oneline(str(e))})", source=src, fix=_REBUILD
@@ -464,7 +410,7 @@ class EpisodeDataset:
                 source=src,
                 fix=_REBUILD,
             )
-        obj = _parse_json(raw, src, "episode file")
+        obj = parse_json(raw, src, "episode file", error=DatasetError, fix=_REBUILD)
         if not isinstance(obj, dict) or not isinstance(obj.get("episodes"), list):
             raise DatasetError(
                 'must be a JSON object {"episodes": [...]}', source=src, field="episodes", fix=_REBUILD
@@ -481,7 +427,16 @@ class EpisodeDataset:
             EPISODES.validate_python(eps)
         except ValidationError as e:
             raise _schema_error(e, src, "episodes") from None
+        ids: set[str] = set()
         for i, ep in enumerate(eps):
+            if ep["episode_id"] in ids:  # a run would play both and count one (results are keyed by id)
+                raise DatasetError(
+                    f"episode_id {_show(ep['episode_id'])} appears twice",
+                    source=src,
+                    field=f"episodes[{i}].episode_id",
+                    fix=_REBUILD,
+                )
+            ids.add(ep["episode_id"])
             if ep["scene_id"] != scene:
                 raise DatasetError(
                     f"{_show(ep['scene_id'])} in the episode file of scene {_show(scene)}",

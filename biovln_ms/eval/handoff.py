@@ -36,7 +36,7 @@ import numpy as np
 from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import rot2, wrap_angle
-from biovln_ms.io_utils import atomic_write_text
+from biovln_ms.io_utils import atomic_write_text, inside
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 
 HANDOFF_SCHEMA = "biovln-ms/handoff/1"
@@ -106,8 +106,20 @@ def handoff_payload(env, info: dict, run: dict) -> dict:
 
 
 def handoff_path(root: str | Path, run: str, split: str, scene_id: str, episode_id) -> Path:
-    """Where ``--export-handoff root`` writes an episode's hand-off."""
-    return Path(root) / run / split / scene_id / f"{episode_id}.json"
+    """Where ``--export-handoff root`` writes an episode's hand-off: always inside ``root``. An id that is
+    not one plain name (``..``, ``/``, empty, absolute) is refused with a ``HandoffError``, so a crafted
+    dataset cannot make the export write elsewhere."""
+    return inside(
+        root,
+        str(run),
+        str(split),
+        str(scene_id),
+        f"{episode_id}.json",
+        what="hand-off file",
+        error=HandoffError,
+        field="scene_id/episode_id",
+        fix="ids are letters, digits, '_', '-' and '.': rebuild the dataset",
+    )
 
 
 def write_handoff(root: str | Path, run: str, payload: dict) -> Path:

@@ -22,6 +22,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import subprocess
 import time
 from dataclasses import asdict, dataclass, field
@@ -36,7 +37,8 @@ from biovln_ms.eval.methods import method_spec
 from biovln_ms.eval.aggregate import aggregate_all, record_error
 from biovln_ms.eval.handoff import handoff_payload, write_handoff
 from biovln_ms.eval.rollout import rollout
-from biovln_ms.io_utils import atomic_write_text, exclusive_lock
+from biovln_ms.io_utils import atomic_write_text, exclusive_lock, inside
+from biovln_ms.limits import ID_CHARS, ID_RULE, MAX_ID_LENGTH, MAX_WORKERS, RUN_NAME_CHARS, RUN_NAME_RULE
 from biovln_ms.metrics.measures import OUTCOME, DistanceToGoal, Metric, measure_type
 from biovln_ms.metrics.reach_measures import REACH_MEASURES
 from biovln_ms.noise import resolve_noise
@@ -86,6 +88,7 @@ class EvalConfig:
         if self.env_id is None:
             self.env_id = method_spec(self.method).env_id or DEFAULT_ENV
         resolve_noise(self.noise)  # a one-line error before any worker starts: an unknown preset
+        check_options(self)
 
     @property
     def run_name(self) -> str:
@@ -101,7 +104,45 @@ class EvalConfig:
 
     @property
     def run_dir(self) -> Path:
-        return Path(self.out) / self.run_name / self.split
+        """``out/<run>/<split>``: ``out`` a folder, the split one name, the whole inside ``out``."""
+        if not str(self.out).strip():
+            raise BioVLNError(
+                "--out is empty (it would write into the current folder)", field="--out", fix="name a folder"
+            )
+        if len(self.split) > MAX_ID_LENGTH or not re.fullmatch(ID_CHARS, self.split):
+            raise BioVLNError(
+                f"split {self.split[:60]!r} is not a split name", field="--split", fix=f"use {ID_RULE}"
+            )
+        return inside(self.out, self.run_name, self.split, what="run folder", field="name")
+
+
+def check_options(cfg: EvalConfig) -> None:
+    """One-line errors for options no run can use, before anything is written: a run name that is not one
+    plain name (it would leave ``out``), a count below one (``max_episodes`` 0 would mean all and -3 all
+    but three) and an empty folder (it would mean the current one). ``run_dir`` checks ``out`` and the
+    split, which some callers leave empty to get the run name alone."""
+
+    def refuse(field: str, message: str, fix: str) -> BioVLNError:
+        return BioVLNError(message, field=field, fix=fix)
+
+    name = cfg.run_name
+    if len(name) > MAX_ID_LENGTH or not re.fullmatch(RUN_NAME_CHARS, name):
+        raise refuse(
+            "--name",
+            f"run name {name[:60]!r} is not a plain folder name",
+            f"use {RUN_NAME_RULE}",
+        )
+    for key, flag, top in (("max_episodes", "--max-episodes", None), ("workers", "--workers", MAX_WORKERS)):
+        value = getattr(cfg, key)
+        if value is None:
+            continue
+        if type(value) is not int or value < 1 or (top is not None and value > top):
+            bound = f"1 to {top:,}" if top else "1 or more; leave it out to run all"
+            raise refuse(flag, f"{flag} {value!r} is out of range", f"use {bound}")
+    for key, flag in (("record_dir", "--record"), ("handoff_dir", "--export-handoff")):
+        value = getattr(cfg, key)
+        if value is not None and not str(value).strip():
+            raise refuse(flag, f"{flag} is empty (it would write into the current folder)", "name a folder")
 
 
 def _protocol_env(env_id: str) -> bool:

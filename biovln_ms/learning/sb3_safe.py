@@ -37,6 +37,9 @@ MAX_TOTAL_BYTES = 512 * 2**20  # uncompressed, all entries
 MAX_ENTRIES = 64
 MAX_WIDTH = 4096  # observation and action size, ints in policy_kwargs (layer widths)
 MAX_BUFFER_VALUES = 2**28  # transitions x observation size of the rollout / replay buffer the model allocates
+#: weights of the networks the model builds (actor, critics and target critics together; float32: 64 MiB),
+#: counted from policy_kwargs before any is allocated
+MAX_PARAMETERS = 2**24
 
 # Classes policy_kwargs may name (SB3 writes them as str(cls) beside the pickle).
 _KWARG_CLASSES = (
@@ -156,6 +159,7 @@ def load_sb3_model(path: str | Path, algo: str, device: str = "cpu") -> BaseAlgo
             else spaces.Box(-1.0, 1.0, (3,), np.float32)
         )
     _check_buffer(model, not_a_model)
+    _check_parameters(model, algo, not_a_model)
     try:
         model._setup_model()
     except Exception as e:  # noqa: BLE001 - plain JSON of the wrong type fails in many ways inside SB3
@@ -410,4 +414,66 @@ def _check_buffer(model: BaseAlgorithm, not_a_model: _Refusal) -> None:
         raise not_a_model(
             f"its buffer of {transitions} transitions is larger than this loader allows",
             "data.buffer_size" if "buffer_size" in sizes else "data.n_steps",
+        )
+
+
+def _widths(arch: Any, not_a_model: _Refusal) -> list[int]:
+    """A list of layer widths, each a positive integer."""
+    if not isinstance(arch, list) or any(type(w) is not int or w < 1 for w in arch):
+        raise not_a_model(
+            f"net_arch {str(arch)[:60]} is not a list of positive layer widths", "data.policy_kwargs.net_arch"
+        )
+    return arch
+
+
+def _mlp(n_in: int, widths: list[int]) -> tuple[int, int]:
+    """Weights and output width of fully connected layers of ``widths`` on ``n_in`` inputs."""
+    count = 0
+    for w in widths:
+        count += n_in * w + w
+        n_in = w
+    return count, n_in
+
+
+def _check_parameters(model: BaseAlgorithm, algo: str, not_a_model: _Refusal) -> None:
+    """Refuse an architecture of more than ``MAX_PARAMETERS`` weights, counted from ``policy_kwargs`` the
+    way SB3 builds the MLP policy (flattened observations; ``net_arch`` a list of widths, or per network
+    ``pi`` / ``vf`` (``qf`` for SAC), SB3's old ``[dict(...)]`` form too), before any tensor exists."""
+    kwargs = model.policy_kwargs
+    obs = math.prod(model.observation_space.shape)
+    space = model.action_space
+    act = int(space.n) if isinstance(space, spaces.Discrete) else math.prod(space.shape)
+    arch = kwargs.get("net_arch")
+    if isinstance(arch, list) and len(arch) == 1 and isinstance(arch[0], dict):
+        arch = arch[0]
+    second = "qf" if algo == "sac" else "vf"
+    if arch is None:
+        arch = [256, 256] if algo == "sac" else {"pi": [64, 64], "vf": [64, 64]}
+    if isinstance(arch, dict):
+        unknown = sorted(set(arch) - {"pi", second})
+        if unknown:
+            raise not_a_model(
+                f"net_arch names '{unknown[0]}', not pi or {second}", "data.policy_kwargs.net_arch"
+            )
+        pi, other = _widths(arch.get("pi", []), not_a_model), _widths(arch.get(second, []), not_a_model)
+    else:
+        pi = other = _widths(arch, not_a_model)
+    if algo == "sac":
+        critics = kwargs.get("n_critics", 2)
+        if type(critics) is not int or critics < 1:
+            raise not_a_model(
+                f"n_critics must be a positive integer, got {critics!r}", "data.policy_kwargs.n_critics"
+            )
+        actor, last = _mlp(obs, pi)
+        q, q_last = _mlp(obs + act, other)
+        total = actor + 2 * (last * act + act) + 2 * critics * (q + q_last + 1)  # critics and their targets
+    else:
+        actor, last = _mlp(obs, pi)
+        value, value_last = _mlp(obs, other)
+        log_std = act if isinstance(space, spaces.Box) else 0
+        total = actor + last * act + act + log_std + value + value_last + 1  # heads and the value
+    if total > MAX_PARAMETERS:
+        raise not_a_model(
+            f"its networks would have {total:,} weights, more than the limit of {MAX_PARAMETERS:,}",
+            "data.policy_kwargs.net_arch",
         )

@@ -31,6 +31,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import BioVLNError, describe_validation_error
+from biovln_ms.io_utils import parse_yaml, read_regular_file
+from biovln_ms.limits import MAX_ID_LENGTH, MAX_SMALL_FILE_BYTES
 from biovln_ms.llm.client import JSONChatClient
 from biovln_ms.scene.generator import GenerationError, generate_scene
 from biovln_ms.scene.spec import SceneSpec
@@ -54,7 +56,7 @@ class RoomRequest(_Strict):
 
 
 class InstrumentRequest(_Strict):
-    category: str
+    category: str = Field(max_length=MAX_ID_LENGTH)
     count: int = Field(default=1, ge=1, le=4)
     wall: Side | None = None
 
@@ -75,11 +77,11 @@ class FurnitureRequest(_Strict):
 
 
 class LayoutRequest(_Strict):
-    name: str | None = Field(default=None, pattern=r"^[a-z][a-z0-9_]*$")
+    name: str | None = Field(default=None, pattern=r"^[a-z][a-z0-9_]*$", max_length=MAX_ID_LENGTH)
     room: RoomRequest
     furniture: FurnitureRequest = FurnitureRequest()
     instruments: list[InstrumentRequest] = Field(min_length=1, max_length=12)
-    seed: int = Field(default=0, ge=0)
+    seed: int = Field(default=0, ge=0, le=2**32 - 1)
 
 
 def parse_request(obj, source: str = "<layout request>") -> LayoutRequest:
@@ -97,18 +99,15 @@ def parse_request(obj, source: str = "<layout request>") -> LayoutRequest:
 
 
 def load_request(path: str | Path) -> LayoutRequest:
-    import yaml
-
+    """Read and validate a request file (YAML or JSON): a regular file of at most 1 MiB, nested at most 64
+    levels (:mod:`biovln_ms.io_utils`), plain data only, then the schema."""
     path = Path(path)
-    if not path.is_file():
-        raise LayoutError("no such file", source=str(path), fix="write a request (YAML or JSON)")
-    try:
-        obj = yaml.safe_load(path.read_text())  # safe_load: plain data only, no tags that construct objects
-    except yaml.YAMLError as e:
-        raise LayoutError(
-            f"not valid YAML/JSON ({str(e).splitlines()[0]})", source=str(path), fix="fix the syntax"
-        ) from None
-    return parse_request(obj, str(path))
+    raw = read_regular_file(
+        path, MAX_SMALL_FILE_BYTES, "layout request", error=LayoutError, fix="write a request (YAML or JSON)"
+    )
+    return parse_request(
+        parse_yaml(raw, str(path), "layout request", error=LayoutError, fix="fix the syntax"), str(path)
+    )
 
 
 # --- the solver ------------------------------------------------------------------------------------

@@ -23,6 +23,8 @@ from pathlib import Path
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import BioVLNError
+from biovln_ms.io_utils import parse_yaml, read_regular_file
+from biovln_ms.limits import MAX_ID_LENGTH, MAX_NAME_LENGTH, MAX_NAME_MAP_ENTRIES, MAX_SMALL_FILE_BYTES
 from biovln_ms.lsat.names import NameMap, NameMapHit, match_category
 
 _FIX_FORMAT = "write one 'node name: category' line per entry (category null: not an instrument)"
@@ -37,10 +39,11 @@ def _category(value: object, key: str, source: str) -> str | None:
     cat = load_catalog()
     if value is None or (isinstance(value, str) and value in cat):
         return value
-    guess = match_category(value).category if isinstance(value, str) else None
+    short = isinstance(value, str) and len(value) <= MAX_ID_LENGTH
+    guess = match_category(value).category if short else None
     hint = f"did you mean '{guess}'? " if guess else ""
     raise NameMapError(
-        f"{value!r} is not a catalog category",
+        f"{repr(value)[:80]} is not a catalog category",
         source=source,
         field=key,
         fix=f"{hint}use one of {', '.join(cat.names())}, or null",
@@ -48,36 +51,43 @@ def _category(value: object, key: str, source: str) -> str | None:
 
 
 def parse_name_map(obj: object, source: str) -> NameMap:
-    """A name map from parsed YAML/JSON, validated: a mapping of text keys to categories or null."""
+    """A name map from parsed YAML/JSON, validated: a mapping of at most ``MAX_NAME_MAP_ENTRIES`` text keys
+    (node names of at most ``MAX_NAME_LENGTH`` characters) to categories or null."""
     if not isinstance(obj, dict) or not obj:
         raise NameMapError("a name map must be a non-empty mapping", source=source, fix=_FIX_FORMAT)
+    if len(obj) > MAX_NAME_MAP_ENTRIES:
+        raise NameMapError(
+            f"{len(obj):,} entries, more than the limit of {MAX_NAME_MAP_ENTRIES:,}",
+            source=source,
+            fix="map only the names the scene holds; a pattern ('Bench*') covers many",
+        )
     entries = []
     for key, value in obj.items():
         if not isinstance(key, str) or not key.strip():
             raise NameMapError(
-                "a node name must be non-empty text", source=source, field=str(key), fix="quote the name"
+                "a node name must be non-empty text", source=source, field=str(key)[:80], fix="quote the name"
+            )
+        control = any(ord(c) < 32 or 127 <= ord(c) < 160 for c in key)
+        if len(key) > MAX_NAME_LENGTH or control:
+            raise NameMapError(
+                "a node name with a control character"
+                if control
+                else f"a node name of {len(key):,} characters",
+                source=source,
+                field=ascii(key[:60]),
+                fix=f"node names are one line of at most {MAX_NAME_LENGTH} characters",
             )
         entries.append(NameMapHit(key.casefold(), _category(value, key, source)))
     return NameMap(source, tuple(entries))
 
 
 def load_name_map(path: str | Path) -> NameMap:
-    """Read and validate a name map file (YAML or JSON)."""
-    import yaml
-
+    """Read and validate a name map file (YAML or JSON): a regular file of at most 1 MiB, nested at most 64
+    levels (:mod:`biovln_ms.io_utils`), plain data only."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as e:
-        raise NameMapError(
-            f"cannot read the name map ({getattr(e, 'strerror', None) or e})",
-            source=str(path),
-            fix="pass an existing YAML or JSON file",
-        ) from None
-    try:
-        obj = yaml.safe_load(text)  # plain data only
-    except yaml.YAMLError as e:
-        raise NameMapError(
-            f"not valid YAML/JSON ({str(e).splitlines()[0]})", source=str(path), fix=_FIX_FORMAT
-        ) from None
-    return parse_name_map(obj, str(path))
+    raw = read_regular_file(
+        path, MAX_SMALL_FILE_BYTES, "name map", error=NameMapError, fix="pass an existing YAML or JSON file"
+    )
+    return parse_name_map(
+        parse_yaml(raw, str(path), "name map", error=NameMapError, fix=_FIX_FORMAT), str(path)
+    )

@@ -13,13 +13,14 @@ A protocol is one JSON file (``biovln_ms/protocols/data/<id>.json``)::
 step. The number of visits K (group members counted one by one) is 2 to 5. Every category must be a goal
 category of the catalog. Users add protocols with the same schema from their own folders
 (``load_protocols(extra_dirs=...)`` or the ``BIOVLN_PROTOCOL_PATH`` environment variable); every
-malformed file is refused with one line naming the file, the field and the fix.
+malformed file is refused with one line naming the file, the field and the fix, and so is a file over the
+limits of :mod:`biovln_ms.limits` (1 MiB, nested 64 levels, 1,000 files in all; a FIFO or a folder named
+``*.json`` is not read).
 """
 
 from __future__ import annotations
 
 import itertools
-import json
 import os
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
@@ -30,6 +31,8 @@ from rapidfuzz import process as fuzz_process
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import MAX_VISITS, MIN_VISITS
 from biovln_ms.errors import BioVLNError, describe_validation_error
+from biovln_ms.io_utils import parse_json, read_regular_file
+from biovln_ms.limits import MAX_DESCRIPTION_LENGTH, MAX_ID_LENGTH, MAX_PROTOCOL_FILES, MAX_SMALL_FILE_BYTES
 
 PROTOCOL_DIR = Path(__file__).resolve().parent / "data"
 ENV_VAR = "BIOVLN_PROTOCOL_PATH"
@@ -144,9 +147,12 @@ class Step(_Strict):
 class Protocol(_Strict):
     """A lab workflow: ordered steps, each a visit or an any-order group of visits."""
 
-    id: str = Field(pattern=r"^[a-z][a-z0-9_]*$")
+    id: str = Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=MAX_ID_LENGTH)
     name: str
-    description: str = Field(description="why the workflow visits these instruments, in this order")
+    description: str = Field(
+        max_length=MAX_DESCRIPTION_LENGTH,
+        description="why the workflow visits these instruments, in this order",
+    )
     steps: tuple[Step, ...]
 
     @field_validator("name")
@@ -300,19 +306,15 @@ def parse_protocol(obj: object, source: str = "<dict>") -> Protocol:
 
 
 def load_protocol_file(path: str | Path) -> Protocol:
-    """Read and validate one protocol JSON file."""
+    """Read and validate one protocol JSON file: a regular file of at most 1 MiB, UTF-8, nested at most 64
+    levels (:mod:`biovln_ms.io_utils`), then the schema."""
     path = Path(path)
-    try:
-        obj = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as e:
-        raise ProtocolError(
-            f"cannot read ({e.strerror})", source=str(path), fix="check the path and its permissions"
-        ) from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        where = f" at line {e.lineno}: {e.msg}" if isinstance(e, json.JSONDecodeError) else ""
-        raise ProtocolError(
-            f"not valid JSON{where}", source=str(path), fix="write the protocol as one JSON object"
-        ) from None
+    raw = read_regular_file(
+        path, MAX_SMALL_FILE_BYTES, "protocol", error=ProtocolError, fix="check the path and its permissions"
+    )
+    obj = parse_json(
+        raw, str(path), "protocol", error=ProtocolError, fix="write the protocol as one JSON object"
+    )
     return parse_protocol(obj, str(path))
 
 
@@ -326,7 +328,9 @@ def load_protocols(extra_dirs: Iterable[str | Path] = (), *, env: bool = True) -
     defined twice raises a one-line :class:`ProtocolError`."""
     folders = [PROTOCOL_DIR, *(Path(d) for d in extra_dirs), *(_env_dirs() if env else [])]
     seen: dict[str, Path] = {}
+    read: set[Path] = set()  # resolved paths of the files read
     loaded: list[tuple[Protocol, Path]] = []
+    count = 0
     for folder in folders:
         if not folder.is_dir():
             raise ProtocolError(
@@ -334,9 +338,21 @@ def load_protocols(extra_dirs: Iterable[str | Path] = (), *, env: bool = True) -
                 source=str(folder),
                 fix="give an existing folder of *.json files",
             )
-        for path in sorted(folder.glob("*.json")):
-            if path.resolve() in {p.resolve() for p in seen.values()}:
+        paths = []
+        for path in folder.glob("*.json"):
+            count += 1
+            if count > MAX_PROTOCOL_FILES:
+                raise ProtocolError(
+                    f"more than {MAX_PROTOCOL_FILES:,} protocol files in the protocol folders",
+                    source=str(folder),
+                    fix="keep only the protocols in use in the folders given",
+                )
+            paths.append(path)
+        for path in sorted(paths):
+            real = path.resolve()
+            if real in read:
                 continue  # the same file named twice (a folder both passed and in the environment)
+            read.add(real)
             protocol = load_protocol_file(path)
             if protocol.id in seen:
                 raise ProtocolError(

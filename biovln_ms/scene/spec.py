@@ -9,25 +9,25 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Literal
 
-import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from biovln_ms.catalog import Catalog
 from biovln_ms.errors import BioVLNError
 from biovln_ms.geometry.zones import PlacedInstrument, goal_position, rot2, wrap_angle
-from biovln_ms.io_utils import atomic_write_text
+from biovln_ms.io_utils import atomic_write_text, json_depth  # noqa: F401 (json_depth: re-exported)
+from biovln_ms.limits import MAX_DATA_DEPTH, Identifier
 
 SCHEMA_VERSION = 1
 
 # Limits (docs/guides/scenes-and-templates.md), checked before any geometry work. The templates use at
-# most 7 rooms, 28 walls, 6 openings and 13 objects (41 with lab dressing); a spec file is ~15 kB.
+# most 7 rooms, 28 walls, 6 openings and 13 objects (41 with lab dressing); a spec file is ~15 kB. Names
+# and ids are ``Identifier``s (biovln_ms.limits): they become file names, YAML and Markdown.
 MAX_FILE_BYTES = 16 * 2**20
-MAX_JSON_DEPTH = 64
+MAX_JSON_DEPTH = MAX_DATA_DEPTH
 MAX_ROOMS = 64
 MAX_POLYGON_VERTICES = 256
 MAX_WALLS = 512
@@ -74,7 +74,7 @@ def _simple_polygon(v: list[Vec2]) -> list[Vec2]:
 class RoomSpec(_Strict):
     """A floor region (room, corridor or doorway passage): inner floor polygon, counter-clockwise."""
 
-    id: str
+    id: Identifier
     kind: Literal["room", "corridor", "passage"]
     polygon: list[Vec2] = Field(min_length=3, max_length=MAX_POLYGON_VERTICES)
     height: Length
@@ -84,7 +84,7 @@ class RoomSpec(_Strict):
 class WallSpec(_Strict):
     """A wall segment on the boundary of the floor; ``interior`` is the unit normal into the room."""
 
-    id: str
+    id: Identifier
     start: Vec2
     end: Vec2
     interior: Vec2
@@ -102,8 +102,8 @@ class WallSpec(_Strict):
 class OpeningSpec(_Strict):
     """A doorway where two floor regions meet."""
 
-    id: str
-    rooms: tuple[str, str]
+    id: Identifier
+    rooms: tuple[Identifier, Identifier]
     center: Vec2
     width: Length
     normal: Vec2
@@ -113,15 +113,15 @@ class OpeningSpec(_Strict):
 class ObjectSpec(_Strict):
     """A placed instrument or piece of furniture."""
 
-    id: str = Field(pattern=r"^[A-Za-z0-9_\-]+$")
-    category: str
+    id: Annotated[Identifier, Field(pattern=r"^[A-Za-z0-9_\-]+$")]
+    category: Identifier
     position: Vec3
     yaw: float
     size: Size3
     placement: Literal["wall", "table_top", "floor", "furniture"]
-    room: str
-    support: str | None = None
-    slot: str | None = None
+    room: Identifier
+    support: Identifier | None = None
+    slot: Identifier | None = None
     is_goal: bool = True
     face: Vec2 | None
     d_half: Length | None = None
@@ -202,12 +202,12 @@ def make_object(
 
 class SceneSpec(_Strict):
     schema_version: Literal[1]
-    name: str
-    template: str
+    name: Identifier
+    template: Identifier
     seed: int
     generator_version: int
     robot_radius: Length = Field(description="radius the layout rules were checked for")
-    catalog_sha256: str
+    catalog_sha256: Annotated[str, Field(max_length=64)]
     rooms: list[RoomSpec] = Field(min_length=1, max_length=MAX_ROOMS)
     walls: list[WallSpec] = Field(max_length=MAX_WALLS)
     openings: list[OpeningSpec] = Field(max_length=MAX_OPENINGS)
@@ -279,18 +279,6 @@ def _round(obj, nd: int = 6):
     if isinstance(obj, (list, tuple)):
         return [_round(v, nd) for v in obj]
     return obj
-
-
-_JSON_STRING = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"', re.DOTALL)
-
-
-def json_depth(raw: bytes) -> int:
-    """The deepest ``[``/``{`` nesting of JSON text (brackets inside strings skipped), without parsing it."""
-    b = np.frombuffer(_JSON_STRING.sub(b"", raw), np.uint8)
-    step = np.zeros(len(b), np.int8)
-    step[(b == ord("[")) | (b == ord("{"))] = 1
-    step[(b == ord("]")) | (b == ord("}"))] = -1
-    return int(np.cumsum(step, dtype=np.int32).max(initial=0))
 
 
 def save_spec(spec: SceneSpec, path: str | Path) -> Path:
