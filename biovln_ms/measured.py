@@ -52,8 +52,10 @@ def write_table(
     rows: list[list],
     notes: list[str] = (),
     render_device: str | None = None,
+    provenance: str | None = None,
 ) -> Path:
-    """Write a measured table; ``command`` is this process's command line, ``written`` today's date."""
+    """Write a measured table; ``command`` is this process's command line, ``written`` today's date,
+    ``provenance`` (optional) where rows this command did not measure come from."""
     script = Path(sys.argv[0]).resolve()
     root = docs_data_dir().parents[1]
     name = script.relative_to(root).as_posix() if script.is_relative_to(root) else script.name
@@ -62,6 +64,7 @@ def write_table(
         "command": "python " + shlex.join([name, *sys.argv[1:]]),
         "machine": machine(render_device),
         "written": datetime.date.today().isoformat(),
+        **({"provenance": provenance} if provenance else {}),
         "columns": list(columns),
         "rows": [list(r) for r in rows],
         "notes": list(notes),

@@ -1,7 +1,8 @@
 """The long fuzz campaign: seeded inputs per target of ``tests/fuzz_targets.py`` (10,000 default),
 with a progress bar, written as a Markdown table (tried / clear error / accepted correctly / other) and the
 seeds of any "other" outcome. The table also goes to ``docs/data/fuzz_campaign.json`` (``--data-out``),
-which the docs' Trust page renders.
+which the docs' Trust page renders; with ``--only`` the rows of the other targets already there are kept
+(the file's provenance says which rows this run measured).
 
     python scripts/fuzz_campaign.py --n 10000 -o outputs/fuzz/campaign.md [--only spec_file ...]
 """
@@ -22,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from fuzz_targets import TARGETS  # noqa: E402
 
 from biovln_ms.io_utils import atomic_write_text  # noqa: E402
-from biovln_ms.measured import docs_data_dir, write_table  # noqa: E402
+from biovln_ms.measured import docs_data_dir, load_table, write_table  # noqa: E402
 
 
 def main() -> int:
@@ -32,6 +33,9 @@ def main() -> int:
     ap.add_argument("-o", "--out", type=Path, default=Path("outputs/fuzz/campaign.md"))
     ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "fuzz_campaign.json")
     args = ap.parse_args()
+    unknown = sorted(set(args.only or ()) - set(TARGETS))
+    if unknown:
+        ap.error(f"unknown target(s) {', '.join(unknown)}; the targets are {', '.join(sorted(TARGETS))}")
     rows, cells, failures = [], [], {}
     for name in args.only or sorted(TARGETS):
         target = TARGETS[name]
@@ -72,14 +76,34 @@ def main() -> int:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(args.out, "\n".join(lines) + "\n")
     print("\n".join(lines))
+    notes, provenance = lines[len(rows) + 3 :], None
+    if args.only and args.data_out.exists():
+        cells, notes, provenance = _merged(load_table(args.data_out), cells, notes)
     write_table(
         args.data_out,
         f"Fuzz campaign, {args.n:,} inputs per target",
         ["target", "input", "tried", "clear error", "accepted correctly", "other", "time"],
         cells,
-        notes=lines[len(rows) + 3 :],
+        notes=notes,
+        provenance=provenance,
     )
     return 1 if failures else 0
+
+
+def _merged(old: dict, cells: list[list], notes: list[str]) -> tuple[list[list], list[str], str]:
+    """The rows of an earlier table with this run's rows in place of (or after) those of the same
+    targets, in the order of ``TARGETS``; the notes of both; a provenance naming which rows are whose."""
+    ran = [c[0] for c in cells]
+    by_target = {r[0]: r for r in old["rows"]} | {c[0]: c for c in cells}
+    order = [f"`{n}`" for n in TARGETS]
+    rows = sorted(by_target.values(), key=lambda r: order.index(r[0]) if r[0] in order else len(order))
+    kept = [n for n in old.get("notes", []) if n != "No other outcome."]
+    earlier = old.get("provenance") or f"measured by `{old['command']}` ({old.get('written', '?')})"
+    provenance = (
+        f"The rows of {', '.join(ran)} were measured by this command; the others come from the file's "
+        f"earlier runs: {earlier}"
+    )
+    return rows, (kept + notes if kept or notes != ["No other outcome."] else notes), provenance
 
 
 if __name__ == "__main__":

@@ -469,6 +469,266 @@ def _dataset(state: dict, seed: int, tmp: Path) -> str:
         (root / "manifest.json").write_bytes(state["manifest"])
 
 
+# --- hand-written data files: name maps, layout requests, protocols ---------------------------------------
+_DEEP = "@@deep@@"  # stands for a nested value, written into the text (Python cannot serialise it)
+
+
+def _blow_up(obj: dict, rng: np.random.Generator) -> tuple[dict, int]:
+    """A structural attack on a mapping: a value nested deep (the levels, for ``_data_file``), many
+    entries, or a huge or multi-line key or value."""
+    out = copy.deepcopy(obj)
+    key = sorted(out)[int(rng.integers(len(out)))]
+    op = int(rng.integers(5))
+    if op == 0:
+        out[key] = _DEEP
+        return out, int(rng.choice([70, 500, 5000, 100_000]))
+    if op == 1:
+        n = int(rng.choice([1_000, 25_000]))
+        out.update({f"k{i}": out[key] for i in range(n)})
+    elif op == 2:
+        out["x" * int(rng.choice([300, 100_000]))] = out.pop(key)
+    elif op == 3:
+        out[f"{key}\n{key}: x\r\x00"] = out.pop(key)
+    else:
+        out[key] = "y" * int(rng.choice([300, 2_000_000]))
+    return out, 0
+
+
+def _data_file(obj, rng: np.random.Generator, path: Path, fifo_rate: float = 0.02) -> None:
+    """``obj`` mutated and written to ``path`` as YAML or JSON, with some byte edits, some structural
+    attacks, and now and then a FIFO or a folder in the file's place."""
+    import os
+
+    import yaml
+
+    r = rng.random()
+    if r < fifo_rate:
+        os.mkfifo(path)
+        return
+    if r < 2 * fifo_rate:
+        path.mkdir()
+        return
+    bad, deep = _blow_up(obj, rng) if rng.random() < 0.15 else (mutate_json(obj, rng), 0)
+    text = json.dumps(bad) if rng.random() < 0.5 else yaml.safe_dump(bad, allow_unicode=True, width=2**20)
+    if deep:
+        nested = "[" * deep + "0" + "]" * deep
+        text = text.replace(f'"{_DEEP}"', nested).replace(_DEEP, nested)
+    raw = text.encode("utf-8", "surrogatepass")
+    path.write_bytes(mutate_bytes(raw, rng) if rng.random() < 0.25 else raw)
+
+
+def _remove(path: Path) -> None:
+    import shutil
+
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    else:
+        path.unlink(missing_ok=True)
+
+
+NAME_MAP = {
+    "Sterilgard*": "biosafety_cabinet",
+    "BSC-2": None,
+    "Fridge_02": "incubator",
+    "Bench?": "lab_bench",
+}
+
+
+def _name_map(state, seed: int, tmp: Path) -> str:
+    from biovln_ms.limits import MAX_NAME_LENGTH, MAX_NAME_MAP_ENTRIES
+    from biovln_ms.lsat.name_map import load_name_map
+
+    path = tmp / f"names_{seed}.yaml"
+    _data_file(NAME_MAP, np.random.default_rng(seed), path)
+
+    def valid(names) -> bool:
+        return 0 < len(names.entries) <= MAX_NAME_MAP_ENTRIES and all(
+            0 < len(e.key) <= MAX_NAME_LENGTH and "\n" not in e.key for e in names.entries
+        )
+
+    try:
+        return classify(lambda: load_name_map(path), valid)
+    finally:
+        _remove(path)
+
+
+LAYOUT_REQUEST = {
+    "name": "cell_culture",
+    "room": {"width": 7.0, "depth": 6.0, "height": 3.0},
+    "furniture": {"lab_bench": 1, "lab_table": 1},
+    "instruments": [
+        {"category": "incubator", "count": 2, "wall": "N"},
+        {"category": "biosafety_cabinet", "wall": "S"},
+        {"category": "centrifuge"},
+    ],
+    "seed": 0,
+}
+
+
+def _layout_request(state, seed: int, tmp: Path) -> str:
+    """A request file loaded and validated as ``layout solve`` reads it (solving it is the generator's
+    work, which the ``cli_args`` target runs)."""
+    from biovln_ms.catalog import load_catalog
+    from biovln_ms.lsat.layout import load_request
+
+    path = tmp / f"request_{seed}.yaml"
+    _data_file(LAYOUT_REQUEST, np.random.default_rng(seed), path)
+    cat = load_catalog()
+
+    def valid(req) -> bool:
+        return (
+            finite_everywhere(req)
+            and 3.0 <= req.room.width <= 30.0
+            and 3.0 <= req.room.depth <= 30.0
+            and all(
+                i.category in cat and cat.get(i.category).placement != "furniture" for i in req.instruments
+            )
+            and 0 <= req.seed < 2**32
+        )
+
+    try:
+        return classify(lambda: load_request(path), valid)
+    finally:
+        _remove(path)
+
+
+PROTOCOL = {
+    "id": "fuzz_protocol",
+    "name": "Fuzzed protocol",
+    "description": "Why these instruments, in this order.",
+    "steps": [
+        {"category": "refrigerator", "purpose": "take the samples out"},
+        {
+            "any_order": [
+                {"category": "pipette", "purpose": "dose"},
+                {"category": "centrifuge", "purpose": "spin"},
+            ]
+        },
+        {"category": "biosafety_cabinet", "purpose": "work sterile"},
+    ],
+}
+
+
+def _protocol_file(state, seed: int, tmp: Path) -> str:
+    """A protocol folder holding one mutated file (now and then a FIFO or a folder named ``*.json``, or
+    more files than the limit), loaded beside the shipped protocols as ``load_protocols`` does."""
+    from biovln_ms.catalog import load_catalog
+    from biovln_ms.constants import MAX_VISITS, MIN_VISITS
+    from biovln_ms.limits import MAX_PROTOCOL_FILES
+    from biovln_ms.protocols.library import load_protocols
+
+    rng = np.random.default_rng(seed)
+    folder = tmp / f"protocols_{seed}"
+    folder.mkdir()
+    if rng.random() < 0.005:  # more files than the limit
+        for i in range(MAX_PROTOCOL_FILES + 1):
+            (folder / f"p{i}.json").write_text("{}")
+    else:
+        _data_file(PROTOCOL, rng, folder / "mine.json")
+    goals = set(load_catalog().goal_categories())
+
+    def valid(lib) -> bool:
+        return all(
+            MIN_VISITS <= p.k <= MAX_VISITS and set(p.categories()) <= goals and len(p.description) <= 4096
+            for p in lib
+        )
+
+    try:
+        return classify(lambda: load_protocols(extra_dirs=[folder], env=False), valid)
+    finally:
+        _remove(folder)
+
+
+# --- eval options ---------------------------------------------------------------------------------------
+#: `biovln-ms eval` options and their valid values (None: a flag); OUT, REC, HAND and CKPT become paths in
+#: the scratch folder
+EVAL_GRAMMAR = {
+    "--method": ("oracle", "random", "frontier", "ppo", "bc", "protocol_oracle", "protocol_language"),
+    "--split": ("ms_val", "ms_dev", "protocol_val"),
+    "--out": ("OUT",),
+    "--dataset": ("NOWHERE",),
+    "--env": ("BioVLN-OpFace-v0", "BioVLN-Centroid-v0"),
+    "--workers": ("1", "2", "16"),
+    "--max-episodes": ("1", "3", "1000"),
+    "--record": ("REC",),
+    "--record-mode": ("full", "trace"),
+    "--checkpoint": ("CKPT",),
+    "--name": ("run_1", "frontier+realistic", "a.b@c"),
+    "--noise": ("ideal", "realistic"),
+    "--robot": ("biovln_base", "fetch"),
+    "--export-handoff": ("HAND",),
+    "--fresh-scene": (None,),
+    "--parser": ("rule", "llm"),
+}
+#: junk values; none absolute, so that an accepted --out stays in the scratch folder
+EVAL_JUNK = (*JUNK, "..", "../..", "a/b", ".", "-3", "99999", "1.5", " ", "+x", "@", "\n")
+
+
+class _Reached(Exception):
+    """Raised where a run would start its episodes: every option check has passed; ``sane`` says whether
+    what was accepted is."""
+
+    def __init__(self, sane: bool) -> None:
+        self.sane = sane
+
+
+def _eval_options(state, seed: int, tmp: Path) -> str:
+    """`biovln-ms eval` with seeded options, valid or junk. Every check runs for real (typer's, the
+    config's, the method's preflight, the run folder and its lock); where the run would start its episodes
+    the target stops it and checks what was accepted: a run folder inside ``--out``, counts of at least
+    one, no empty folder."""
+    from unittest import mock
+
+    from typer.testing import CliRunner
+
+    from biovln_ms.cli import USER_ERRORS, app, user_error_line
+    from biovln_ms.eval import harness
+
+    rng = np.random.default_rng(seed)
+    top = tmp / f"eval_{seed}"
+    scratch = top / "a" / "b" / "c"  # a junk "../../etc/passwd" --out stays below ``top``
+    scratch.mkdir(parents=True)
+    paths = {"OUT": "out", "REC": "rec", "HAND": "handoff", "CKPT": "model.zip", "NOWHERE": "no_dataset"}
+    (scratch / "model.zip").write_bytes(b"not a model")
+    argv = ["eval"]
+    method = EVAL_GRAMMAR["--method"][int(rng.integers(len(EVAL_GRAMMAR["--method"])))]
+    own = {"--checkpoint": method in ("ppo", "bc"), "--parser": method == "protocol_language"}
+    for opt, values in EVAL_GRAMMAR.items():
+        p = 1.0 if opt == "--method" else (0.9 if own[opt] else 0.03) if opt in own else 0.5
+        if rng.random() >= p:
+            continue
+        v = method if opt == "--method" else values[int(rng.integers(len(values)))]
+        v = paths.get(v, v)
+        if rng.random() < 0.12:
+            v = EVAL_JUNK[int(rng.integers(len(EVAL_JUNK)))]
+        argv += [opt] + ([] if v is None else [v])
+    if rng.random() < 0.05:
+        argv.insert(int(rng.integers(1, len(argv) + 1)), EVAL_JUNK[int(rng.integers(len(EVAL_JUNK)))])
+
+    def stop(cfg, *args, **kwargs):  # in the scratch folder, where relative paths are meant
+        out, run = Path(cfg.out).resolve(), cfg.run_dir.resolve()
+        raise _Reached(
+            run.is_relative_to(out)
+            and run != out
+            and run.is_relative_to(top.resolve())
+            and all(v is None or (type(v) is int and v >= 1) for v in (cfg.max_episodes, cfg.workers))
+            and all(v is None or str(v).strip() for v in (cfg.record_dir, cfg.handoff_dir))
+        )
+
+    try:
+        with contextlib.chdir(scratch), mock.patch.object(harness, "_evaluate_locked", stop):
+            result = CliRunner().invoke(app, argv, catch_exceptions=True)
+    finally:
+        _remove(top)
+    if isinstance(result.exception, _Reached):
+        return "accepted" if result.exception.sane else "other"
+    if isinstance(result.exception, USER_ERRORS) and "\n" not in user_error_line(result.exception):
+        return "clear"
+    if result.exit_code == 2 and not isinstance(result.exception, Exception):
+        return "clear"  # click's usage error
+    return "other"
+
+
 TARGETS: dict[str, Target] = {
     t.name: t
     for t in (
@@ -490,5 +750,9 @@ TARGETS: dict[str, Target] = {
             _llm_setup,
             _llm_response,
         ),
+        Target("name_map", "LSAT name maps (load_name_map)", lambda tmp: None, _name_map),
+        Target("layout_request", "layout request files (load_request)", lambda tmp: None, _layout_request),
+        Target("protocol_file", "protocol folders (load_protocols)", lambda tmp: None, _protocol_file),
+        Target("eval_options", "`eval` command-line options", lambda tmp: None, _eval_options),
     )
 }
