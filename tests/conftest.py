@@ -17,10 +17,12 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 import pytest
 from hypothesis import settings
 
-# Hermetic caches: the default dataset and the room-shell meshes go to a fresh folder per run
-# (subprocesses inherit it).
-_TMP = tempfile.mkdtemp(prefix="biovln-tests-")
-atexit.register(shutil.rmtree, _TMP, ignore_errors=True)  # the run's caches go with it
+# Hermetic caches: the default dataset and the room-shell meshes go to a fresh folder per run. Subprocesses
+# and pytest-xdist's workers inherit it (the controller makes it; the folder goes when the controller ends).
+_TMP = os.environ.get("BIOVLN_TEST_TMP")
+if not _TMP:
+    _TMP = os.environ["BIOVLN_TEST_TMP"] = tempfile.mkdtemp(prefix="biovln-tests-")
+    atexit.register(shutil.rmtree, _TMP, ignore_errors=True)
 os.environ["BIOVLN_DATA_DIR"] = os.path.join(_TMP, "data")
 os.environ["BIOVLN_CACHE_DIR"] = os.path.join(_TMP, "cache")
 
