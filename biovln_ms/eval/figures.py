@@ -38,7 +38,7 @@ from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.scene.topdown import draw_map, fit_figure, label_goals, legend_outside, place_labels
 from biovln_ms.variants import BENCHMARK_ENV
 
-SUCCESS_COLOR, FAILURE_COLOR, START_COLOR = "#2ca02c", "#d62728", "#1f77b4"
+SUCCESS_COLOR, FAILURE_COLOR, START_COLOR, GEODESIC_COLOR = "#2ca02c", "#d62728", "#1f77b4", "#ff7f0e"
 END_POSE_GID, END_MARK_GID = "end_pose", "end_mark"  # gids of a trajectory's end arrow and its mark
 END_ARROW = 0.45  # m: length of the arrow along a trajectory's final heading
 MCR_LIMIT = 0.5  # m: the clearance VRT counts violations of
@@ -330,8 +330,8 @@ def hard_episodes(runs, limit: int) -> tuple[list[dict], bool]:
 
 
 def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
-    """Start, goal, geodesic path and the frontier agent's occupancy grid at the end (re-run), titled by
-    ``hard_figure_title``."""
+    """Start, goal, geodesic path, the frontier agent's path with its end pose and outcome
+    (:func:`draw_trajectory`) and its occupancy grid at the end (re-run), titled by ``hard_figure_title``."""
     import gymnasium as gym
 
     pol = FrontierPolicy()
@@ -344,9 +344,9 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
         render_backend="cpu",
     )
     try:
-        traj = []
+        poses = []
         for st in rollout(env, pol, rec["index"]):
-            traj.append(st.info["agent_pose"][0, :2].cpu().numpy())
+            poses.append(st.info["agent_pose"][0, :3].cpu().numpy())
             info = st.info
         spec = env.unwrapped.scene_spec
         nav = scene_navigation(spec)
@@ -361,22 +361,25 @@ def hard_episode_figure(rec: dict, dataset, out: Path) -> Path:
         x1, y1 = pol.map.origin + hi[::-1] * pol.map.res
         ax.imshow(img, origin="lower", extent=(x0, x1, y0, y1), zorder=8, interpolation="nearest")
         path = nav.shortest_path(rec["start"], rec["goal"])
-        ax.plot(path[:, 0], path[:, 1], "--", color="#ff7f0e", lw=2, zorder=9, label="geodesic shortest path")
-        t = np.asarray(traj)
-        ax.plot(
-            t[:, 0],
-            t[:, 1],
-            "-",
-            color="#2ca02c" if bool(info["success"]) else "#d62728",
-            lw=2,
-            zorder=10,
-            label="frontier",
+        ax.plot(path[:, 0], path[:, 1], "--", color=GEODESIC_COLOR, lw=2, zorder=9)
+        t = np.asarray(poses)
+        success = bool(info["success"])
+        draw_trajectory(
+            ax, {"positions": t[:, :2].tolist(), "headings": t[:, 2].tolist(), "success": success}
         )
-        ax.plot(*rec["start"], "o", color=START_COLOR, ms=9, zorder=11, label="start")
-        ax.plot(*rec["goal"], "X", color=FAILURE_COLOR, ms=11, zorder=11, label="goal")
-        ax.set_title(hard_figure_title(rec, bool(info["success"])), fontsize=9)
-        legend_outside(ax)
-        label_goals(ax, spec)
+        ax.plot(*rec["goal"], "D", color=GEODESIC_COLOR, markeredgecolor="black", ms=9, zorder=11)
+        ax.set_title(hard_figure_title(rec, success), fontsize=9)
+        legend_outside(
+            ax,
+            [
+                Line2D([], [], color=GEODESIC_COLOR, ls="--", lw=2, label="geodesic shortest path"),
+                Line2D(
+                    [], [], marker="D", ls="", color=GEODESIC_COLOR, markeredgecolor="black", label="goal"
+                ),
+                *trajectory_handles(),
+            ],
+        )
+        label_goals(ax, spec, avoid=[rec["start"], rec["goal"], t[-1, :2]])
         fit_figure(fig)
         fig.savefig(out, dpi=110)
         plt.close(fig)
