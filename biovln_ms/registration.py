@@ -3,13 +3,17 @@
 ``import biovln_ms`` registers every id with gymnasium lazily (ManiSkill, torch and SAPIEN take seconds to
 import, which CLI commands that never simulate should not pay). The first ``gym.make`` of an id
 imports :mod:`biovln_ms.tasks` (the specs' entry point is ``biovln_ms.tasks.make_lazy``), whose classes
-register with ManiSkill through :func:`register_biovln_env`; that replaces the lazy gymnasium spec with
-ManiSkill's own.
+register with ManiSkill through :func:`register_biovln_env`. The gymnasium spec stays this module's
+(:class:`VectorisableSpec`, not ManiSkill's), so ``gym.make`` and ``gym.make_vec`` behave the same before
+and after that import.
 """
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable
+
+from gymnasium.envs.registration import EnvSpec, WrapperSpec
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.task_config import NavTaskConfig
@@ -24,6 +28,45 @@ ENV_IDS: dict[str, int] = {
 #: imports :mod:`biovln_ms.tasks`, which registers every env; it lives there so that this module, which the
 #: tasks import, never imports them back.
 LAZY_ENTRY_POINT = "biovln_ms.tasks:make_lazy"
+#: the entry point of ``gym.make_vec``'s sub-envs (:class:`VectorisableSpec`)
+SUB_ENV_ENTRY_POINT = "biovln_ms.tasks:make_sub_env"
+
+
+class VectorisableSpec(EnvSpec):
+    """The gymnasium spec of a BioVLN env. ``gym.make`` builds the ManiSkill env, whose observations are
+    batched torch tensors as every ManiSkill env's. ``gym.make_vec`` (``sync`` or ``async``) builds its
+    sub-envs from a deep copy of the registered spec; that copy's entry point makes each sub-env the
+    NumPy env gymnasium's vector envs stack (``biovln_ms.tasks.make_sub_env``), so N sub-envs give
+    ``(N, obs_dim)`` where ManiSkill's envs would give ``(N, 1, obs_dim)``."""
+
+    def __deepcopy__(self, memo) -> EnvSpec:
+        return EnvSpec(
+            id=self.id,
+            entry_point=SUB_ENV_ENTRY_POINT,
+            kwargs=copy.deepcopy(self.kwargs, memo),
+            max_episode_steps=self.max_episode_steps,
+            disable_env_checker=True,
+        )
+
+
+def gym_spec(uid: str, max_episode_steps: int) -> VectorisableSpec:
+    """The gymnasium spec of env ``uid``: built by ``biovln_ms.tasks.make_lazy`` and limited to
+    ``max_episode_steps`` by ManiSkill's ``TimeLimitWrapper`` (batched truncation), as ManiSkill's
+    own registration does."""
+    return VectorisableSpec(
+        id=uid,
+        entry_point=LAZY_ENTRY_POINT,
+        kwargs={"env_id": uid},
+        max_episode_steps=max_episode_steps,
+        disable_env_checker=True,
+        additional_wrappers=(
+            WrapperSpec(
+                "MSTimeLimit",
+                "mani_skill.utils.registration:TimeLimitWrapper",
+                {"max_episode_steps": max_episode_steps},
+            ),
+        ),
+    )
 
 
 #: called with (uid, config) for a variant registered after the tasks were imported (set by the tasks)
@@ -55,29 +98,15 @@ def register_variant(uid: str, cfg: NavTaskConfig, override: bool = False) -> No
 
 def register_lazily() -> None:
     import gymnasium as gym
-    from gymnasium.envs.registration import WrapperSpec
 
     for uid, steps in ENV_IDS.items():
-        if uid in gym.registry:
-            continue
-        gym.register(
-            uid,
-            entry_point=LAZY_ENTRY_POINT,
-            kwargs={"env_id": uid},
-            max_episode_steps=steps,
-            disable_env_checker=True,
-            additional_wrappers=(
-                WrapperSpec(
-                    "MSTimeLimit",
-                    "mani_skill.utils.registration:TimeLimitWrapper",
-                    {"max_episode_steps": steps},
-                ),
-            ),
-        )
+        if uid not in gym.registry:
+            gym.registry[uid] = gym_spec(uid, steps)
 
 
 def register_biovln_env(uid: str, max_episode_steps: int, **kwargs):
-    """ManiSkill's ``register_env``, after dropping this package's lazy gymnasium spec of ``uid``. A
+    """ManiSkill's ``register_env``, with this package's gymnasium spec of ``uid`` (:func:`gym_spec`) in
+    place of ManiSkill's (its lazy one is dropped first: ManiSkill warns on a taken id). A
     navigation env's ManiSkill spec resolves ``split=`` / ``dataset=`` / ``template=`` / ``scene_seed=`` to
     the episode source the env is handed (:mod:`biovln_ms.tasks.episode_sources`)."""
     import gymnasium as gym
@@ -96,6 +125,7 @@ def register_biovln_env(uid: str, max_episode_steps: int, **kwargs):
         ms_spec = REGISTERED_ENVS.get(uid)
         if issubclass(cls, BioVLNNavEnv) and ms_spec is not None and not isinstance(ms_spec, NavEnvSpec):
             REGISTERED_ENVS[uid] = NavEnvSpec.of(ms_spec)
+        gym.registry[uid] = gym_spec(uid, max_episode_steps)  # in place of ManiSkill's
         return cls
 
     return wrap

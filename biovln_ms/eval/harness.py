@@ -218,6 +218,7 @@ def _init_worker(cfg: dict) -> None:
 
     torch.set_num_threads(1)
     spec = method_spec(cfg["method"])
+    policy = spec.factory(**cfg["method_kwargs"])  # first: a bad checkpoint fails before an env is built
     w, h = cfg["camera"]
     recorder = None
     obs_mode = cfg["obs_mode"]
@@ -242,7 +243,7 @@ def _init_worker(cfg: dict) -> None:
     )
     _W.update(
         env=env,
-        policy=spec.factory(**cfg["method_kwargs"]),
+        policy=policy,
         cfg=cfg,
         recorder=recorder,
         privileged=spec.privileged,
@@ -489,38 +490,91 @@ def _evaluate_locked(cfg: EvalConfig, obs_mode: str, progress: bool, echo) -> di
         total=len(episodes), initial=len(done), desc=f"{cfg.run_name} {cfg.split}", disable=not progress
     )
     n_ok = sum(1 for r in previous if r.get("success") and not record_error(r))
-    with open(path, "a") as f:
+    try:
+        with open(path, "a") as f:
 
-        def write(rec):
-            nonlocal n_ok
-            handoff = rec.pop("handoff", None)
-            if handoff is not None:
-                write_handoff(cfg.handoff_dir, cfg.run_name, handoff)
-            f.write(json.dumps(rec, separators=(",", ":")) + "\n")
-            f.flush()
-            os.fsync(f.fileno())
-            n_ok += bool(rec.get("success")) and not rec.get("error")
-            bar.update(1)
-            bar.set_postfix(SR=f"{100 * n_ok / max(bar.n, 1):.1f}%")
+            def write(rec):
+                nonlocal n_ok
+                handoff = rec.pop("handoff", None)
+                if handoff is not None:
+                    write_handoff(cfg.handoff_dir, cfg.run_name, handoff)
+                f.write(json.dumps(rec, separators=(",", ":")) + "\n")
+                f.flush()
+                os.fsync(f.fileno())
+                n_ok += bool(rec.get("success")) and not rec.get("error")
+                bar.update(1)
+                bar.set_postfix(SR=f"{100 * n_ok / max(bar.n, 1):.1f}%")
 
-        if todo and workers == 1:  # (a complete run only rewrites its summary: no env is built)
-            _init_worker(wcfg)
-            try:
-                for i in todo:
-                    write(_run(i))
-            finally:
-                _W["env"].close()
-                _W.clear()
-        elif todo and cfg.ray_address:
-            _run_on_ray(cfg.ray_address, wcfg, todo, workers, write)
-        elif todo:
-            import multiprocessing as mp
-
-            with mp.get_context("spawn").Pool(workers, initializer=_init_worker, initargs=(wcfg,)) as pool:
-                for rec in pool.imap_unordered(_run, todo):
-                    write(rec)
-    bar.close()
+            if todo and workers == 1:  # (a complete run only rewrites its summary: no env is built)
+                _init_worker(wcfg)
+                try:
+                    for i in todo:
+                        write(_run(i))
+                finally:
+                    _W["env"].close()
+                    _W.clear()
+            elif todo and cfg.ray_address:
+                _run_on_ray(cfg.ray_address, wcfg, todo, workers, write)
+            elif todo:
+                _run_on_pool(wcfg, todo, workers, write)
+    finally:  # a failure's one line starts on a line of its own
+        bar.close()
     return write_summary(cfg, len(episodes))
+
+
+def _keep_config(cfg: dict) -> None:
+    """Pool initializer: keep the run's config. The worker's first episode builds its env and policy
+    (:func:`_run_pooled`), so that a failure there reaches the driver as that episode's exception."""
+    _W["config"] = cfg
+
+
+def _run_pooled(index: int) -> dict:
+    """One episode in a pool worker, the worker's env and policy built first if not yet."""
+    if "env" not in _W:
+        _init_worker(_W["config"])
+    return _run(index)
+
+
+def _run_on_pool(wcfg: dict, todo: list[int], workers: int, write) -> None:
+    """Run episodes in ``workers`` spawned processes, writing each record as it arrives.
+
+    A worker that cannot start (a bad checkpoint, no renderer) raises its error here, once, and the run
+    stops: ``multiprocessing.Pool`` would restart a failing initializer without end, and wait forever
+    on a worker that died (a crash, the OOM killer), which ``ProcessPoolExecutor`` reports instead."""
+    import multiprocessing as mp
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    pool = ProcessPoolExecutor(
+        workers, mp_context=mp.get_context("spawn"), initializer=_keep_config, initargs=(wcfg,)
+    )
+    try:
+        pending = {pool.submit(_run_pooled, i) for i in todo}
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                write(fut.result())
+    except BrokenProcessPool:
+        raise BioVLNError(
+            "an evaluation worker process died (crashed, or killed for memory)",
+            field="workers",
+            fix="run again to resume; with --workers 1 its error shows, fewer workers need less memory",
+        ) from None
+    finally:
+        _stop_pool(pool)
+
+
+def _stop_pool(pool) -> None:
+    """Shut ``pool`` down without waiting for the episodes still running (after an error, or ^C)."""
+    pool.shutdown(wait=False, cancel_futures=True)
+    # ProcessPoolExecutor has no public way to end running workers before Python 3.14
+    stop = getattr(pool, "terminate_workers", None)
+    if stop is not None:
+        stop()
+        return
+    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+        if proc.is_alive():
+            proc.terminate()
 
 
 class EpisodeRunner:

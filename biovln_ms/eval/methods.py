@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from biovln_ms.variants import PROTOCOL_ENV, RL_ENV
 from biovln_ms.errors import BioVLNError
@@ -80,11 +81,20 @@ def _lazy(module: str, cls: str, **fixed) -> Callable:
 
 
 def _sb3_preflight(checkpoint: str | None = None, **_) -> None:
+    """A checkpoint is given and is a file, checked in the driver so that no worker starts without one
+    (the workers load it: the driver never imports SB3)."""
     if not checkpoint:
         raise BioVLNError(
             "a learned method needs a checkpoint",
             field="checkpoint",
             fix="pass --checkpoint DIR/model.zip (train one with `biovln-ms train ppo`)",
+        )
+    if not Path(checkpoint).is_file():
+        raise BioVLNError(
+            "no such checkpoint",
+            source=str(checkpoint),
+            field="checkpoint",
+            fix="pass the model.zip that `biovln-ms train ppo --out DIR` wrote (DIR/model.zip)",
         )
 
 

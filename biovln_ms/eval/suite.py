@@ -179,6 +179,10 @@ class Suite:
         """Make (or resume) every run; returns the log."""
         given = dict(checkpoints or {})
         todo = [r for r in runs if not r.skip]
+        for method in dict.fromkeys(r.method for r in todo if r.method in given):
+            spec = method_spec(method)
+            if spec.preflight:  # a given checkpoint that cannot load fails now, not after the runs before it
+                spec.preflight(checkpoint=given[method])
         for r in runs:
             if r.skip:
                 self._note(r.key, status="skipped", reason=r.skip)
