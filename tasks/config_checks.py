@@ -1,43 +1,146 @@
-"""The navigation env's argument checks: one-line errors (field and fix) for arguments ManiSkill would reject
-with a traceback, or accept silently, and for episodes of the other task kind.
+"""The navigation env's input checks: one-line errors (field and fix) for ``gym.make`` arguments, ``reset``
+seeds and options and ``set_state_dict`` states that ManiSkill would reject with a traceback, or accept
+silently, and for episodes of the other task kind. They run before anything is built or read.
 
 :func:`task_config` turns an env's keyword arguments into its :class:`~biovln_ms.task_config.NavTaskConfig`
-(the config's fields may be passed as keyword arguments, paper §3.2's parameters among them).
+(the config's fields may be passed as keyword arguments, paper §3.2's parameters among them). The limits are
+the envs guide's argument table (docs/guides/envs-and-variants/arguments.md).
 """
 
 from __future__ import annotations
 
+import difflib
+import inspect
 import math
-from dataclasses import fields, replace
+import os
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, fields, replace
 
+import dacite
 import numpy as np
+import sapien
 import torch
+from gymnasium.envs.registration import make as gym_make
+from mani_skill.envs.sapien_env import BaseEnv
+from mani_skill.envs.utils.observations import ALL_VISUAL_TEXTURES, parse_obs_mode_to_struct
+from mani_skill.render.shaders import PREBUILT_SHADER_CONFIGS
+from mani_skill.utils.common import dict_merge
+from mani_skill.utils.structs.types import SimConfig
 
-from biovln_ms.agents.robots.locomotion import CONTROL_MODES
+from biovln_ms.agents.robots.locomotion import CONTROL_MODES, MAX_FORWARD_STEP
 from biovln_ms.episodes.source import EpisodeSource
 from biovln_ms.errors import BioVLNError
+from biovln_ms.metrics import protocol_measures
+from biovln_ms.metrics.measures import measure_names, measure_type
 from biovln_ms.metrics.protocol_measures import check_protocol_options
+from biovln_ms.metrics.reach_measures import REACH_MEASURES
 from biovln_ms.noise import NoiseConfig, resolve_noise
-from biovln_ms.render.lighting import lighting_preset
-from biovln_ms.task_config import NavTaskConfig, ProtocolTaskConfig
+from biovln_ms.render.lighting import LIGHTING
+from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
+from biovln_ms.task_config import INSTRUCTION_SENSORS, NavTaskConfig, ProtocolTaskConfig
+from biovln_ms.tasks.sensors import SENSORS
 
 GOAL_MODES = ("opface", "centroid")
 SIM_BACKENDS = ("auto", "cpu", "physx_cpu", "gpu", "cuda", "physx_cuda")  # ManiSkill's names
 RENDER_BACKENDS = ("auto", "cpu", "sapien_cpu", "gpu", "cuda", "sapien_cuda", "none")
+REWARD_MODES = ("normalized_dense", "dense", "sparse", "none")
+RENDER_MODES = BaseEnv.SUPPORTED_RENDER_MODES
+#: obs modes ManiSkill names as a whole; any other is textures (and state) joined by "+"
+OBS_MODES = ("state", "state_dict", "none", "sensor_data", "pointcloud", "rgbd")
+OBS_MODE_PARTS = ("state", "state_dict", "none", "pointcloud", *ALL_VISUAL_TEXTURES)
 #: the config fields of the protocol task only
 PROTOCOL_FIELDS = tuple(
     sorted({f.name for f in fields(ProtocolTaskConfig)} - {f.name for f in fields(NavTaskConfig)})
 )
+#: ManiSkill's ``BaseEnv`` arguments, which ``gym.make`` passes through
+MANISKILL_ARGUMENTS = tuple(inspect.signature(BaseEnv.__init__).parameters)[1:]
+#: what ``gym.make`` resolves to the env's episodes (``biovln_ms.tasks.episode_sources``)
+EPISODE_ARGUMENTS = ("split", "dataset", "template", "scene_seed", "episodes")
+#: the physics rates: 5 substeps per action, in which the stiff drive settles (a move is exact when free)
+SIM_FREQUENCIES = dict(sim_freq=100, control_freq=20)
+MIN_SUBSTEPS, MAX_SUBSTEPS, MAX_SIM_FREQ = 5, 100, 10_000
+#: what ``sensor_configs`` may set: the head camera's size, field of view and range are task parameters
+SENSOR_CONFIG_KEYS = ("shader_pack",)
+#: what ``human_render_camera_configs`` and ``viewer_camera_configs`` may set
+VIEW_CONFIG_KEYS = ("shader_pack", "width", "height", "fov", "near", "far", "pose")
+#: the cameras of each camera-config argument (a key naming one configures it alone)
+CAMERAS = {"sensor_configs": ("head",), "human_render_camera_configs": ("follow",)}
+CAMERAS["viewer_camera_configs"] = ("viewer",)
+#: what ``reset(options=...)`` may hold
+RESET_OPTIONS = ("episode_index", "episode_id", "scene_id", "env_idx", "reconfigure")
+MAX_SEED = 2**32 - 1  # NumPy's RandomState, which ManiSkill seeds with it
+MAX_NUM_ENVS = 16_384
 
 
 class EnvConfigError(BioVLNError):
-    """Invalid env arguments (split, episode, obs mode, control mode, action)."""
+    """Invalid env arguments (split, episode, obs mode, control mode, seed, reset options, state)."""
 
 
-def task_config(base: NavTaskConfig, control_mode: str, kwargs: dict) -> NavTaskConfig:
+@dataclass(frozen=True)
+class Bound:
+    """A numeric argument's range: above ``lo`` (or from it, ``closed``) up to ``hi``; integers only when
+    ``integer``."""
+
+    lo: float
+    hi: float
+    unit: str = ""
+    integer: bool = False
+    closed: bool = False
+
+    def __str__(self) -> str:
+        kind = "an integer" if self.integer else "a number"
+        unit = f" {self.unit}" if self.unit else ""
+        lo, hi = (f"{x:,}" if float(x).is_integer() else f"{x:g}" for x in (self.lo, self.hi))
+        return f"{kind} in {'[' if self.closed else '('}{lo}, {hi}]{unit}"
+
+    def check(self, name: str, v):
+        """``v`` as a Python int or float, or a one-line error naming ``name`` and the range."""
+        numeric = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+        if self.integer:
+            numeric = numeric and isinstance(v, (int, np.integer))
+        if numeric and isinstance(v, (float, np.floating)) and not math.isfinite(v):
+            numeric = False
+        if not numeric or not (self.lo <= v if self.closed else self.lo < v) or v > self.hi:
+            raise EnvConfigError(
+                f"{name} must be {self}, got {v!r}", field=name, fix=f"pass {name} as {self}"
+            )
+        return int(v) if self.integer else float(v)
+
+
+#: the numeric config fields' limits (the envs guide's argument table)
+CONFIG_LIMITS = {
+    "forward_step": Bound(0, MAX_FORWARD_STEP, "m"),
+    "turn_deg": Bound(0, 180, "degrees"),
+    "max_episode_steps": Bound(1, 1_000_000, integer=True, closed=True),
+    "camera_width": Bound(1, 4096, "pixels", integer=True, closed=True),
+    "camera_height": Bound(1, 4096, "pixels", integer=True, closed=True),
+    "camera_hfov_deg": Bound(0, 170, "degrees"),  # a pinhole camera sees less than 180 degrees
+    "strict_facing_deg": Bound(0, 180, "degrees"),
+    "camera_far": Bound(0.05, 1000, "m"),  # beyond the head camera's near plane
+    "success_bonus": Bound(0, 1e6),  # normalized_dense divides by it
+    "step_penalty": Bound(0, 1e6, closed=True),
+    "safety_penalty": Bound(0, 1e6, closed=True),
+    "position_scale": Bound(0.01, 1000, "m", closed=True),
+    "steps_per_goal": Bound(1, 100_000, integer=True, closed=True),
+}
+BOOL_FIELDS = ("proportional_safety", "shuffle_episodes", "agent_obs")
+VIEW_LIMITS = {
+    "width": Bound(1, 4096, "pixels", integer=True, closed=True),
+    "height": Bound(1, 4096, "pixels", integer=True, closed=True),
+    "fov": Bound(0, math.radians(170), "radians"),
+    "near": Bound(0, 100, "m", closed=True),
+    "far": Bound(0, 10_000, "m"),
+}
+
+
+def task_config(
+    base: NavTaskConfig, control_mode: str, kwargs: dict, robot_uids: str = DEFAULT_ROBOT
+) -> NavTaskConfig:
     """``base`` with the config fields of ``kwargs`` (taken out of it) and its noise resolved, checked; the
     ManiSkill defaults that follow from it are set in ``kwargs`` (the obs mode, a CPU renderer without a
-    GPU)."""
+    GPU, fresh camera-config dicts: ManiSkill's ``shader_dir`` writes into its defaults). ``gym.make``'s own
+    ``max_episode_steps`` becomes the config's, so the env ends its episodes where the time limit does."""
     protocol = kwargs.pop("protocol", base.protocol)  # a property of the config's type, not a field
     if protocol != base.protocol:
         raise EnvConfigError(
@@ -52,8 +155,14 @@ def task_config(base: NavTaskConfig, control_mode: str, kwargs: dict) -> NavTask
             field=extra[0],
             fix="make BioVLN-Protocol-v0 (or another protocol variant) to pass it",
         )
+    check_known_arguments(base, kwargs)
+    limit = gym_make_step_limit()
+    if limit is not None:
+        kwargs.setdefault("max_episode_steps", limit)
     cfg = replace(base, **{f.name: kwargs.pop(f.name) for f in fields(base) if f.name in kwargs})
-    kwargs.setdefault("obs_mode", cfg.default_obs_mode)
+    cfg = checked_config(cfg, robot_spec(kwargs.get("robot_uids", robot_uids)).uid)
+    if kwargs.get("obs_mode") is None:  # ManiSkill's None is the default
+        kwargs["obs_mode"] = cfg.default_obs_mode
     noise = resolve_noise(cfg.noise)
     check_pose_state(cfg, noise, kwargs["obs_mode"])
     cfg = cfg.with_noise(noise)
@@ -63,9 +172,145 @@ def task_config(base: NavTaskConfig, control_mode: str, kwargs: dict) -> NavTask
     return cfg
 
 
-def check_episode_kind(cfg: NavTaskConfig, source: EpisodeSource) -> None:
+def check_known_arguments(base: NavTaskConfig, kwargs: dict) -> None:
+    """An argument that is neither a config field nor ManiSkill's would reach ``BaseEnv.__init__`` as a
+    TypeError after the episodes are read; refuse it first, naming the nearest known one."""
+    known = [f.name for f in fields(base)] + list(MANISKILL_ARGUMENTS)
+    for name in kwargs:
+        if name not in known:
+            near = difflib.get_close_matches(str(name), known + list(EPISODE_ARGUMENTS), n=1)
+            hint = f"did you mean {near[0]}? " if near else ""
+            raise EnvConfigError(
+                f"unknown argument {name!r}",
+                field=str(name),
+                fix=f"{hint}the arguments are NavTaskConfig's fields, ManiSkill's BaseEnv arguments and "
+                f"{', '.join(EPISODE_ARGUMENTS[:-1])} (the envs guide's argument table)",
+            )
+
+
+def gym_make_step_limit() -> int | None:
+    """The ``max_episode_steps`` given to the ``gym.make`` call making this env, checked (None: none given).
+    gymnasium keeps it for its ``TimeLimit``, and ManiSkill's ``TimeLimitWrapper`` reads it from that call's
+    frame as this does; -1 (gymnasium's "no limit") would make ManiSkill's wrapper truncate every step."""
+    frame = sys._getframe(1)
+    while frame is not None and frame.f_code is not gym_make.__code__:
+        frame = frame.f_back
+    limit = None if frame is None else frame.f_locals.get("max_episode_steps")
+    return None if limit is None else CONFIG_LIMITS["max_episode_steps"].check("max_episode_steps", limit)
+
+
+def checked_config(cfg: NavTaskConfig, robot: str) -> NavTaskConfig:
+    """``cfg`` with every field checked against its limits (numbers as Python numbers, lists as tuples)."""
+    values = {
+        name: bound.check(name, getattr(cfg, name))
+        for name, bound in CONFIG_LIMITS.items()
+        if hasattr(cfg, name)
+    }
+    for name in BOOL_FIELDS:
+        v = getattr(cfg, name)
+        if not isinstance(v, (bool, np.bool_)):
+            raise EnvConfigError(f"{name} must be True or False, got {v!r}", field=name, fix="pass a bool")
+        values[name] = bool(v)
+    for name, known in (("goal_mode", GOAL_MODES), ("lighting", tuple(LIGHTING))):
+        v = getattr(cfg, name)
+        if not isinstance(v, str) or v not in known:
+            raise EnvConfigError(f"unknown {name} {v!r}", field=name, fix=f"use one of: {', '.join(known)}")
+    check_obs_mode("default_obs_mode", cfg.default_obs_mode)
+    if cfg.default_split is not None and not isinstance(cfg.default_split, str):
+        raise EnvConfigError(
+            f"default_split must be a split name or None, got {cfg.default_split!r}",
+            field="default_split",
+            fix="pass e.g. default_split='ms_val'",
+        )
+    values["measures"] = _names("measures", cfg.measures, measure_names())
+    sensors = [s for s in SENSORS if cfg.protocol or s not in INSTRUCTION_SENSORS]
+    values["sensors"] = _names("sensors", cfg.sensors, sensors)
+    check_measures(cfg, values["measures"], robot)
+    if cfg.protocol:
+        check_protocol_options(cfg.wrong_stop, cfg.subgoal_rule, values["steps_per_goal"])
+    return replace(cfg, **values)
+
+
+def _names(name: str, v, known) -> tuple[str, ...]:
+    """A tuple or list of names, each one of ``known``, as a tuple."""
+    if not isinstance(v, (tuple, list)) or not all(isinstance(s, str) for s in v):
+        raise EnvConfigError(
+            f"{name} must be a tuple of names, got {v!r}",
+            field=name,
+            fix=f"pass names of: {', '.join(known)}",
+        )
+    for s in v:
+        if s not in known:
+            raise EnvConfigError(
+                f"unknown {name[:-1]} '{s}'", field=name, fix=f"use names of: {', '.join(known)}"
+            )
+    return tuple(v)
+
+
+def check_measures(cfg: NavTaskConfig, measures: tuple[str, ...], robot: str) -> None:
+    """The reward measure is a number and success and fail are true or false, per sub-env; the protocol
+    measures need the protocol task, and the reach measures Fetch's arm."""
+    known = measure_names()
+    for name, kind in (("reward_measure", "f"), ("success_measure", "b"), ("fail_measure", "b")):
+        m = getattr(cfg, name)
+        if not isinstance(m, str) or m not in known:
+            raise EnvConfigError(f"unknown measure {m!r}", field=name, fix=f"use one of: {', '.join(known)}")
+        cls = measure_type(m)
+        if np.dtype(cls.dtype).kind != kind or cls.shape != ():
+            what = "a number" if kind == "f" else "true or false"
+            raise EnvConfigError(f"measure '{m}' is not {what} per sub-env", field=name, fix="choose another")
+    for m in _closure(measures + (cfg.reward_measure, cfg.success_measure, cfg.fail_measure)):
+        if not cfg.protocol and measure_type(m).__module__ == protocol_measures.__name__:
+            raise EnvConfigError(
+                f"measure '{m}' is a protocol measure", field="measures", fix="use it in BioVLN-Protocol-v0"
+            )
+        if m in REACH_MEASURES and (robot != "fetch" or cfg.protocol):
+            raise EnvConfigError(
+                f"measure '{m}' needs Fetch's arm",
+                field="measures",
+                fix="make a single-goal env with robot_uids='fetch' (it reports the reach measures itself)",
+            )
+
+
+def _closure(names) -> list[str]:
+    """``names`` and every measure they depend on."""
+    out, todo = [], list(names)
+    while todo:
+        m = todo.pop()
+        if m not in out:
+            out.append(m)
+            todo += measure_type(m).dependencies
+    return out
+
+
+def check_obs_mode(name: str, v) -> None:
+    """ManiSkill's obs modes: a named one, or textures (and state) joined by '+'."""
+    ok = isinstance(v, str) and (v in OBS_MODES or all(p in OBS_MODE_PARTS for p in v.split("+")))
+    if not ok:
+        raise EnvConfigError(
+            f"unknown obs mode {v!r}",
+            field=name,
+            fix=f"use one of: {', '.join(OBS_MODES)}, or '+'-joined {', '.join(ALL_VISUAL_TEXTURES)}",
+        )
+
+
+def check_episode_kind(cfg: NavTaskConfig, source: EpisodeSource, footprint: float) -> None:
     """Protocol (multi-goal) episodes run only in the protocol env, and single-goal ones only elsewhere: a
-    protocol episode's goals read as any-instance goals would be a silently wrong task."""
+    protocol episode's goals read as any-instance goals would be a silently wrong task. The episodes' scenes
+    are made for this robot's footprint (free space, geodesics and starts are the footprint's)."""
+    if not isinstance(source, EpisodeSource) or not getattr(source, "episodes", None):
+        raise EnvConfigError(
+            f"episodes must be a non-empty EpisodeSource, got {type(source).__name__}",
+            field="episodes",
+            fix="pass split= (or template=), or an EpisodeSource of biovln_ms.episodes.source",
+        )
+    made_for = source.spec(source.episodes[0]["scene_id"]).robot_radius
+    if made_for != footprint:
+        raise EnvConfigError(
+            f"the episodes' scenes are made for a {made_for} m footprint, this robot's is {footprint} m",
+            field="episodes",
+            fix="make them for this robot (GeneratedEpisodes(..., robot=...)), or pass split= instead",
+        )
     kinds = {"protocol" in ep for ep in source.episodes}
     if kinds != {cfg.protocol}:
         split = getattr(source, "split", None)
@@ -77,6 +322,21 @@ def check_episode_kind(cfg: NavTaskConfig, source: EpisodeSource) -> None:
             field="split",
             fix="use the protocol_* splits with BioVLN-Protocol-v0, the others with the single-goal variants",
         )
+
+
+def check_source_arguments(given: dict) -> None:
+    """The episode arguments' types (their values are checked where they are resolved)."""
+    for name, kinds, example in (
+        ("split", (str,), "split='ms_val'"),
+        ("dataset", (str, os.PathLike), "dataset='path/to/dataset'"),
+        ("template", (str,), "template='single_room'"),
+        ("scene_seed", (int, np.integer), "scene_seed=0"),
+    ):
+        v = given.get(name)
+        if v is not None and (not isinstance(v, kinds) or isinstance(v, bool)):
+            raise EnvConfigError(
+                f"{name} must be a {kinds[0].__name__}, got {v!r}", field=name, fix=f"pass e.g. {example}"
+            )
 
 
 def check_pose_state(cfg: NavTaskConfig, noise: NoiseConfig, obs_mode: str) -> None:
@@ -92,39 +352,16 @@ def check_pose_state(cfg: NavTaskConfig, noise: NoiseConfig, obs_mode: str) -> N
 
 
 def check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> None:
-    """One-line errors for arguments ManiSkill would reject with a traceback, or accept silently."""
-    if control_mode not in CONTROL_MODES:
+    """One-line errors for ManiSkill's arguments that it would reject with a traceback, or accept silently."""
+    if not isinstance(control_mode, str) or control_mode not in CONTROL_MODES:
         raise EnvConfigError(
             f"unknown control mode '{control_mode}'",
             field="control_mode",
             fix=f"use one of: {', '.join(CONTROL_MODES)}",
         )
-    if cfg.goal_mode not in GOAL_MODES:
-        raise EnvConfigError(
-            f"unknown goal mode '{cfg.goal_mode}'",
-            field="goal_mode",
-            fix=f"use one of: {', '.join(GOAL_MODES)}",
-        )
-    lighting_preset(cfg.lighting)  # one-line error listing the presets
-    if cfg.protocol:
-        check_protocol_options(cfg.wrong_stop, cfg.subgoal_rule, cfg.steps_per_goal)
-    for name in (
-        "forward_step",
-        "turn_deg",
-        "camera_width",
-        "camera_height",
-        "camera_hfov_deg",
-        "strict_facing_deg",
-        "max_episode_steps",
-    ):
-        v = getattr(cfg, name)
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise EnvConfigError(
-                f"{name} must be a positive number, got {v!r}", field=name, fix=f"pass a positive {name}"
-            )
     for key, known in (("sim_backend", SIM_BACKENDS), ("render_backend", RENDER_BACKENDS)):
         name = str(kwargs.get(key, "auto")).split(":")[0]
-        if name not in known:
+        if not isinstance(kwargs.get(key, "auto"), str) or name not in known:
             raise EnvConfigError(
                 f"unknown {key} '{kwargs[key]}'",
                 field=key,
@@ -139,9 +376,11 @@ def check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> None
             fix="use sim_backend='physx_cpu' (the default on a machine without a GPU)",
         )
     n = kwargs.get("num_envs", 1)
-    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
+    if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or not 1 <= n <= MAX_NUM_ENVS:
         raise EnvConfigError(
-            f"num_envs must be a positive integer, got {n!r}", field="num_envs", fix="pass num_envs=1 or more"
+            f"num_envs must be an integer in [1, {MAX_NUM_ENVS}], got {n!r}",
+            field="num_envs",
+            fix="pass num_envs=1 or more",
         )
     if n > 1 and not (gpu_backend and torch.cuda.is_available()):
         raise EnvConfigError(
@@ -149,3 +388,273 @@ def check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> None
             "process (gymnasium AsyncVectorEnv or SB3 SubprocVecEnv, see the envs guide)",
             field="num_envs",
         )
+    check_maniskill_arguments(kwargs)
+
+
+def check_maniskill_arguments(kwargs: dict) -> None:
+    """ManiSkill's own arguments: modes, flags, camera configs and the physics rates."""
+    obs_mode = kwargs.get("obs_mode", "state")
+    check_obs_mode("obs_mode", obs_mode)
+    for key, known in (("reward_mode", REWARD_MODES), ("render_mode", RENDER_MODES)):
+        v = kwargs.get(key)
+        if v is not None and (not isinstance(v, str) or v not in known):
+            raise EnvConfigError(f"unknown {key} {v!r}", field=key, fix=f"use one of: {', '.join(known)}")
+    shader = kwargs.get("shader_dir")
+    if shader is not None and (not isinstance(shader, str) or shader not in PREBUILT_SHADER_CONFIGS):
+        raise EnvConfigError(
+            f"unknown shader pack {shader!r}",
+            field="shader_dir",
+            fix=f"use one of: {', '.join(PREBUILT_SHADER_CONFIGS)}",
+        )
+    for key in ("enable_shadow", "parallel_in_single_scene", "enhanced_determinism"):
+        if not isinstance(kwargs.get(key, False), (bool, np.bool_)):
+            raise EnvConfigError(
+                f"{key} must be True or False, got {kwargs[key]!r}", field=key, fix="pass a bool"
+            )
+    visual = vars(parse_obs_mode_to_struct(obs_mode).visual)
+    if kwargs.get("parallel_in_single_scene") and any(visual.values()):
+        raise EnvConfigError(
+            "parallel_in_single_scene renders no camera observations",
+            field="parallel_in_single_scene",
+            fix="pass it with obs_mode='state' (or 'state_dict', 'none')",
+        )
+    for key, cameras in CAMERAS.items():
+        keys = SENSOR_CONFIG_KEYS if key == "sensor_configs" else VIEW_CONFIG_KEYS
+        kwargs[key] = check_camera_configs(key, kwargs.get(key, {}), cameras, keys)
+    if "sim_config" in kwargs:
+        check_sim_config(kwargs["sim_config"])
+    freq = kwargs.get("reconfiguration_freq")
+    if freq is not None:
+        Bound(0, 1_000_000, integer=True, closed=True).check("reconfiguration_freq", freq)
+
+
+def check_camera_configs(name: str, value, cameras: tuple[str, ...], keys: tuple[str, ...]) -> dict:
+    """A copy of a camera-config argument (ManiSkill writes into it), each setting checked: settings for
+    every camera, or under a camera's name for that camera."""
+    if value is None:
+        value = {}
+    if not isinstance(value, Mapping):
+        raise EnvConfigError(
+            f"{name} must be a dict, got {value!r}", field=name, fix="pass e.g. {'shader_pack': 'minimal'}"
+        )
+    out = {}
+    for k, v in value.items():
+        if k in cameras:
+            if not isinstance(v, Mapping):
+                raise EnvConfigError(
+                    f"{name}['{k}'] must be a dict, got {v!r}", field=name, fix="pass a dict"
+                )
+            for kk, vv in v.items():
+                _camera_setting(f"{name}['{k}']", kk, vv, keys)
+            out[k] = dict(v)
+        else:
+            _camera_setting(name, k, v, keys)
+            out[k] = v
+    return out
+
+
+def _camera_setting(where: str, key, v, keys: tuple[str, ...]) -> None:
+    if key not in keys:
+        task = " (the head camera's size, field of view and range are camera_width, camera_height, "
+        task += "camera_hfov_deg and camera_far)" if keys == SENSOR_CONFIG_KEYS else ""
+        raise EnvConfigError(f"{where} sets {key!r}", field=where, fix=f"set one of: {', '.join(keys)}{task}")
+    if key == "shader_pack" and (not isinstance(v, str) or v not in PREBUILT_SHADER_CONFIGS):
+        raise EnvConfigError(
+            f"unknown shader pack {v!r}", field=where, fix=f"use one of: {', '.join(PREBUILT_SHADER_CONFIGS)}"
+        )
+    if key in VIEW_LIMITS:
+        VIEW_LIMITS[key].check(f"{where}['{key}']", v)
+    if key == "pose" and not isinstance(v, sapien.Pose):
+        p = np.asarray(v, dtype=object)
+        if (
+            p.shape != (7,)
+            or not all(isinstance(x, (int, float, np.integer, np.floating)) and math.isfinite(x) for x in p)
+            or not np.any(np.asarray(p[3:], float))
+        ):
+            raise EnvConfigError(
+                f"pose must be 7 finite numbers (position, then a non-zero quaternion), got {v!r}",
+                field=where,
+                fix="pass [x, y, z, qw, qx, qy, qz] or a sapien.Pose",
+            )
+
+
+def check_sim_config(value) -> None:
+    """ManiSkill's ``sim_config`` (a dict or SimConfig): known keys of the right types, finite numbers, and
+    from ``MIN_SUBSTEPS`` to ``MAX_SUBSTEPS`` physics substeps per action."""
+    if isinstance(value, SimConfig):
+        value = value.dict()
+    if not isinstance(value, Mapping):
+        raise EnvConfigError(
+            f"sim_config must be a dict, got {value!r}", field="sim_config", fix="pass a dict"
+        )
+    merged = SimConfig(**SIM_FREQUENCIES).dict()
+    try:
+        dict_merge(merged, dict(value))
+        cfg = dacite.from_dict(SimConfig, merged, dacite.Config(strict=True))
+    except (dacite.DaciteError, TypeError, AttributeError) as e:
+        raise EnvConfigError(
+            f"sim_config: {e}", field="sim_config", fix=f"use the keys of SimConfig: {', '.join(merged)}"
+        ) from None
+    if not _finite(merged):
+        raise EnvConfigError(
+            "sim_config holds a number that is not finite", field="sim_config", fix="pass finite numbers"
+        )
+    sim, control = cfg.sim_freq, cfg.control_freq
+    ok = all(isinstance(f, int) and not isinstance(f, bool) and 0 < f <= MAX_SIM_FREQ for f in (sim, control))
+    if not ok or sim % control or not MIN_SUBSTEPS <= sim // control <= MAX_SUBSTEPS:
+        raise EnvConfigError(
+            f"sim_freq {sim!r} / control_freq {control!r} is not {MIN_SUBSTEPS}-{MAX_SUBSTEPS} substeps",
+            field="sim_config",
+            fix=f"pass integers up to {MAX_SIM_FREQ} Hz, sim_freq a multiple of control_freq "
+            f"({MIN_SUBSTEPS} or more substeps: the drive settles in them)",
+        )
+
+
+def _finite(obj) -> bool:
+    if isinstance(obj, dict):
+        return all(_finite(v) for v in obj.values())
+    if isinstance(obj, (list, tuple)):
+        return all(_finite(v) for v in obj)
+    return not isinstance(obj, float) or math.isfinite(obj)
+
+
+# --- reset and state ---------------------------------------------------------------------------------------
+def reset_arguments(seed, options, num_envs: int, device) -> tuple:
+    """``reset``'s seed and options checked: (the seed as an int or a list of ints, a copy of the options with
+    ``env_idx`` as ManiSkill's index tensor, the sub-envs reset)."""
+    seed = check_seed(seed, num_envs)
+    if options is None:
+        return seed, {}, list(range(num_envs))
+    if not isinstance(options, Mapping):
+        raise EnvConfigError(
+            f"options must be a dict, got {options!r}", field="options", fix="pass e.g. {'episode_index': 0}"
+        )
+    options = dict(options)
+    for key in options:
+        if key == "reset_to_env_states":
+            raise EnvConfigError(
+                "a reset to a saved state is not supported (the task's episode state would not follow)",
+                field="options['reset_to_env_states']",
+                fix="reset to its episode (options={'episode_index': k}), then env.set_state_dict(state)",
+            )
+        if key not in RESET_OPTIONS:
+            raise EnvConfigError(
+                f"unknown reset option {key!r}",
+                field="options",
+                fix=f"use one of: {', '.join(RESET_OPTIONS)}",
+            )
+    _check_episode_options(options)
+    if not isinstance(options.get("reconfigure", False), (bool, np.bool_)):
+        raise EnvConfigError(
+            f"reconfigure must be True or False, got {options['reconfigure']!r}",
+            field="options['reconfigure']",
+            fix="pass a bool",
+        )
+    if "env_idx" not in options:
+        return seed, options, list(range(num_envs))
+    rows = _env_rows(options["env_idx"], num_envs)
+    if options.get("reconfigure") and len(rows) != num_envs:
+        raise EnvConfigError(
+            "a partial reset cannot reconfigure",
+            field="options['reconfigure']",
+            fix="reset all sub-envs to reconfigure",
+        )
+    options["env_idx"] = torch.tensor(rows, dtype=torch.int64, device=device)
+    return seed, options, rows
+
+
+def check_seed(seed, num_envs: int):
+    """A seed in [0, 2**32 - 1] (an int, a NumPy integer, a 0-d array or tensor), or one per sub-env in a
+    list, array or tensor; as an int or a list of ints."""
+    if seed is None:
+        return None
+    values = seed.tolist() if isinstance(seed, (np.ndarray, torch.Tensor)) else seed
+    scalar = not isinstance(values, (list, tuple))
+    items = [values] if scalar else list(values)
+    ok = all(
+        isinstance(s, (int, np.integer)) and not isinstance(s, (bool, np.bool_)) and 0 <= s <= MAX_SEED
+        for s in items
+    )
+    if not ok or (not scalar and len(items) not in (1, num_envs)):
+        raise EnvConfigError(
+            f"seed must be an integer in [0, {MAX_SEED}] or a list of one per sub-env ({num_envs}), "
+            f"got {seed!r}",
+            field="seed",
+            fix="pass e.g. seed=0",
+        )
+    return int(items[0]) if scalar else [int(s) for s in items]
+
+
+def _check_episode_options(options: dict) -> None:
+    """One way of naming an episode: an index, or an id (with an optional scene id)."""
+    if "episode_index" in options and "episode_id" in options:
+        raise EnvConfigError(
+            "both episode_index and episode_id name an episode", field="options", fix="pass one of them"
+        )
+    if "scene_id" in options and "episode_id" not in options:
+        raise EnvConfigError(
+            "scene_id names an episode only with episode_id",
+            field="options['scene_id']",
+            fix="pass {'episode_id': ..., 'scene_id': ...}",
+        )
+    for key, kinds in (("episode_id", (str, int, np.integer)), ("scene_id", (str,))):
+        v = options.get(key)
+        if key in options and (not isinstance(v, kinds) or isinstance(v, bool)):
+            raise EnvConfigError(
+                f"{key} must be a string, got {v!r}", field=f"options['{key}']", fix="pass e.g. '0'"
+            )
+
+
+def _env_rows(env_idx, num_envs: int) -> list[int]:
+    """The sub-envs of ``env_idx`` (a list, array or tensor of distinct indices in range)."""
+    values = env_idx.tolist() if isinstance(env_idx, (np.ndarray, torch.Tensor)) else env_idx
+    rows = [values] if isinstance(values, (int, np.integer)) else values
+    ok = isinstance(rows, (list, tuple)) and 0 < len(rows)
+    ok = ok and all(
+        isinstance(i, (int, np.integer)) and not isinstance(i, bool) and 0 <= i < num_envs for i in rows
+    )
+    if not ok or len({int(i) for i in rows}) != len(rows):
+        raise EnvConfigError(
+            f"env_idx must be distinct sub-env indices in [0, {num_envs}), got {env_idx!r}",
+            field="options['env_idx']",
+            fix="pass e.g. {'env_idx': [0]}",
+        )
+    return [int(i) for i in rows]
+
+
+def check_state(state, reference: dict, num_envs: int) -> None:
+    """A state for ``set_state_dict``: keys of ``reference`` (the env's own ``get_state_dict()``; the
+    simulation's may be left out, the task's come whole), arrays of its shapes (unbatched, or a row per
+    sub-env) and finite numbers."""
+    _check_tree(state, reference, "state", num_envs, whole=False)
+
+
+def _check_tree(given, ref, path: str, n: int, whole: bool) -> None:
+    if isinstance(ref, dict):
+        if not isinstance(given, Mapping):
+            raise EnvConfigError(
+                f"{path} must be a dict, got {type(given).__name__}", field=path, fix=_STATE_FIX
+            )
+        unknown = [k for k in given if k not in ref]
+        missing = [k for k in ref if k not in given] if whole else []
+        if unknown or missing:
+            what = f"unknown key {unknown[0]!r}" if unknown else f"no key {missing[0]!r}"
+            raise EnvConfigError(f"{path} has {what}", field=path, fix=_STATE_FIX)
+        for k, v in given.items():
+            _check_tree(v, ref[k], f"{path}[{k!r}]", n, whole or k == "task")
+        return
+    try:
+        a = np.asarray(given.cpu() if isinstance(given, torch.Tensor) else given)
+    except (TypeError, ValueError, RuntimeError):
+        a = np.asarray(None)
+    shape = tuple(ref.shape[1:])
+    ok = a.dtype.kind in "biuf" and (a.shape == (n, *shape) or (a.shape == shape and not whole))
+    if not ok or (a.dtype.kind == "f" and not np.isfinite(a).all()):
+        raise EnvConfigError(
+            f"{path} must be finite numbers of shape {(n, *shape)}, got {getattr(a, 'shape', None)}",
+            field=path,
+            fix=_STATE_FIX,
+        )
+
+
+_STATE_FIX = "pass a state from env.get_state_dict() of this env"

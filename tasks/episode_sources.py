@@ -14,7 +14,7 @@ from mani_skill.utils.registration import EnvSpec
 from biovln_ms.splits import dataset_root
 from biovln_ms.episodes.source import DatasetEpisodes
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
-from biovln_ms.tasks.config_checks import EnvConfigError, task_config
+from biovln_ms.tasks.config_checks import EnvConfigError, check_source_arguments, task_config
 from biovln_ms.tasks.nav_env import BioVLNNavEnv
 
 #: the arguments an episode source is resolved from
@@ -28,6 +28,7 @@ def resolve_episodes(env_cls: type[BioVLNNavEnv], kwargs: dict) -> dict:
     invalid argument is reported before any dataset is read or built."""
     kwargs = dict(kwargs)
     given = {k: kwargs.pop(k) for k in SOURCE_ARGUMENTS if k in kwargs}
+    check_source_arguments(given)
     if "episodes" in kwargs:
         if given:
             name = next(iter(given))

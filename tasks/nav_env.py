@@ -19,7 +19,7 @@ from mani_skill.utils import sapien_utils
 from mani_skill.utils.structs.types import SimConfig
 
 from biovln_ms.agents.robots import NAV_AGENTS
-from biovln_ms.agents.robots.locomotion import swept_motion
+from biovln_ms.agents.robots.locomotion import as_action, swept_motion
 from biovln_ms.catalog import load_catalog
 from biovln_ms.episodes.schema import Episode
 from biovln_ms.episodes.source import EpisodeCursor, EpisodeSource, GeneratedEpisodes
@@ -32,7 +32,8 @@ from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.sim.reach import FetchArm, ReachResult, reach_goals
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
-from biovln_ms.tasks.config_checks import EnvConfigError, check_episode_kind, task_config
+from biovln_ms.tasks.config_checks import SIM_FREQUENCIES, EnvConfigError, check_episode_kind, check_state
+from biovln_ms.tasks.config_checks import REWARD_MODES, reset_arguments, task_config
 from biovln_ms.tasks.episodes import choose_episodes, episode_context
 from biovln_ms.tasks.observations import HeadCameraNoise, segmentation_lookup
 from biovln_ms.tasks.privileged import PrivilegedView
@@ -68,7 +69,7 @@ class BioVLNNavEnv(BaseEnv):
 
     #: ManiSkill's agent uids of the robots (``robot_uids`` takes the ``biovln_ms.robot_specs.ROBOTS`` ids)
     SUPPORTED_ROBOTS = [NAV_AGENTS[r].uid for r in ROBOTS]
-    SUPPORTED_REWARD_MODES = ("normalized_dense", "dense", "sparse", "none")
+    SUPPORTED_REWARD_MODES = REWARD_MODES
     config: NavTaskConfig = VARIANTS[BENCHMARK_ENV]
     #: the episodes without a split, sampled in a scene generated from a template (:mod:`~.episode_sources`)
     generated_episodes = GeneratedEpisodes
@@ -82,9 +83,10 @@ class BioVLNNavEnv(BaseEnv):
         robot_uids: str = DEFAULT_ROBOT,
         **kwargs,
     ) -> None:
-        self.cfg = task_config(self.config, control_mode, kwargs)
+        self.cfg = task_config(self.config, control_mode, kwargs, robot_uids)
         self.robot_id = robot_spec(robot_uids).uid  # a ROBOTS id; ManiSkill gets its agent's uid
-        check_episode_kind(self.cfg, episodes)
+        self._footprint = robot_spec(robot_uids).footprint_radius  # the swept checks' disc
+        check_episode_kind(self.cfg, episodes, self._footprint)
         self.source = episodes
         self.cursor = EpisodeCursor(self.source, self.cfg.shuffle_episodes)
         self.category_names = load_catalog().goal_categories()
@@ -99,7 +101,7 @@ class BioVLNNavEnv(BaseEnv):
 
     @property
     def _default_sim_config(self):
-        return SimConfig(sim_freq=100, control_freq=20)  # 5 substeps: the stiff drive settles in them
+        return SimConfig(**SIM_FREQUENCIES)  # 5 substeps: the stiff drive settles in them
 
     @property
     def _default_sensor_configs(self):
@@ -165,15 +167,12 @@ class BioVLNNavEnv(BaseEnv):
             self._head_noise = HeadCameraNoise(c, self.device)
 
     def reset(self, seed=None, options=None):
-        """ManiSkill's, after choosing each reset sub-env's episode (:func:`~.episodes.choose_episodes`); a
-        sub-env's new scene reconfigures."""
+        """ManiSkill's, after checking the seed and options (``env_idx`` as the base env's index tensor) and
+        choosing each reset sub-env's episode (:func:`~.episodes.choose_episodes`); a sub-env's new scene
+        reconfigures."""
         self._check_open()
-        options = dict(options or {})
-        env_idx = options.get("env_idx")
-        rows = range(self.num_envs) if env_idx is None else torch.as_tensor(env_idx).reshape(-1).tolist()
-        if env_idx is not None:  # ManiSkill's SB3 wrapper passes NumPy indices; the base env wants a tensor
-            options["env_idx"] = torch.tensor(rows, dtype=torch.int64, device=self.device)
-        partial = self.num_envs > 1 and env_idx is not None
+        seed, options, rows = reset_arguments(seed, options, self.num_envs, self.device)
+        partial = self.num_envs > 1 and "env_idx" in options
         chosen, self._episodes, changed = choose_episodes(
             self.cursor, self._episodes, rows, seed, options, partial
         )
@@ -204,16 +203,15 @@ class BioVLNNavEnv(BaseEnv):
         self._measures.reset(self._ctx, StepState.at_rest(pose), idx)
 
     def _step_action(self, action):
-        """ManiSkill's, after turning what gymnasium users pass for ``Discrete(4)`` — ``2``, ``np.int64(2)``,
-        0-d arrays and tensors, lists — into the (N,)-shaped tensor ManiSkill batches. An ended episode
-        ignores actions until reset (Habitat's rule)."""
+        """ManiSkill's, after checking the action (:func:`~biovln_ms.agents.robots.locomotion.as_action`).
+        ``None`` is ManiSkill's no action: the robot holds its pose for the step, which counts (step limit,
+        step penalty). An ended episode ignores actions until reset (Habitat's rule)."""
         self._check_open()
-        if isinstance(action, (int, float, np.generic, list, tuple)) and not isinstance(action, bool):
-            action = torch.as_tensor(np.asarray(action))
-        if isinstance(action, (np.ndarray, torch.Tensor)) and action.ndim == 0:
-            action = action.reshape(1)
+        action = as_action(action, self.control_mode, self.num_envs)
         self._frozen = self._done.copy()
         self.agent.controller.begin_step(self._frozen, self._episode_seed, self._elapsed_steps)
+        if action is None:
+            self.agent.controller.hold_still()
         return super()._step_action(action)
 
     def _after_control_step(self):
@@ -287,6 +285,7 @@ class BioVLNNavEnv(BaseEnv):
         return state
 
     def set_state_dict(self, state: dict, env_idx: torch.Tensor | None = None):
+        check_state(state, self.get_state_dict(), self.num_envs)  # of this env's keys and shapes
         super().set_state_dict(state, env_idx)
         task = state.get("task")
         if task is None:
@@ -371,7 +370,7 @@ class BioVLNNavEnv(BaseEnv):
         built = {}  # once per distinct scene: sub-envs sharing a scene share its geometry
         for sid in dict.fromkeys(scene_ids):
             spec = self.source.spec(sid)
-            built[sid] = (spec, scene_navigation(spec), swept_motion(spec))
+            built[sid] = (spec, scene_navigation(spec), swept_motion(spec, self._footprint))
         self.scene_specs, self.navs, self._motions = (
             list(v) for v in zip(*(built[sid] for sid in scene_ids))
         )

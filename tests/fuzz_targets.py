@@ -322,48 +322,207 @@ def _cli_args(state: dict, seed: int, tmp: Path) -> str:
     return "other"
 
 
-#: env keyword arguments and candidate values (valid ones first)
+#: env keyword arguments and candidate values: a valid one first (the base set), then others, valid or not;
+#: ``ABSENT`` leaves the argument out (so a misspelt name is sometimes passed)
+ABSENT = object()
 ENV_ARGS = {
-    "num_envs": (1, 0, -3, 2.5, "2", None, 10**9),
-    "camera_width": (64, 0, -64, 1e9, float("nan"), "64"),
-    "camera_height": (48, 0, -1, float("inf")),
-    "forward_step": (0.25, 0.0, -0.25, float("nan"), 1e6, "0.25"),
-    "turn_deg": (30.0, 0, -30, float("inf")),
-    "goal_mode": ("opface", "centroid", "bogus", 3),
-    "control_mode": ("discrete", "continuous", "teleport", None),
-    "sim_backend": ("physx_cpu", "cpu", "bogus", "gpu", "cuda:0"),
+    "num_envs": (1, 0, -3, 2.5, "2", None, 10**9, True),
+    "camera_width": (64, 0, -64, 1e9, float("nan"), "64", 64.5, True, 4096, 4097),
+    "camera_height": (48, 0, -1, float("inf"), np.int64(24)),
+    "camera_hfov_deg": (79.0, 0, 170, 180, 200, -1, float("nan"), np.float32(58.0)),
+    "camera_far": (20.0, 0.0, 0.05, 1e4, float("nan"), "x"),
+    "strict_facing_deg": (30.0, 0, 200, float("inf")),
+    "forward_step": (0.25, 0.0, -0.25, float("nan"), 1e6, "0.25", 2.0, 2.5),
+    "turn_deg": (30.0, 0, -30, float("inf"), 180, 181),
+    "success_bonus": (10.0, float("nan"), 0.0, -1.0, 1e300, "10", float("inf")),
+    "step_penalty": (0.01, float("inf"), -float("inf"), -0.01, 0.0, None, float("nan")),
+    "safety_penalty": (0.05, float("nan"), 1e7, "0.05"),
+    "position_scale": (4.0, 0.0, 1e-300, float("nan")),
+    "proportional_safety": (False, True, "yes", 1),
+    "goal_mode": ("opface", "centroid", "bogus", 3, []),
+    "lighting": ("fast", "quality", "bogus", ["fast"]),
+    "measures": (("success", "spl"), ("bogus",), "success", ("subgoal_index",), ["success"], ("reachable",)),
+    "sensors": (("gps", "compass"), ("bogus",), "gps", ("instruction",), [], ["objectgoal"]),
+    "reward_measure": ("nav_reward", "success", "bogus", None),
+    "success_measure": ("success", "strict_success", "distance_to_goal", "bogus"),
+    "control_mode": ("discrete", "continuous", "teleport", None, ["discrete"]),
+    "sim_backend": ("physx_cpu", "cpu", "bogus", "gpu", "cuda:0", 3),
     "render_backend": ("cpu", "sapien_cpu", "none", "vulkan9"),
-    "max_episode_steps": (500, 0, -1, float("nan")),
+    "max_episode_steps": (500, 0, -1, float("nan"), 2.5, 10**7, np.int64(50)),
+    "obs_mode": ("none", "state", "bogus", 3, "rgb+bogus", "depth+segmentation", "", "rgbd+state"),
+    "reward_mode": ("dense", "sparse", "bogus", 1),
+    "render_mode": (None, "rgb_array", "bogus", 2),
+    "shader_dir": (None, "minimal", "bogus", 1),
+    "enable_shadow": (False, True, "yes"),
+    "sensor_configs": (
+        {},
+        {"shader_pack": "default"},
+        {"width": 64},
+        {"shader_pack": "bogus"},
+        3,
+        {"head": 1},
+    ),
+    "human_render_camera_configs": ({}, {"follow": {"width": 64}}, {"fov": 7.0}, {"pose": [0] * 7}, None),
+    "sim_config": ({}, {"sim_freq": 200}, {"sim_freq": 99}, {"bogus": 1}, 3, {"spacing": float("nan")}),
+    "reconfiguration_freq": (None, 0, 5, -1, "x"),
+    "parallel_in_single_scene": (False, True, "x"),
+    "forward_stp": (ABSENT, 0.5),
 }
 
 
-def _env_args(state, seed: int, tmp: Path) -> str:
-    """The env's argument checks (``gym.make`` would build a scene for each accepted set; the checks are what
-    decides acceptance, and CI builds real envs from a few accepted sets in tests/test_fuzz.py)."""
-    from dataclasses import fields, replace
+def env_kwargs(seed: int) -> dict:
+    """The base set of :data:`ENV_ARGS` with 1-3 arguments given another candidate value (seeded)."""
+    rng = np.random.default_rng(seed)
+    kw = {k: v[0] for k, v in ENV_ARGS.items()}
+    for _ in range(int(rng.integers(1, 4))):
+        key = list(ENV_ARGS)[int(rng.integers(len(ENV_ARGS)))]
+        kw[key] = ENV_ARGS[key][int(rng.integers(len(ENV_ARGS[key])))]
+    return {k: v for k, v in kw.items() if v is not ABSENT}
 
-    from biovln_ms.tasks.config_checks import check_arguments as _check_arguments
+
+def _sane_config(cfg) -> bool:
+    """Whether an accepted config can run: positive finite sizes, a pinhole camera, finite rewards."""
+    numbers = ("forward_step", "turn_deg", "camera_hfov_deg", "camera_far", "success_bonus", "position_scale")
+    ints = ("camera_width", "camera_height", "max_episode_steps")
+    return (
+        all(type(getattr(cfg, n)) is float and 0 < getattr(cfg, n) < 1e7 for n in numbers)
+        and all(type(getattr(cfg, n)) is int and getattr(cfg, n) > 0 for n in ints)
+        and all(
+            type(getattr(cfg, n)) is float and 0 <= getattr(cfg, n) < 1e7
+            for n in ("step_penalty", "safety_penalty")
+        )
+        and cfg.camera_hfov_deg < 180
+        and cfg.camera_far > 0.05
+        and isinstance(cfg.measures, tuple)
+        and isinstance(cfg.sensors, tuple)
+        and isinstance(cfg.proportional_safety, bool)
+    )
+
+
+def _env_args(state, seed: int, tmp: Path) -> str:
+    """The env's argument checks as ``gym.make`` runs them, up to where it would build a scene (CI builds
+    real envs from a few accepted sets in tests/test_fuzz.py)."""
+    from biovln_ms.tasks.config_checks import task_config
     from biovln_ms.tasks.nav_env import BioVLNNavEnv
 
-    rng = np.random.default_rng(seed)
-    kw = {k: v[0] if rng.random() < 0.5 else v[int(rng.integers(len(v)))] for k, v in ENV_ARGS.items()}
+    kw = env_kwargs(seed)
     control = kw.pop("control_mode")
-    names = {f.name for f in fields(BioVLNNavEnv.config)}
+    return classify(lambda: task_config(BioVLNNavEnv.config, control, kw), _sane_config)
 
-    def make():
-        cfg = replace(BioVLNNavEnv.config, **{k: v for k, v in kw.items() if k in names})
-        _check_arguments(cfg, control, {k: v for k, v in kw.items() if k not in names})
-        return cfg
 
-    def sane(cfg) -> bool:
-        return all(
-            isinstance(getattr(cfg, n), (int, float))
-            and getattr(cfg, n) > 0
-            and math.isfinite(getattr(cfg, n))
-            for n in ("forward_step", "turn_deg", "camera_width", "camera_height", "max_episode_steps")
+#: candidate inputs of ``reset`` and ``step`` (valid ones among them)
+SEEDS = (
+    0,
+    7,
+    2**32 - 1,
+    -1,
+    2**32,
+    2**70,
+    1.5,
+    "3",
+    np.int64(3),
+    np.uint64(2**63),
+    np.float64(2.0),
+    True,
+    [1],
+    [1, 2],
+    [],
+    np.array(3),
+    np.array([3]),
+    np.array([[3]]),
+    float("nan"),
+    {},
+    None,
+)
+RESET_OPTIONS = (
+    {"episode_index": 1},
+    {"episode_id": "2"},
+    {"episode_id": "2", "scene_id": "lab_s0_v0"},
+    {"env_idx": [0]},
+    {"reconfigure": False},
+    {"env_idx": np.array([0]), "episode_index": 0},
+)
+ACTION_SHAPES = ((), (1,), (3,), (1, 3), (2,), (2, 3), (3, 1), (0,), (4,))
+ACTION_DTYPES = (np.int64, np.int32, np.uint8, np.float16, np.float32, np.float64, bool, complex, object)
+
+
+def _env_actions_setup(tmp: Path):
+    import gymnasium as gym
+
+    import biovln_ms  # noqa: F401  (registers the envs)
+
+    cpu = dict(sim_backend="physx_cpu", render_backend="cpu", obs_mode="state", reward_mode="dense")
+    return {
+        mode: gym.make("BioVLN-OpFace-v0", control_mode=mode, **cpu) for mode in ("discrete", "continuous")
+    }
+
+
+def _random_action(rng: np.random.Generator, mode: str):
+    """A valid action of ``mode`` in one of the forms users pass, or something else."""
+    import torch
+
+    r = rng.random()
+    if r < 0.3:
+        if mode == "discrete":
+            k = int(rng.integers(0, 4))
+            return (k, np.int64(k), np.array(k), torch.tensor([k]))[int(rng.integers(4))]
+        a = rng.uniform(-1, 1, 3)
+        return (a.tolist(), a.astype(np.float32), torch.tensor(a), a[None])[int(rng.integers(4))]
+    if r < 0.45:
+        return copy.deepcopy(LEAF_VALUES[int(rng.integers(len(LEAF_VALUES)))])
+    if r < 0.55:
+        base = {"control_mode": mode, "action": 1 if mode == "discrete" else [0.0, 0.0, 0.0]}
+        return mutate_json(base, rng) if rng.random() < 0.7 else base
+    values = rng.uniform(-1.5, 4.5, ACTION_SHAPES[int(rng.integers(len(ACTION_SHAPES)))])
+    if rng.random() < 0.3 and values.size:
+        values.flat[int(rng.integers(values.size))] = rng.choice([np.nan, np.inf, -np.inf, 1e300])
+    dtype = ACTION_DTYPES[int(rng.integers(len(ACTION_DTYPES)))]
+    if np.dtype(dtype).kind in "iu":
+        values = np.round(np.nan_to_num(values, posinf=7.0, neginf=-7.0)).clip(0, 100)
+    a = values.astype(dtype)
+    return torch.as_tensor(a) if rng.random() < 0.3 and a.dtype.kind in "biuf" else a
+
+
+def _env_actions(state: dict, seed: int, tmp: Path) -> str:
+    """``reset`` seeds and options and ``step`` actions, valid and not, on a discrete and a continuous env: a
+    refusal is one line and changes nothing (step count, pose); an accepted input gives finite rewards and
+    poses, one step counted per step, and each reset starts at step 0."""
+    from biovln_ms.errors import BioVLNError
+
+    rng = np.random.default_rng(seed)
+    mode = "discrete" if rng.random() < 0.5 else "continuous"
+    env, n = state[mode], len(state[mode].unwrapped.source)
+    u = env.unwrapped
+    env.reset(options={"episode_index": int(rng.integers(n))})
+    for _ in range(int(rng.integers(0, 3))):
+        env.step(2 if mode == "discrete" else [0.0, 0.5, -1.0])  # a turn: the episode goes on
+    op = int(rng.integers(3))
+    if op == 0:
+        seed_in = copy.deepcopy(SEEDS[int(rng.integers(len(SEEDS)))])
+        call = lambda: env.reset(seed=seed_in)  # noqa: E731
+    elif op == 1:
+        options = mutate_json(copy.deepcopy(RESET_OPTIONS[int(rng.integers(len(RESET_OPTIONS)))]), rng)
+        call = lambda: env.reset(options=options)  # noqa: E731
+    else:
+        action = _random_action(rng, mode)
+        call = lambda: env.step(action)  # noqa: E731
+    steps, pose = int(u.elapsed_steps[0]), u.agent.controller.planar_pose().copy()
+    try:
+        out = call()
+    except BioVLNError as e:
+        unchanged = int(u.elapsed_steps[0]) == steps and np.array_equal(
+            u.agent.controller.planar_pose(), pose
         )
-
-    return classify(make, sane)
+        return "clear" if "\n" not in str(e) and unchanged and u.agent.control_mode == mode else "other"
+    except Exception:  # noqa: BLE001 - the fuzzer's point: anything else is a finding
+        return "other"
+    now = u.agent.controller.planar_pose()
+    ok = bool(np.isfinite(now).all()) and u.agent.control_mode == mode
+    if op == 2:
+        ok = ok and bool(np.isfinite(out[1].cpu().numpy()).all()) and int(u.elapsed_steps[0]) == steps + 1
+    else:
+        ok = ok and int(u.elapsed_steps[0]) == 0 and 0 <= u._episode_index[0] < n
+    return "accepted" if ok else "other"
 
 
 def _llm_setup(tmp: Path):
@@ -744,6 +903,12 @@ TARGETS: dict[str, Target] = {
         Target("bc_checkpoint", "BC checkpoints (load_bc)", _bc_setup, _bc_checkpoint),
         Target("cli_args", "CLI arguments of the cheap commands", _cli_setup, _cli_args),
         Target("env_args", "env arguments (gym.make's checks)", lambda tmp: None, _env_args),
+        Target(
+            "env_actions",
+            "env reset seeds and options, step actions",
+            _env_actions_setup,
+            _env_actions,
+        ),
         Target(
             "llm_response",
             "LLM endpoint answers (LLM-Frontier's parser and validator)",

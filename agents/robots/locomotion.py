@@ -35,6 +35,9 @@ from biovln_ms.sim.footprints import collision_footprints
 
 ACTIONS = {0: "STOP", 1: "FORWARD", 2: "TURN_LEFT", 3: "TURN_RIGHT"}
 CONTROL_MODES = ("discrete", "continuous")
+#: the longest FORWARD (m) a task may configure: the swept-motion checks keep the body within
+#: ``biovln_ms.geometry.motion.ALLOWANCE`` of contact up to it (tested)
+MAX_FORWARD_STEP = 2.0
 #: a yaw drive target beyond this (rad) re-seats the yaw joint by a turn first: PhysX keeps the joint's
 #: position within +-2 pi, so a target past it would make the drive spin the long way round
 YAW_RESEAT = 1.5 * math.pi
@@ -49,13 +52,93 @@ class ActionError(BioVLNError):
     """An action outside the control mode's action space."""
 
 
-def action_help() -> str:
+def action_help(mode: str = "discrete") -> str:
+    if mode == "continuous":
+        return (
+            "continuous actions are [forward, turn, stop] in [-1, 1]: forward (a0+1)/2 * step, "
+            "turn a1 * turn angle, stop when a2 > 0"
+        )
     return "discrete actions are " + ", ".join(f"{k}={v}" for k, v in ACTIONS.items())
 
 
-def swept_motion(spec) -> SweptMotion:
-    """The swept-motion checks of a scene spec for its robot's footprint disc."""
-    return SweptMotion(floor_polygon(spec), collision_footprints(spec), spec.robot_radius)
+#: torch dtypes of actions (NumPy's are kinds "i", "u", "f")
+_TORCH_NUMBERS = (
+    torch.int8,
+    torch.int16,
+    torch.int32,
+    torch.int64,
+    torch.uint8,
+    torch.float16,
+    torch.float32,
+)
+_TORCH_NUMBERS += (torch.float64, torch.bfloat16)
+
+
+def as_action(action, mode: str, n: int):
+    """``action`` as ManiSkill's ``step`` takes it: what gymnasium users pass for ``Discrete(4)`` (``2``,
+    ``np.int64(2)``, 0-d arrays and tensors, lists) as an (N,)-shaped tensor, arrays and tensors as they
+    are; ``None`` (ManiSkill's no action) stays None. Anything outside the control mode's action space, of
+    another type or shape, is a one-line ActionError before the step starts."""
+    if action is None:
+        return None
+    if isinstance(action, dict):
+        if set(action) != {"control_mode", "action"} or action["control_mode"] != mode:
+            raise ActionError(
+                f"a dict action {sorted(map(str, action))} switches ManiSkill's controller; this env's "
+                f"control mode is '{mode}'",
+                field="action",
+                fix=f"pass the action itself (control_mode= at gym.make for another); {action_help(mode)}",
+            )
+        action = action["action"]
+    if isinstance(action, (int, float, np.generic, list, tuple)) and not isinstance(action, (bool, np.bool_)):
+        try:
+            array = np.asarray(action)
+        except (ValueError, TypeError):
+            array = np.asarray(None)
+        _check_action(array, action, mode, n)
+        action = torch.as_tensor(array)
+    elif isinstance(action, np.ndarray):
+        _check_action(action, action, mode, n)
+    elif isinstance(action, torch.Tensor):
+        if action.dtype not in _TORCH_NUMBERS:
+            _refuse(action, f"of dtype {action.dtype}", mode)
+        _check_action(action.detach().cpu().to(torch.float64).numpy(), action, mode, n)
+    else:
+        _refuse(action, f"of type {type(action).__name__}", mode)
+    return action.reshape(1) if action.ndim == 0 else action
+
+
+def _refuse(action, why: str, mode: str):
+    text = " ".join(repr(action).split())  # one line, whatever the array
+    text = text if len(text) <= 80 else text[:77] + "..."
+    raise ActionError(f"action {text} is {why}", field="action", fix=action_help(mode))
+
+
+def _check_action(a: np.ndarray, action, mode: str, n: int) -> None:
+    """The action's values ``a``: numbers (no booleans) of the mode's shape, finite, in the action space."""
+    if a.dtype.kind not in "iuf":
+        kind = {"b": "a boolean", "O": "not an array of numbers"}.get(a.dtype.kind, "not a number")
+        _refuse(action, kind, mode)
+    if mode == "discrete":
+        shapes = ((), (1,)) if n == 1 else ((n,),)
+        if a.shape not in shapes:
+            _refuse(action, f"of shape {a.shape}, not {' or '.join(map(str, shapes))}", mode)
+        if not np.isfinite(a).all() or (a != np.round(a)).any():
+            _refuse(action, f"not {n} integer(s)", mode)
+        if ((a < 0) | (a >= len(ACTIONS))).any():
+            _refuse(action, "outside Discrete(4)", mode)
+        return
+    shapes = ((3,), (1, 3)) if n == 1 else ((n, 3),)
+    if a.shape not in shapes:
+        _refuse(action, f"of shape {a.shape}, not {' or '.join(map(str, shapes))}", mode)
+    if not np.isfinite(a).all() or np.abs(a).max() > 1.0 + 1e-6:
+        _refuse(action, "outside Box(-1, 1, (3,))", mode)
+
+
+def swept_motion(spec, radius: float) -> SweptMotion:
+    """The swept-motion checks of a scene spec for the footprint disc (``radius``) of the robot that moves:
+    the bound on how deep its body goes is its own, whatever robot the scene was made for."""
+    return SweptMotion(floor_polygon(spec), collision_footprints(spec), radius)
 
 
 @dataclass
@@ -159,6 +242,17 @@ class LocomotionController(PDJointPosController):
             target = self._limit_targets(p, target, moving)
         self._start_qpos = self._with_hold(torch.from_numpy(q.copy()).to(self.device))
         self._target_qpos = self._set_host_targets(target)
+
+    def hold_still(self) -> None:
+        """ManiSkill's no-action step (``step(None)``), instead of ``set_action``: the drive targets are the
+        current pose, so the robot holds it for the step's physics; the step neither moves nor STOPs, and
+        nothing of an earlier action carries over."""
+        n = self.scene.num_envs
+        pose = self.planar_pose()
+        self.command = NavCommand(pose, np.zeros(n, dtype=bool), np.zeros(n), np.zeros(n), pose.copy())
+        self.actuation_error = np.zeros((n, 3))
+        self._start_qpos = self._with_hold(torch.from_numpy(self.host_qpos().copy()).to(self.device))
+        self._target_qpos = self._set_host_targets(pose)
 
     def end_step(self) -> Move:
         """After the physics substeps: crossings undone, no sliding applied; what the step did."""
