@@ -274,9 +274,14 @@ def default_dataset_dir(robot: str = DEFAULT_ROBOT) -> Path:
     return root if robot == DEFAULT_ROBOT else root.with_name(f"{root.name}-{robot_spec(robot, 'robot').uid}")
 
 
-def ensure_default_dataset(echo=print, robot: str = DEFAULT_ROBOT) -> Path:
+def ensure_default_dataset(echo=print, robot: str = DEFAULT_ROBOT, progress: bool | None = None) -> Path:
     """``robot``'s default dataset, built on first use and rebuilt when stale (deterministic and
-    local: nothing is downloaded)."""
+    local: nothing is downloaded). A build takes minutes, once per machine and robot, so it says so
+    before it starts and then names each stage: generating the scenes, then sampling their episodes,
+    with a progress bar and the time left when ``progress`` (default: when stderr is a terminal)."""
+    import sys
+    import time
+
     root = default_dataset_dir(robot)
     stale = False
     if (root / "manifest.json").exists():
@@ -285,8 +290,22 @@ def ensure_default_dataset(echo=print, robot: str = DEFAULT_ROBOT) -> Path:
         except DatasetError:
             stale = True
     if stale or not (root / "manifest.json").exists():
-        echo(f"[biovln-ms] building the benchmark dataset in {root} ({'stale' if stale else 'first use'})")
-        write_dataset(root, paper_splits(robot), progress=False, robot=robot)
+        t0 = time.perf_counter()
+        why = "stale" if stale else "first use"
+        echo(
+            f"[biovln-ms] building the {robot} benchmark dataset in {root} ({why}; minutes, once per "
+            "machine; BIOVLN_DATA_DIR moves it): generating its scenes"
+        )
+        plans = paper_splits(robot)
+        scenes = {spec.name for plan in plans for spec, _, _ in plan.scenes}
+        todo = sum(len(plan.scenes) for plan in plans if not plan.view_of)
+        echo(
+            f"[biovln-ms] scenes generated: {len(scenes)} in {time.perf_counter() - t0:.0f} s; sampling "
+            f"their episodes, split by split ({todo} files)"
+        )
+        bar = sys.stderr.isatty() if progress is None else progress
+        write_dataset(root, plans, progress=bar, robot=robot)
+        echo(f"[biovln-ms] dataset built in {time.perf_counter() - t0:.0f} s")
     return root
 
 
