@@ -32,6 +32,7 @@ robot's default dataset is a sibling folder (``default_dataset_dir``).
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
@@ -279,10 +280,26 @@ def ensure_default_dataset(echo=print, robot: str = DEFAULT_ROBOT, progress: boo
     local: nothing is downloaded). A build takes minutes, once per machine and robot, so it says so
     before it starts and then names each stage: generating the scenes, then sampling their episodes,
     with a progress bar and the time left when ``progress`` (default: when stderr is a terminal)."""
+    root = default_dataset_dir(robot)
+    root.parent.mkdir(parents=True, exist_ok=True)
+    with _build_lock(root):  # concurrent first uses (eval workers, test workers) wait for one build
+        return _ensure(root, echo, robot, progress)
+
+
+@contextlib.contextmanager
+def _build_lock(root: Path):
+    """An exclusive ``flock`` on ``.<root>.lock`` beside ``root``, released however its holder ends."""
+    import fcntl
+
+    with open(root.parent / f".{root.name}.lock", "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        yield
+
+
+def _ensure(root: Path, echo, robot: str, progress: bool | None) -> Path:
     import sys
     import time
 
-    root = default_dataset_dir(robot)
     stale = False
     if (root / "manifest.json").exists():
         try:

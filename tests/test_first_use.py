@@ -44,3 +44,31 @@ def test_the_first_use_table_measures_every_obs_mode_and_robot():
     assert {"biovln_base's default dataset", "fetch's default dataset"} <= set(what)
     assert all(" s (" in cell and "CPU)" in cell for row in table["rows"] for cell in row[1:3])
     assert Path(table["command"].split()[1]).as_posix() == "benchmarks/first_use.py"
+
+
+def test_concurrent_first_uses_build_the_default_dataset_once(tmp_path, monkeypatch):
+    """Two processes' (here threads') first uses: one builds, the other waits for it and loads its build."""
+    import threading
+
+    from biovln_ms import splits
+
+    monkeypatch.setenv("BIOVLN_DATA_DIR", str(tmp_path / "data"))
+    builds: list[int] = []
+
+    def paper_splits(robot):
+        builds.append(1)
+        spec = generate_scene("single_room", 154, required_categories=FOUR_CATEGORIES)
+        return [SplitPlan("ms_val", [(spec, 2, False)])]
+
+    monkeypatch.setattr(splits, "paper_splits", paper_splits)
+    roots: list[Path] = []
+    threads = [
+        threading.Thread(target=lambda: roots.append(splits.ensure_default_dataset(echo=lambda _: None)))
+        for _ in range(2)
+    ]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=300)
+    assert len(roots) == 2 and roots[0] == roots[1] and (roots[0] / "manifest.json").is_file()
+    assert builds == [1]
