@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The whole test suite (run scripts/setup_and_demo.sh once first on a fresh machine): ruff (lint with the
-# configured line length, and the formatter's check), then pytest (import-linter's layer contracts run inside it).
+# configured line length, and the formatter's check), then pytest on every core, one test file per worker
+# (pytest-xdist; BIOVLN_TEST_WORKERS=0 runs them in this process). import-linter's contracts run inside it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/_env.sh
 "$BIOVLN_PY" -m ruff check .
 "$BIOVLN_PY" -m ruff format --check .
-exec "$BIOVLN_PY" -m pytest -q "$@"
+exec "$BIOVLN_PY" -m pytest -q -n "${BIOVLN_TEST_WORKERS:-auto}" --dist loadfile "$@"
