@@ -41,12 +41,15 @@ def test_accepted_env_arguments_really_build_an_env():
     assert built == 2
 
 
-#: inputs the 10,000-per-target campaign found, kept as regression cases
+#: inputs the 10,000-per-target campaign (and the first runs of newer targets) found, kept as regression cases
 FOUND = {
     "spec_dict": (4993, 9011),  # a spec without walls crashed the flush-wall rule
     "spec_file": (8444,),
     "sb3_zip": (2142, 6994),  # zip entry names flagged UTF-8 that are not
     "cli_args": (190, 232, 1341, 2743),  # unwritable output paths; a negative seed
+    "name_map": (142, 195),  # a folder in the file's place (open() of a folder succeeds on Linux)
+    "layout_request": (31, 284),  # a key with a line break, quoted as the error's field
+    "protocol_file": (60, 163, 168),  # a folder named *.json
 }
 
 
