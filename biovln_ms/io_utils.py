@@ -275,9 +275,10 @@ def parse_yaml(
     max_nodes: int = MAX_YAML_NODES,
 ):
     """Plain data of YAML (or JSON) ``raw`` after the UTF-8 check, with at most ``max_depth`` nested
-    collections and ``max_nodes`` nodes, counted on the parser's event stream before anything is built
-    (the composer recurses, so deeper input would end in a RecursionError). Only standard tags: nothing
-    is constructed but scalars, lists and mappings."""
+    collections and ``max_nodes`` nodes and no alias, checked on the parser's event stream before anything
+    is built (the composer recurses, so deeper input would end in a RecursionError; an alias can stand for
+    a tree of a billion values). Only standard tags: nothing is constructed but scalars, lists and
+    mappings."""
     import yaml
 
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -293,6 +294,8 @@ def parse_yaml(
                     raise error(f"{what} is nested more than {max_depth} levels deep", source=source, fix=fix)
             elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
                 depth -= 1
+            if isinstance(event, yaml.AliasEvent):  # one alias can stand for a whole tree (billion laughs)
+                raise error(f"{what} uses a YAML alias (*name)", source=source, fix="write the values out")
             if isinstance(event, yaml.NodeEvent):
                 nodes += 1
                 if nodes > max_nodes:

@@ -292,6 +292,15 @@ def test_a_fifo_layout_request_is_refused_not_waited_on(tmp_path):
         _within(10, lambda: load_request(fifo), fifo)
 
 
+def test_a_yaml_alias_is_refused_before_it_stands_for_a_billion_values(tmp_path):
+    lines = ["Sterilgard:", "  - &l0 [x, x, x, x, x, x, x, x, x, x]"]
+    lines += [f"  - &l{i} [{', '.join([f'*l{i - 1}'] * 10)}]" for i in range(1, 9)]
+    path = tmp_path / "names.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(NameMapError, match="uses a YAML alias"):
+        _within(20, lambda: load_name_map(path))
+
+
 def test_yaml_of_many_values_is_refused_before_it_is_built():
     raw = ("[" + "0, " * 100_001 + "0]").encode()
     with pytest.raises(BioVLNError, match="more than 100,000 values"):

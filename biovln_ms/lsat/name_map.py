@@ -19,6 +19,7 @@ closest category for an unknown value here.
 
 from __future__ import annotations
 
+import reprlib
 from pathlib import Path
 
 from biovln_ms.catalog import load_catalog
@@ -27,6 +28,8 @@ from biovln_ms.io_utils import parse_yaml, read_regular_file
 from biovln_ms.limits import MAX_ID_LENGTH, MAX_NAME_LENGTH, MAX_NAME_MAP_ENTRIES, MAX_SMALL_FILE_BYTES
 from biovln_ms.lsat.names import NameMap, NameMapHit, match_category
 
+_SHORT = reprlib.Repr()  # a value in a message: a few items of two levels, whatever its size
+_SHORT.maxlevel, _SHORT.maxlist, _SHORT.maxdict, _SHORT.maxstring = 2, 4, 4, 60
 _FIX_FORMAT = "write one 'node name: category' line per entry (category null: not an instrument)"
 
 
@@ -43,7 +46,7 @@ def _category(value: object, key: str, source: str) -> str | None:
     guess = match_category(value).category if short else None
     hint = f"did you mean '{guess}'? " if guess else ""
     raise NameMapError(
-        f"{repr(value)[:80]} is not a catalog category",
+        f"{_SHORT.repr(value)} is not a catalog category",
         source=source,
         field=key,
         fix=f"{hint}use one of {', '.join(cat.names())}, or null",
