@@ -79,7 +79,7 @@ class _Strict(BaseModel):
 class Visit(_Strict):
     """One instrument visit: a catalog goal category and why the worker goes there."""
 
-    category: str
+    category: str = Field(max_length=MAX_ID_LENGTH)
     purpose: str = Field(description="one line, as a lab worker would say it")
 
     @field_validator("category")
@@ -96,7 +96,7 @@ class Visit(_Strict):
 class Step(_Strict):
     """One entry of ``steps``: a single visit (``category`` + ``purpose``) or an ``any_order`` group."""
 
-    category: str | None = None
+    category: str | None = Field(default=None, max_length=MAX_ID_LENGTH)
     purpose: str | None = None
     any_order: tuple[Visit, ...] | None = None
 
