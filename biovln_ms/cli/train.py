@@ -74,6 +74,7 @@ def _train_rl(
     ray_address: Optional[str],
     dataset: Optional[Path],
     sim_backend: Optional[str] = None,
+    stop_penalty: float = 0.0,
 ) -> None:
     from biovln_ms.eval.learned import train_and_evaluate
     from biovln_ms.eval.tables import headline
@@ -90,6 +91,7 @@ def _train_rl(
         eval_split=eval_split or None,
         eval_episodes=eval_episodes,
         dataset=str(dataset) if dataset else None,
+        stop_penalty=stop_penalty,
     )
     r = train_and_evaluate(cfg, out or Path(f"runs/{algo}"), echo=typer.echo)
     if r.eval_summary:
@@ -116,6 +118,11 @@ def _rl_command(algo: str):
             help="One batched env of --n-envs sub-envs on this backend (physx_cuda on a GPU; physx_cpu "
             "allows one) instead of one process per env.",
         ),
+        stop_penalty: float = typer.Option(
+            0.0,
+            help="Training only: the reward a STOP outside the success radius costs (the learning "
+            "guide's recipe); evaluation uses the env as registered.",
+        ),
     ) -> None:
         _train_rl(
             algo,
@@ -129,6 +136,7 @@ def _rl_command(algo: str):
             ray_address,
             dataset,
             sim_backend,
+            stop_penalty,
         )
 
     command.__doc__ = (

@@ -47,6 +47,10 @@ class RLConfig:
     #: move them on through the split's scenes; the default is the step limit (500)
     rotate_scenes_every: int | None = 500
     hyperparams: dict = field(default_factory=dict)  # passed to the SB3 constructor (e.g. n_steps, ent_coef)
+    #: the reward a STOP outside the success radius costs in training (biovln_ms.wrappers.StopShaping;
+    #: evaluation uses the env as registered). Masking STOP is not offered here: SB3's policies cannot
+    #: mask an action (biovln_ms.learning.ppo_loop's can)
+    stop_penalty: float = 0.0
 
     def defaults(self) -> dict:
         """Our defaults per algorithm (SB3's otherwise); ``hyperparams`` override them."""
@@ -104,13 +108,13 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
     ``n_envs`` sub-envs on ``cfg.sim_backend`` (BatchedVecEnv); wrapped in VecMonitor."""
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
-    from biovln_ms.wrappers import make_gym_env
+    from biovln_ms.wrappers import StopShaping, make_gym_env
 
     n = n_envs or cfg.n_envs
     env_kwargs = dict(
         split=cfg.split, dataset=cfg.dataset, control_mode=SB3_CONTROL_MODES[cfg.algo], obs_mode="state"
     )
-    factory = partial(make_gym_env, cfg.env_id, **env_kwargs)
+    factory = partial(make_gym_env, cfg.env_id, stop_penalty=cfg.stop_penalty, **env_kwargs)
     if cfg.sim_backend:
         import gymnasium as gym
         import torch
@@ -120,6 +124,8 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
         if cfg.sim_backend == "physx_cpu":  # one torch thread, as make_gym_env: the process path's bits
             torch.set_num_threads(1)
         env = gym.make(cfg.env_id, num_envs=n, sim_backend=cfg.sim_backend, **env_kwargs)
+        if cfg.stop_penalty:
+            env = StopShaping(env, penalty=cfg.stop_penalty)
         venv = BatchedVecEnv(env, rotate_every=cfg.rotate_scenes_every if n > 1 else None)
     elif cfg.ray_address:
         from biovln_ms.learning.ray_vec_env import RayVecEnv
