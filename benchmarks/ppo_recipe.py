@@ -32,7 +32,7 @@ IMAGE = docs_data_dir().parent / "images" / "ppo_recipe.png"
 
 
 def train_loop(a: argparse.Namespace) -> None:
-    from biovln_ms.learning.ppo_loop import LoopConfig, evaluate, train
+    from biovln_ms.learning.ppo_loop import LoopConfig, train
 
     cfg = LoopConfig(
         steps=a.steps,
@@ -45,9 +45,28 @@ def train_loop(a: argparse.Namespace) -> None:
     )
     agent, _ = train(cfg, a.out)
     if a.eval_split:
-        result = evaluate(agent, cfg, a.eval_split, a.eval_episodes)
-        atomic_write_text(a.out / "eval.json", json.dumps(result, indent=1))
-        print(f"greedy on {a.eval_split}, env as registered: {result}")
+        write_eval(agent, cfg, a)
+
+
+def evaluate_run(a: argparse.Namespace) -> None:
+    """A loop run folder's ``agent.pt``, evaluated again (e.g. on another split)."""
+    import torch
+
+    from biovln_ms.learning.ppo_loop import Agent, LoopConfig
+
+    cfg = LoopConfig(**json.loads((a.out / "train.json").read_text())["config"])
+    state = torch.load(a.out / "agent.pt", weights_only=True)
+    agent = Agent(state["actor.0.weight"].shape[1], state["actor.4.weight"].shape[0])
+    agent.load_state_dict(state)
+    write_eval(agent, cfg, a)
+
+
+def write_eval(agent, cfg, a: argparse.Namespace) -> None:
+    from biovln_ms.learning.ppo_loop import evaluate
+
+    result = evaluate(agent, cfg, a.eval_split, a.eval_episodes)
+    atomic_write_text(a.out / "eval.json", json.dumps(result, indent=1))
+    print(f"greedy on {a.eval_split}, env as registered: {result}")
 
 
 def read_run(folder: Path) -> dict:
@@ -57,14 +76,17 @@ def read_run(folder: Path) -> dict:
     if "episodes" in train and isinstance(train["episodes"], list):  # the ManiSkill-style loop
         episodes = [(e[0], e[1]) for e in train["episodes"]]
         loop = f"ManiSkill-style ({cfg['num_envs']} env)"
-        ev = folder / "eval.json"
-        sr = json.loads(ev.read_text())["success_rate"] if ev.is_file() else None
+        ev = json.loads((folder / "eval.json").read_text()) if (folder / "eval.json").is_file() else None
+        evaluation = (ev["success_rate"], ev["timeouts"]) if ev else None
     else:  # biovln-ms train ppo
         with (folder / "episodes.csv").open() as f:
             episodes = [(int(r["timesteps"]), float(r["success"])) for r in csv.DictReader(f)]
         loop = f"SB3 ({cfg['n_envs']} env{'s' if cfg['n_envs'] > 1 else ''})"
-        summaries = sorted((folder / "eval").glob("*/*/summary.json"))
-        sr = json.loads(summaries[0].read_text())["overall"]["sr"] / 100 if summaries else None
+        runs = sorted((folder / "eval").glob("*/*/episodes.jsonl"))  # biovln-ms eval's records
+        rows = [json.loads(line) for line in runs[0].read_text().splitlines()] if runs else []
+        evaluation = (
+            (np.mean([r["success"] for r in rows]), sum(r["truncated"] for r in rows)) if rows else None
+        )
     parts = [f"STOP masked {cfg['stop_mask_steps']} steps"] if cfg.get("stop_mask_steps") else []
     parts += [f"failed STOP -{cfg['stop_penalty']:g}"] if cfg.get("stop_penalty") else []
     return {
@@ -73,7 +95,9 @@ def read_run(folder: Path) -> dict:
         "setting": ", ".join(parts) or "none (env as registered)",
         "episodes": episodes,
         "steps_per_second": train["steps_per_second"],
-        "eval_success_rate": sr,
+        "eval": None
+        if evaluation is None
+        else {"success_rate": float(evaluation[0]), "timeouts": int(evaluation[1])},
     }
 
 
@@ -108,20 +132,24 @@ def report(a: argparse.Namespace) -> None:
     write_table(
         data / "ppo_recipe.json",
         f"PPO on {RL_ENV} (train split): training success % (episodes) per {a.window:,}-step window",
-        ["loop", "STOP setting (training only)", *heads, "steps/s", "MS VAL SR % (greedy)"],
+        ["loop", "STOP setting (training only)", *heads, "steps/s", "MS VAL SR %", "MS VAL timeouts"],
         [
             [
                 r["loop"],
                 r["setting"],
                 *(at(r, m) for m in marks),
                 f"{r['steps_per_second']:.0f}",
-                "–" if r["eval_success_rate"] is None else f"{100 * r['eval_success_rate']:.0f}",
+                *(
+                    ("–", "–")
+                    if r["eval"] is None
+                    else (f"{100 * r['eval']['success_rate']:.0f}", r["eval"]["timeouts"])
+                ),
             ]
             for r in runs
         ],
         notes=[
             "Seed 0, one run per row. MS VAL: the greedy policy on its 50 episodes in the env as registered "
-            "(no mask, no penalty).",
+            "(no mask, no penalty); timeouts: episodes that reached the 500-step limit without a STOP.",
             *a.note,
         ],
     )
@@ -163,9 +191,12 @@ def main() -> None:
     lp.add_argument("--stop-mask-steps", type=int, default=0)
     lp.add_argument("--stop-penalty", type=float, default=0.0)
     lp.add_argument("--dataset", default=None)
-    lp.add_argument("--eval-split", default="ms_val", help="'' skips the evaluation")
-    lp.add_argument("--eval-episodes", type=int, default=50)
     lp.add_argument("--out", type=Path, default=Path("runs/ppo_loop"))
+    ep = sub.add_parser("evaluate", help="evaluate a loop run folder's agent.pt again, greedily")
+    ep.add_argument("out", type=Path)
+    for p in (lp, ep):
+        p.add_argument("--eval-split", default="ms_val", help="'' skips the evaluation")
+        p.add_argument("--eval-episodes", type=int, default=50)
     rp = sub.add_parser("report", help="run folders -> the guide's table, curves and figure")
     rp.add_argument("runs", nargs="+", type=Path)
     rp.add_argument("--steps", type=int, default=100_000, help="the curves end here")
@@ -174,7 +205,7 @@ def main() -> None:
     rp.add_argument("--data-out", type=Path, default=docs_data_dir() / "learning")
     rp.add_argument("--image", type=Path, default=IMAGE)
     a = ap.parse_args()
-    train_loop(a) if a.command == "loop" else report(a)
+    {"loop": train_loop, "evaluate": evaluate_run, "report": report}[a.command](a)
 
 
 if __name__ == "__main__":

@@ -238,17 +238,17 @@ def _update(agent: Agent, opt, cfg: LoopConfig, next_obs, next_done, buf: dict) 
 @torch.no_grad()
 def evaluate(agent: Agent, cfg: LoopConfig, split: str, episodes: int) -> dict:
     """The greedy policy on the first ``episodes`` episodes of ``split`` in the env as registered: no
-    ``StopShaping``, no masks, so STOP is the policy's own choice from the first step."""
+    ``StopShaping``, no masks, so STOP is the policy's own choice from the first step. ``timeouts``: the
+    episodes that ran to the step limit without a STOP."""
     venv, _ = make_env(cfg, split, shaped=False)
     obs, _ = venv.reset(seed=0)  # the split's episodes from the first, whatever the training seed
-    results: list[tuple[int, int]] = []
+    results: list[tuple[int, int, bool]] = []
     try:
         while len(results) < episodes:
             obs, _, term, trunc, info = venv.step(agent.act(obs))
-            done = term | trunc
-            for i in torch.nonzero(done).flatten().tolist():
+            for i in torch.nonzero(term | trunc).flatten().tolist():
                 final = info["final_info"]["episode"]
-                results.append((int(final["success_once"][i]), int(final["episode_len"][i])))
+                results.append((int(final["success_once"][i]), int(final["episode_len"][i]), not term[i]))
     finally:
         venv.close()
     results = results[:episodes]
@@ -257,4 +257,5 @@ def evaluate(agent: Agent, cfg: LoopConfig, split: str, episodes: int) -> dict:
         "episodes": len(results),
         "success_rate": float(np.mean([r[0] for r in results])),
         "mean_length": float(np.mean([r[1] for r in results])),
+        "timeouts": sum(r[2] for r in results),
     }
