@@ -77,6 +77,12 @@ class EnvConfigError(BioVLNError):
     """Invalid env arguments (split, episode, obs mode, control mode, seed, reset options, state)."""
 
 
+def _show(v, limit: int = 80) -> str:
+    """A value as an error line quotes it: its repr on one line, cut to ``limit`` characters."""
+    text = " ".join(repr(v).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 @dataclass(frozen=True)
 class Bound:
     """A numeric argument's range: above ``lo`` (or from it, ``closed``) up to ``hi``; integers only when
@@ -103,7 +109,7 @@ class Bound:
             numeric = False
         if not numeric or not (self.lo <= v if self.closed else self.lo < v) or v > self.hi:
             raise EnvConfigError(
-                f"{name} must be {self}, got {v!r}", field=name, fix=f"pass {name} as {self}"
+                f"{name} must be {self}, got {_show(v)}", field=name, fix=f"pass {name} as {self}"
             )
         return int(v) if self.integer else float(v)
 
@@ -181,7 +187,7 @@ def check_known_arguments(base: NavTaskConfig, kwargs: dict) -> None:
             near = difflib.get_close_matches(str(name), known + list(EPISODE_ARGUMENTS), n=1)
             hint = f"did you mean {near[0]}? " if near else ""
             raise EnvConfigError(
-                f"unknown argument {name!r}",
+                f"unknown argument {_show(name)}",
                 field=str(name),
                 fix=f"{hint}the arguments are NavTaskConfig's fields, ManiSkill's BaseEnv arguments and "
                 f"{', '.join(EPISODE_ARGUMENTS[:-1])} (the envs guide's argument table)",
@@ -209,16 +215,20 @@ def checked_config(cfg: NavTaskConfig, robot: str) -> NavTaskConfig:
     for name in BOOL_FIELDS:
         v = getattr(cfg, name)
         if not isinstance(v, (bool, np.bool_)):
-            raise EnvConfigError(f"{name} must be True or False, got {v!r}", field=name, fix="pass a bool")
+            raise EnvConfigError(
+                f"{name} must be True or False, got {_show(v)}", field=name, fix="pass a bool"
+            )
         values[name] = bool(v)
     for name, known in (("goal_mode", GOAL_MODES), ("lighting", tuple(LIGHTING))):
         v = getattr(cfg, name)
         if not isinstance(v, str) or v not in known:
-            raise EnvConfigError(f"unknown {name} {v!r}", field=name, fix=f"use one of: {', '.join(known)}")
+            raise EnvConfigError(
+                f"unknown {name} {_show(v)}", field=name, fix=f"use one of: {', '.join(known)}"
+            )
     check_obs_mode("default_obs_mode", cfg.default_obs_mode)
     if cfg.default_split is not None and not isinstance(cfg.default_split, str):
         raise EnvConfigError(
-            f"default_split must be a split name or None, got {cfg.default_split!r}",
+            f"default_split must be a split name or None, got {_show(cfg.default_split)}",
             field="default_split",
             fix="pass e.g. default_split='ms_val'",
         )
@@ -235,7 +245,7 @@ def _names(name: str, v, known) -> tuple[str, ...]:
     """A tuple or list of names, each one of ``known``, as a tuple."""
     if not isinstance(v, (tuple, list)) or not all(isinstance(s, str) for s in v):
         raise EnvConfigError(
-            f"{name} must be a tuple of names, got {v!r}",
+            f"{name} must be a tuple of names, got {_show(v)}",
             field=name,
             fix=f"pass names of: {', '.join(known)}",
         )
@@ -254,7 +264,9 @@ def check_measures(cfg: NavTaskConfig, measures: tuple[str, ...], robot: str) ->
     for name, kind in (("reward_measure", "f"), ("success_measure", "b"), ("fail_measure", "b")):
         m = getattr(cfg, name)
         if not isinstance(m, str) or m not in known:
-            raise EnvConfigError(f"unknown measure {m!r}", field=name, fix=f"use one of: {', '.join(known)}")
+            raise EnvConfigError(
+                f"unknown measure {_show(m)}", field=name, fix=f"use one of: {', '.join(known)}"
+            )
         cls = measure_type(m)
         if np.dtype(cls.dtype).kind != kind or cls.shape != ():
             what = "a number" if kind == "f" else "true or false"
@@ -288,7 +300,7 @@ def check_obs_mode(name: str, v) -> None:
     ok = isinstance(v, str) and (v in OBS_MODES or all(p in OBS_MODE_PARTS for p in v.split("+")))
     if not ok:
         raise EnvConfigError(
-            f"unknown obs mode {v!r}",
+            f"unknown obs mode {_show(v)}",
             field=name,
             fix=f"use one of: {', '.join(OBS_MODES)}, or '+'-joined {', '.join(ALL_VISUAL_TEXTURES)}",
         )
@@ -335,7 +347,9 @@ def check_source_arguments(given: dict) -> None:
         v = given.get(name)
         if v is not None and (not isinstance(v, kinds) or isinstance(v, bool)):
             raise EnvConfigError(
-                f"{name} must be a {kinds[0].__name__}, got {v!r}", field=name, fix=f"pass e.g. {example}"
+                f"{name} must be a {kinds[0].__name__}, got {_show(v)}",
+                field=name,
+                fix=f"pass e.g. {example}",
             )
 
 
@@ -378,7 +392,7 @@ def check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> None
     n = kwargs.get("num_envs", 1)
     if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or not 1 <= n <= MAX_NUM_ENVS:
         raise EnvConfigError(
-            f"num_envs must be an integer in [1, {MAX_NUM_ENVS}], got {n!r}",
+            f"num_envs must be an integer in [1, {MAX_NUM_ENVS}], got {_show(n)}",
             field="num_envs",
             fix="pass num_envs=1 or more",
         )
@@ -398,18 +412,20 @@ def check_maniskill_arguments(kwargs: dict) -> None:
     for key, known in (("reward_mode", REWARD_MODES), ("render_mode", RENDER_MODES)):
         v = kwargs.get(key)
         if v is not None and (not isinstance(v, str) or v not in known):
-            raise EnvConfigError(f"unknown {key} {v!r}", field=key, fix=f"use one of: {', '.join(known)}")
+            raise EnvConfigError(
+                f"unknown {key} {_show(v)}", field=key, fix=f"use one of: {', '.join(known)}"
+            )
     shader = kwargs.get("shader_dir")
     if shader is not None and (not isinstance(shader, str) or shader not in PREBUILT_SHADER_CONFIGS):
         raise EnvConfigError(
-            f"unknown shader pack {shader!r}",
+            f"unknown shader pack {_show(shader)}",
             field="shader_dir",
             fix=f"use one of: {', '.join(PREBUILT_SHADER_CONFIGS)}",
         )
     for key in ("enable_shadow", "parallel_in_single_scene", "enhanced_determinism"):
         if not isinstance(kwargs.get(key, False), (bool, np.bool_)):
             raise EnvConfigError(
-                f"{key} must be True or False, got {kwargs[key]!r}", field=key, fix="pass a bool"
+                f"{key} must be True or False, got {_show(kwargs[key])}", field=key, fix="pass a bool"
             )
     visual = vars(parse_obs_mode_to_struct(obs_mode).visual)
     if kwargs.get("parallel_in_single_scene") and any(visual.values()):
@@ -435,14 +451,16 @@ def check_camera_configs(name: str, value, cameras: tuple[str, ...], keys: tuple
         value = {}
     if not isinstance(value, Mapping):
         raise EnvConfigError(
-            f"{name} must be a dict, got {value!r}", field=name, fix="pass e.g. {'shader_pack': 'minimal'}"
+            f"{name} must be a dict, got {_show(value)}",
+            field=name,
+            fix="pass e.g. {'shader_pack': 'minimal'}",
         )
     out = {}
     for k, v in value.items():
         if k in cameras:
             if not isinstance(v, Mapping):
                 raise EnvConfigError(
-                    f"{name}['{k}'] must be a dict, got {v!r}", field=name, fix="pass a dict"
+                    f"{name}['{k}'] must be a dict, got {_show(v)}", field=name, fix="pass a dict"
                 )
             for kk, vv in v.items():
                 _camera_setting(f"{name}['{k}']", kk, vv, keys)
@@ -457,10 +475,14 @@ def _camera_setting(where: str, key, v, keys: tuple[str, ...]) -> None:
     if key not in keys:
         task = " (the head camera's size, field of view and range are camera_width, camera_height, "
         task += "camera_hfov_deg and camera_far)" if keys == SENSOR_CONFIG_KEYS else ""
-        raise EnvConfigError(f"{where} sets {key!r}", field=where, fix=f"set one of: {', '.join(keys)}{task}")
+        raise EnvConfigError(
+            f"{where} sets {_show(key)}", field=where, fix=f"set one of: {', '.join(keys)}{task}"
+        )
     if key == "shader_pack" and (not isinstance(v, str) or v not in PREBUILT_SHADER_CONFIGS):
         raise EnvConfigError(
-            f"unknown shader pack {v!r}", field=where, fix=f"use one of: {', '.join(PREBUILT_SHADER_CONFIGS)}"
+            f"unknown shader pack {_show(v)}",
+            field=where,
+            fix=f"use one of: {', '.join(PREBUILT_SHADER_CONFIGS)}",
         )
     if key in VIEW_LIMITS:
         VIEW_LIMITS[key].check(f"{where}['{key}']", v)
@@ -472,7 +494,7 @@ def _camera_setting(where: str, key, v, keys: tuple[str, ...]) -> None:
             or not np.any(np.asarray(p[3:], float))
         ):
             raise EnvConfigError(
-                f"pose must be 7 finite numbers (position, then a non-zero quaternion), got {v!r}",
+                f"pose must be 7 finite numbers (position, then a non-zero quaternion), got {_show(v)}",
                 field=where,
                 fix="pass [x, y, z, qw, qx, qy, qz] or a sapien.Pose",
             )
@@ -485,13 +507,13 @@ def check_sim_config(value) -> None:
         value = value.dict()
     if not isinstance(value, Mapping):
         raise EnvConfigError(
-            f"sim_config must be a dict, got {value!r}", field="sim_config", fix="pass a dict"
+            f"sim_config must be a dict, got {_show(value)}", field="sim_config", fix="pass a dict"
         )
     merged = SimConfig(**SIM_FREQUENCIES).dict()
     try:
         dict_merge(merged, dict(value))
         cfg = dacite.from_dict(SimConfig, merged, dacite.Config(strict=True))
-    except (dacite.DaciteError, TypeError, AttributeError) as e:
+    except (dacite.DaciteError, TypeError, ValueError, KeyError, AttributeError) as e:
         raise EnvConfigError(
             f"sim_config: {e}", field="sim_config", fix=f"use the keys of SimConfig: {', '.join(merged)}"
         ) from None
@@ -503,7 +525,8 @@ def check_sim_config(value) -> None:
     ok = all(isinstance(f, int) and not isinstance(f, bool) and 0 < f <= MAX_SIM_FREQ for f in (sim, control))
     if not ok or sim % control or not MIN_SUBSTEPS <= sim // control <= MAX_SUBSTEPS:
         raise EnvConfigError(
-            f"sim_freq {sim!r} / control_freq {control!r} is not {MIN_SUBSTEPS}-{MAX_SUBSTEPS} substeps",
+            f"sim_freq {_show(sim)} / control_freq {_show(control)} is not "
+            f"{MIN_SUBSTEPS}-{MAX_SUBSTEPS} substeps",
             field="sim_config",
             fix=f"pass integers up to {MAX_SIM_FREQ} Hz, sim_freq a multiple of control_freq "
             f"({MIN_SUBSTEPS} or more substeps: the drive settles in them)",
@@ -527,7 +550,9 @@ def reset_arguments(seed, options, num_envs: int, device) -> tuple:
         return seed, {}, list(range(num_envs))
     if not isinstance(options, Mapping):
         raise EnvConfigError(
-            f"options must be a dict, got {options!r}", field="options", fix="pass e.g. {'episode_index': 0}"
+            f"options must be a dict, got {_show(options)}",
+            field="options",
+            fix="pass e.g. {'episode_index': 0}",
         )
     options = dict(options)
     for key in options:
@@ -539,14 +564,14 @@ def reset_arguments(seed, options, num_envs: int, device) -> tuple:
             )
         if key not in RESET_OPTIONS:
             raise EnvConfigError(
-                f"unknown reset option {key!r}",
+                f"unknown reset option {_show(key)}",
                 field="options",
                 fix=f"use one of: {', '.join(RESET_OPTIONS)}",
             )
     _check_episode_options(options)
     if not isinstance(options.get("reconfigure", False), (bool, np.bool_)):
         raise EnvConfigError(
-            f"reconfigure must be True or False, got {options['reconfigure']!r}",
+            f"reconfigure must be True or False, got {_show(options['reconfigure'])}",
             field="options['reconfigure']",
             fix="pass a bool",
         )
@@ -578,7 +603,7 @@ def check_seed(seed, num_envs: int):
     if not ok or (not scalar and len(items) not in (1, num_envs)):
         raise EnvConfigError(
             f"seed must be an integer in [0, {MAX_SEED}] or a list of one per sub-env ({num_envs}), "
-            f"got {seed!r}",
+            f"got {_show(seed)}",
             field="seed",
             fix="pass e.g. seed=0",
         )
@@ -601,7 +626,7 @@ def _check_episode_options(options: dict) -> None:
         v = options.get(key)
         if key in options and (not isinstance(v, kinds) or isinstance(v, bool)):
             raise EnvConfigError(
-                f"{key} must be a string, got {v!r}", field=f"options['{key}']", fix="pass e.g. '0'"
+                f"{key} must be a string, got {_show(v)}", field=f"options['{key}']", fix="pass e.g. '0'"
             )
 
 
@@ -615,7 +640,7 @@ def _env_rows(env_idx, num_envs: int) -> list[int]:
     )
     if not ok or len({int(i) for i in rows}) != len(rows):
         raise EnvConfigError(
-            f"env_idx must be distinct sub-env indices in [0, {num_envs}), got {env_idx!r}",
+            f"env_idx must be distinct sub-env indices in [0, {num_envs}), got {_show(env_idx)}",
             field="options['env_idx']",
             fix="pass e.g. {'env_idx': [0]}",
         )
@@ -638,10 +663,10 @@ def _check_tree(given, ref, path: str, n: int, whole: bool) -> None:
         unknown = [k for k in given if k not in ref]
         missing = [k for k in ref if k not in given] if whole else []
         if unknown or missing:
-            what = f"unknown key {unknown[0]!r}" if unknown else f"no key {missing[0]!r}"
+            what = f"unknown key {_show(unknown[0])}" if unknown else f"no key {_show(missing[0])}"
             raise EnvConfigError(f"{path} has {what}", field=path, fix=_STATE_FIX)
         for k, v in given.items():
-            _check_tree(v, ref[k], f"{path}[{k!r}]", n, whole or k == "task")
+            _check_tree(v, ref[k], f"{path}[{_show(k)}]", n, whole or k == "task")
         return
     try:
         a = np.asarray(given.cpu() if isinstance(given, torch.Tensor) else given)

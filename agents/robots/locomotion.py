@@ -62,16 +62,8 @@ def action_help(mode: str = "discrete") -> str:
 
 
 #: torch dtypes of actions (NumPy's are kinds "i", "u", "f")
-_TORCH_NUMBERS = (
-    torch.int8,
-    torch.int16,
-    torch.int32,
-    torch.int64,
-    torch.uint8,
-    torch.float16,
-    torch.float32,
-)
-_TORCH_NUMBERS += (torch.float64, torch.bfloat16)
+_TORCH_NUMBERS = {torch.int8, torch.int16, torch.int32, torch.int64, torch.uint8}
+_TORCH_NUMBERS |= {torch.float16, torch.bfloat16, torch.float32, torch.float64}
 
 
 def as_action(action, mode: str, n: int):
@@ -82,7 +74,8 @@ def as_action(action, mode: str, n: int):
     if action is None:
         return None
     if isinstance(action, dict):
-        if set(action) != {"control_mode", "action"} or action["control_mode"] != mode:
+        same = set(action) == {"control_mode", "action"} and isinstance(action["control_mode"], str)
+        if not same or action["control_mode"] != mode:
             raise ActionError(
                 f"a dict action {sorted(map(str, action))} switches ManiSkill's controller; this env's "
                 f"control mode is '{mode}'",
@@ -93,7 +86,7 @@ def as_action(action, mode: str, n: int):
     if isinstance(action, (int, float, np.generic, list, tuple)) and not isinstance(action, (bool, np.bool_)):
         try:
             array = np.asarray(action)
-        except (ValueError, TypeError):
+        except Exception:  # noqa: BLE001 - ragged or unconvertible: refused below as not numbers
             array = np.asarray(None)
         _check_action(array, action, mode, n)
         action = torch.as_tensor(array)
