@@ -282,6 +282,13 @@ BAD_DISCRETE = [
     np.zeros(3),
     torch.tensor([0.5]),
 ]
+
+
+def _action_id(action) -> str:
+    """A test id that is the same in every process (pytest-xdist's workers compare them)."""
+    return "object()" if type(action) is object else repr(action)
+
+
 BAD_BOX = [
     1,
     [0, 0],
@@ -297,7 +304,7 @@ BAD_BOX = [
 ]
 
 
-@pytest.mark.parametrize("action", BAD_DISCRETE, ids=repr)
+@pytest.mark.parametrize("action", BAD_DISCRETE, ids=_action_id)
 def test_a_bad_discrete_action_is_one_line_and_changes_nothing(env, action):
     env.reset(options={"episode_index": 0})
     u = env.unwrapped
