@@ -88,7 +88,10 @@ def read_run(folder: Path) -> dict:
             (np.mean([r["success"] for r in rows]), sum(r["truncated"] for r in rows)) if rows else None
         )
     parts = [f"STOP masked {cfg['stop_mask_steps']} steps"] if cfg.get("stop_mask_steps") else []
-    parts += [f"failed STOP -{cfg['stop_penalty']:g}"] if cfg.get("stop_penalty") else []
+    until = (
+        f" in the first {cfg['stop_penalty_steps'] / 1000:g}k steps" if cfg.get("stop_penalty_steps") else ""
+    )
+    parts += [f"failed STOP -{cfg['stop_penalty']:g}{until}"] if cfg.get("stop_penalty") else []
     return {
         "run": folder.name,
         "loop": loop,

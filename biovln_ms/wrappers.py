@@ -79,12 +79,17 @@ class StopShaping(gym.Wrapper):
                 field="stop_mask_steps" if mask_steps < 0 else "stop_penalty",
                 fix="0 turns either off",
             )
-        self.mask_steps, self.penalty = int(mask_steps), float(penalty)
+        self.mask_steps = int(mask_steps)
         base = env.unwrapped
         self.discrete = base.control_mode == "discrete"
-        dense = base.reward_mode == "dense"
-        self._cost = self.penalty if dense else self.penalty / base.cfg.success_bonus  # in the env's units
+        self.set_penalty(penalty)  # in the env's units
         self._charged = torch.zeros(base.num_envs, dtype=torch.bool, device=base.device)
+
+    def set_penalty(self, penalty: float) -> None:
+        """A new penalty from the next step (a trainer that penalises only early in training)."""
+        base = self.env.unwrapped
+        self.penalty = float(penalty)
+        self._cost = self.penalty if base.reward_mode == "dense" else self.penalty / base.cfg.success_bonus
 
     def action_masks(self) -> torch.Tensor:
         """(N, 4) bool: the actions allowed at the next step (STOP is column 0; discrete control)."""
@@ -117,7 +122,7 @@ class StopShaping(gym.Wrapper):
                 a[masked, 2] = -1.0
                 action = a
         obs, reward, terminated, truncated, info = self.env.step(action)
-        if self.penalty:
+        if self._cost:
             new = info["fail"].to(torch.bool) & ~self._charged
             reward = reward - self._cost * new.to(reward.dtype)
             self._charged |= new

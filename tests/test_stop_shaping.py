@@ -109,14 +109,19 @@ def test_the_env_is_unchanged_without_stop_settings(dataset):
         StopShaping(batched(dataset), penalty=-1.0)
 
 
-def test_sb3_training_applies_only_the_penalty(dataset):
-    from biovln_ms.learning.rl import RLConfig, make_vec_env
+def test_sb3_training_applies_the_penalty_and_can_end_it_early(dataset):
+    from stable_baselines3 import PPO
 
-    venv = make_vec_env(RLConfig(n_envs=1, dataset=dataset, stop_penalty=1.0))
+    from biovln_ms.learning.rl import EndStopPenalty, RLConfig, make_vec_env
+
+    venv = make_vec_env(RLConfig(n_envs=1, dataset=dataset, stop_penalty=10.0))
     plain = make_vec_env(RLConfig(n_envs=1, dataset=dataset))
     try:
-        assert venv.env_is_wrapped(StopShaping) == [True]
+        assert venv.env_is_wrapped(StopShaping) == [True] and venv.get_attr("penalty") == [10.0]
         assert plain.env_is_wrapped(StopShaping) == [False]
+        model = PPO("MlpPolicy", venv, n_steps=32, batch_size=32, n_epochs=1, device="cpu")
+        model.learn(64, callback=EndStopPenalty(40))  # penalised early only: off from the 40th step
+        assert venv.get_attr("penalty") == [0.0]
     finally:
         venv.close()
         plain.close()

@@ -75,6 +75,7 @@ def _train_rl(
     dataset: Optional[Path],
     sim_backend: Optional[str] = None,
     stop_penalty: float = 0.0,
+    stop_penalty_steps: Optional[int] = None,
 ) -> None:
     from biovln_ms.eval.learned import train_and_evaluate
     from biovln_ms.eval.tables import headline
@@ -92,6 +93,7 @@ def _train_rl(
         eval_episodes=eval_episodes,
         dataset=str(dataset) if dataset else None,
         stop_penalty=stop_penalty,
+        stop_penalty_steps=stop_penalty_steps,
     )
     r = train_and_evaluate(cfg, out or Path(f"runs/{algo}"), echo=typer.echo)
     if r.eval_summary:
@@ -123,6 +125,9 @@ def _rl_command(algo: str):
             help="Training only: the reward a STOP outside the success radius costs (the learning "
             "guide's recipe); evaluation uses the env as registered.",
         ),
+        stop_penalty_steps: Optional[int] = typer.Option(
+            None, help="The STOP penalty applies in the first N timesteps only (default: throughout)."
+        ),
     ) -> None:
         _train_rl(
             algo,
@@ -137,6 +142,7 @@ def _rl_command(algo: str):
             dataset,
             sim_backend,
             stop_penalty,
+            stop_penalty_steps,
         )
 
     command.__doc__ = (

@@ -111,9 +111,10 @@ class BatchedVecEnv(VecEnv):
     def env_method(
         self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs
     ) -> list[Any]:
-        """Calls it once on the batched env; its result stands for every sub-env."""
+        """Calls it once on the batched env (a wrapper's method first, as SB3's vector envs do); its result
+        stands for every sub-env."""
         self._whole_batch(indices, "env_method")
-        result = getattr(self.base, method_name)(*method_args, **method_kwargs)
+        result = self.env.get_wrapper_attr(method_name)(*method_args, **method_kwargs)
         return [result] * self.num_envs
 
     def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:

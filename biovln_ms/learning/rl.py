@@ -51,6 +51,9 @@ class RLConfig:
     #: evaluation uses the env as registered). Masking STOP is not offered here: SB3's policies cannot
     #: mask an action (biovln_ms.learning.ppo_loop's can)
     stop_penalty: float = 0.0
+    #: the penalty applies in the first this many timesteps only (None: throughout), so that the policy's
+    #: STOP is learnt from the env's own reward in the rest of training
+    stop_penalty_steps: int | None = None
 
     def defaults(self) -> dict:
         """Our defaults per algorithm (SB3's otherwise); ``hyperparams`` override them."""
@@ -92,6 +95,20 @@ class EpisodeLog(BaseCallback):
             name = f"{self.model.__class__.__name__.lower()}_{self.num_timesteps}.zip"
             save_model(self.model, self.out / "checkpoints" / name)
             self.next_ckpt += self.every
+        return True
+
+
+class EndStopPenalty(BaseCallback):
+    """Sets every env's STOP penalty to 0 once ``steps`` timesteps have passed."""
+
+    def __init__(self, steps: int) -> None:
+        super().__init__()
+        self.steps, self.ended = steps, False
+
+    def _on_step(self) -> bool:
+        if not self.ended and self.num_timesteps >= self.steps:
+            self.training_env.env_method("set_penalty", 0.0)
+            self.ended = True
         return True
 
 
@@ -183,8 +200,11 @@ def train_rl(
             **cfg.defaults(),
         )
         log = EpisodeLog(out, cfg.checkpoint_every)
+        callbacks = [log] + ([EndStopPenalty(cfg.stop_penalty_steps)] if cfg.stop_penalty_steps else [])
         t0 = time.perf_counter()
-        model.learn(total_timesteps=cfg.timesteps, callback=log, progress_bar=progress, tb_log_name=cfg.algo)
+        model.learn(
+            total_timesteps=cfg.timesteps, callback=callbacks, progress_bar=progress, tb_log_name=cfg.algo
+        )
         seconds = time.perf_counter() - t0
     finally:
         venv.close()
