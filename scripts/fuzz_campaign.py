@@ -91,14 +91,14 @@ def main() -> int:
 
 
 def _merged(old: dict, cells: list[list], notes: list[str]) -> tuple[list[list], list[str], str]:
-    """The rows of an earlier table with this run's rows in place of (or after) those of the same
-    targets, in the order of ``TARGETS``; the notes of both; a provenance naming which rows are whose."""
+    """The rows of an earlier table, those of this run's targets replaced in place and new ones after
+    them; the notes of both; a provenance naming which command measured which rows."""
     ran = [c[0] for c in cells]
-    by_target = {r[0]: r for r in old["rows"]} | {c[0]: c for c in cells}
-    order = [f"`{n}`" for n in TARGETS]
-    rows = sorted(by_target.values(), key=lambda r: order.index(r[0]) if r[0] in order else len(order))
+    new = {c[0]: c for c in cells}
+    rows = [new.pop(r[0], r) for r in old["rows"]] + list(new.values())
     kept = [n for n in old.get("notes", []) if n != "No other outcome."]
-    earlier = old.get("provenance") or f"measured by `{old['command']}` ({old.get('written', '?')})"
+    by = f"`{old['command']}` ({old.get('written', '?')})"
+    earlier = (old.get("provenance") or f"measured by {by}").replace("by this command", f"by {by}")
     provenance = (
         f"The rows of {', '.join(ran)} were measured by this command; the others come from the file's "
         f"earlier runs: {earlier}"

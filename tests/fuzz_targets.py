@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from biovln_ms.errors import BioVLNError
 
@@ -630,18 +631,25 @@ def _dataset(state: dict, seed: int, tmp: Path) -> str:
 
 
 # --- hand-written data files: name maps, layout requests, protocols ---------------------------------------
-_DEEP = "@@deep@@"  # stands for a nested value, written into the text (Python cannot serialise it)
+_MARK = "@@value@@"  # stands for a value written into the text itself (Python cannot serialise it)
+#: a YAML value of eight aliases deep, standing for 10**9 scalars (flow style: valid inside JSON text too)
+_LAUGHS = (
+    "[&l0 [x, x, x, x, x, x, x, x, x, x], "
+    + ", ".join(f"&l{i} [{', '.join([f'*l{i - 1}'] * 10)}]" for i in range(1, 9))
+    + "]"
+)
 
 
-def _blow_up(obj: dict, rng: np.random.Generator) -> tuple[dict, int]:
-    """A structural attack on a mapping: a value nested deep (the levels, for ``_data_file``), many
-    entries, or a huge or multi-line key or value."""
+def _blow_up(obj: dict, rng: np.random.Generator) -> tuple[dict, str | None]:
+    """A structural attack on a mapping: a value nested deep or a billion-value YAML alias tree (the text
+    ``_data_file`` writes in place of ``_MARK``), many entries, or a huge or multi-line key or value."""
     out = copy.deepcopy(obj)
     key = sorted(out)[int(rng.integers(len(out)))]
     op = int(rng.integers(5))
     if op == 0:
-        out[key] = _DEEP
-        return out, int(rng.choice([70, 500, 5000, 100_000]))
+        out[key] = _MARK
+        deep = int(rng.choice([70, 500, 5000, 100_000]))
+        return out, "[" * deep + "0" + "]" * deep
     if op == 1:
         n = int(rng.choice([1_000, 25_000]))
         out.update({f"k{i}": out[key] for i in range(n)})
@@ -650,16 +658,23 @@ def _blow_up(obj: dict, rng: np.random.Generator) -> tuple[dict, int]:
     elif op == 3:
         out[f"{key}\n{key}: x\r\x00"] = out.pop(key)
     else:
-        out[key] = "y" * int(rng.choice([300, 2_000_000]))
-    return out, 0
+        size = int(rng.choice([300, 2_000_000, 0]))
+        out[key] = "y" * size if size else _MARK
+        return out, None if size else _LAUGHS
+    return out, None
+
+
+class _NoAliases(yaml.SafeDumper):
+    """Writes a repeated value out in full: an alias is an attack of its own (``_LAUGHS``)."""
+
+    def ignore_aliases(self, data) -> bool:
+        return True
 
 
 def _data_file(obj, rng: np.random.Generator, path: Path, fifo_rate: float = 0.02) -> None:
     """``obj`` mutated and written to ``path`` as YAML or JSON, with some byte edits, some structural
     attacks, and now and then a FIFO or a folder in the file's place."""
     import os
-
-    import yaml
 
     r = rng.random()
     if r < fifo_rate:
@@ -668,11 +683,13 @@ def _data_file(obj, rng: np.random.Generator, path: Path, fifo_rate: float = 0.0
     if r < 2 * fifo_rate:
         path.mkdir()
         return
-    bad, deep = _blow_up(obj, rng) if rng.random() < 0.15 else (mutate_json(obj, rng), 0)
-    text = json.dumps(bad) if rng.random() < 0.5 else yaml.safe_dump(bad, allow_unicode=True, width=2**20)
-    if deep:
-        nested = "[" * deep + "0" + "]" * deep
-        text = text.replace(f'"{_DEEP}"', nested).replace(_DEEP, nested)
+    bad, value = _blow_up(obj, rng) if rng.random() < 0.15 else (mutate_json(obj, rng), None)
+    if rng.random() < 0.5:
+        text = json.dumps(bad)
+    else:
+        text = yaml.dump(bad, Dumper=_NoAliases, allow_unicode=True, width=2**20)
+    if value is not None:
+        text = text.replace(f'"{_MARK}"', value).replace(_MARK, value)
     raw = text.encode("utf-8", "surrogatepass")
     path.write_bytes(mutate_bytes(raw, rng) if rng.random() < 0.25 else raw)
 
