@@ -1,15 +1,15 @@
-"""The learning guide's PPO recipe: train with the ManiSkill-style loop (``loop``), and turn run folders of
-either loop into the guide's measured table, curves and figure (``report``).
+"""The learning guide's PPO recipe: train with the ManiSkill-style loop (``loop``; ``evaluate`` re-runs its
+evaluation), and turn run folders of either loop into the guide's measured table, curves and figure
+(``report``).
 
+    biovln-ms train ppo --timesteps 100000 --stop-penalty 10 --stop-penalty-steps 50000 --out runs/sb3
     python benchmarks/ppo_recipe.py loop --steps 100000 --stop-mask-steps 10 --out runs/loop
-    biovln-ms train ppo --timesteps 100000 --stop-penalty 10 --out runs/sb3 --eval-split ''
-    biovln-ms eval --method ppo --checkpoint runs/sb3/model.zip --split ms_val --out runs/sb3/eval
     python benchmarks/ppo_recipe.py report runs/sb3 runs/loop
 
-A run folder is ``biovln-ms train ppo``'s (``train.json``, ``episodes.csv``, optionally ``eval/`` from
-``biovln-ms eval``) or this script's ``loop`` (``train.json`` with every episode, ``eval.json``). The
-training success of a run is that of the episodes that ended in each window of ``--window`` env steps;
-the evaluation is the greedy policy on MS VAL in the env as registered (no STOP settings).
+A run folder is ``biovln-ms train ppo``'s (``train.json``, ``episodes.csv``, ``eval/`` from its evaluation
+or ``biovln-ms eval``) or this script's ``loop`` (``train.json`` with every episode, ``agent.pt``,
+``eval.json``). A run's training success is that of the episodes that ended in each window of ``--window``
+env steps; its evaluation is the greedy policy on MS VAL in the env as registered (no STOP settings).
 ``report`` writes ``docs/data/learning/ppo_recipe.json`` (the table), ``docs/data/learning/ppo_curves.json``
 (the curves) and ``docs/images/ppo_recipe.png``.
 """
@@ -17,6 +17,7 @@ the evaluation is the greedy policy on MS VAL in the env as registered (no STOP 
 from __future__ import annotations
 
 import argparse
+import datetime
 import csv
 import json
 from pathlib import Path
@@ -41,6 +42,7 @@ def train_loop(a: argparse.Namespace) -> None:
         seed=a.seed,
         stop_mask_steps=a.stop_mask_steps,
         stop_penalty=a.stop_penalty,
+        stop_shaping_steps=a.stop_shaping_steps,
         dataset=a.dataset,
     )
     agent, _ = train(cfg, a.out)
@@ -88,16 +90,17 @@ def read_run(folder: Path) -> dict:
             (np.mean([r["success"] for r in rows]), sum(r["truncated"] for r in rows)) if rows else None
         )
     parts = [f"STOP masked {cfg['stop_mask_steps']} steps"] if cfg.get("stop_mask_steps") else []
-    until = (
-        f" in the first {cfg['stop_penalty_steps'] / 1000:g}k steps" if cfg.get("stop_penalty_steps") else ""
-    )
-    parts += [f"failed STOP -{cfg['stop_penalty']:g}{until}"] if cfg.get("stop_penalty") else []
+    parts += [f"failed STOP -{cfg['stop_penalty']:g}"] if cfg.get("stop_penalty") else []
+    early = cfg.get("stop_penalty_steps") or cfg.get("stop_shaping_steps")
+    if parts and early:
+        parts[-1] += f" in the first {early / 1000:g}k steps"
     return {
         "run": folder.name,
         "loop": loop,
         "setting": ", ".join(parts) or "none (env as registered)",
         "episodes": episodes,
         "steps_per_second": train["steps_per_second"],
+        "seed": cfg["seed"],
         "eval": None
         if evaluation is None
         else {"success_rate": float(evaluation[0]), "timeouts": int(evaluation[1])},
@@ -120,10 +123,9 @@ def report(a: argparse.Namespace) -> None:
     for r in runs:
         r["curve"] = curve(r.pop("episodes"), a.steps, a.window)
     data = a.data_out
-    atomic_write_text(
-        data / "ppo_curves.json",
-        json.dumps({"window_steps": a.window, "machine": machine(), "runs": runs}, indent=1) + "\n",
-    )
+    head = {"window_steps": a.window, "machine": machine(), "written": datetime.date.today().isoformat()}
+    lines = ",\n  ".join(json.dumps(r, ensure_ascii=False) for r in runs)  # one line per run
+    atomic_write_text(data / "ppo_curves.json", json.dumps(head)[:-1] + f', "runs": [\n  {lines}\n]}}\n')
 
     def at(r: dict, mark: int) -> str:
         point = next((p for p in r["curve"] if p[0] == mark), None)
@@ -151,9 +153,12 @@ def report(a: argparse.Namespace) -> None:
             for r in runs
         ],
         notes=[
-            "Seed 0, one run per row. MS VAL: the greedy policy on its 50 episodes in the env as registered "
-            "(no mask, no penalty); timeouts: episodes that reached the 500-step limit without a STOP.",
-            *a.note,
+            f"Seed {', '.join(sorted({str(r['seed']) for r in runs}))}, one run per row. MS VAL: the greedy "
+            "policy on its 50 episodes in the env as registered (no mask, no penalty); timeouts: episodes "
+            "that reached the 500-step limit without a STOP.",
+            "steps/s: each run's own on this machine at the time, which other jobs shared: it does not "
+            "compare the loops.",
+            "Runs of one seed whose settings differ only in when they end are the same run until then.",
         ],
     )
     plot(runs, a.image, a.window)
@@ -168,7 +173,9 @@ def plot(runs: list[dict], path: Path, window: int) -> None:
 
     loops = list(dict.fromkeys(r["loop"] for r in runs))
     colour = {k: f"C{i}" for i, k in enumerate(dict.fromkeys(r["setting"] for r in runs))}  # one per setting
-    fig, axes = plt.subplots(1, len(loops), figsize=(5.2 * len(loops), 3.6), squeeze=False, sharey=True)
+    rows = max(sum(r["loop"] == loop for r in runs) for loop in loops)  # legend lines under a panel
+    size = (5.2 * len(loops), 3.4 + 0.2 * rows)
+    fig, axes = plt.subplots(1, len(loops), figsize=size, squeeze=False, sharey=True)
     for ax, loop in zip(axes[0], loops):
         for r in (r for r in runs if r["loop"] == loop):
             pts = [(p[0], p[1]) for p in r["curve"] if p[1] is not None]
@@ -176,7 +183,7 @@ def plot(runs: list[dict], path: Path, window: int) -> None:
             ax.plot(x, y, marker=".", color=colour[r["setting"]], label=r["setting"])
         ax.set(title=loop, xlabel="env steps (thousands)", ylim=(-2, 102))
         ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=8)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), fontsize=8, frameon=False)
     axes[0][0].set_ylabel(f"training success % (per {window:,} steps)")
     fig.suptitle(f"PPO on {RL_ENV}: the STOP settings")
     fig.tight_layout()
@@ -193,6 +200,7 @@ def main() -> None:
     lp.add_argument("--seed", type=int, default=0)
     lp.add_argument("--stop-mask-steps", type=int, default=0)
     lp.add_argument("--stop-penalty", type=float, default=0.0)
+    lp.add_argument("--stop-shaping-steps", type=int, default=None, help="the settings apply this long only")
     lp.add_argument("--dataset", default=None)
     lp.add_argument("--out", type=Path, default=Path("runs/ppo_loop"))
     ep = sub.add_parser("evaluate", help="evaluate a loop run folder's agent.pt again, greedily")
@@ -204,7 +212,6 @@ def main() -> None:
     rp.add_argument("runs", nargs="+", type=Path)
     rp.add_argument("--steps", type=int, default=100_000, help="the curves end here")
     rp.add_argument("--window", type=int, default=WINDOW, help="env steps per point of a curve")
-    rp.add_argument("--note", action="append", default=[], help="a line under the table (repeatable)")
     rp.add_argument("--data-out", type=Path, default=docs_data_dir() / "learning")
     rp.add_argument("--image", type=Path, default=IMAGE)
     a = ap.parse_args()

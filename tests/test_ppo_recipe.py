@@ -1,6 +1,7 @@
 """The learning guide's PPO recipe end to end, a few thousand steps of each loop: the ManiSkill-style loop
-on ManiSkillVectorEnv (STOP masked and penalised), SB3 PPO with the STOP penalty, each evaluated in the env
-as registered, and the report that turns their run folders into the guide's table, curves and figure."""
+on ManiSkillVectorEnv (STOP masked and penalised in the first half), SB3 PPO with the STOP penalty, each
+evaluated in the env as registered, and the report that turns their run folders into the guide's table,
+curves and figure."""
 
 import json
 import subprocess
@@ -24,21 +25,19 @@ def test_both_loops_train_evaluate_unshaped_and_report(dataset, tmp_path):
     from biovln_ms.learning.ppo_loop import Agent, LoopConfig, evaluate, train
     from biovln_ms.learning.rl import RLConfig
 
+    small = dict(rollout=512, minibatch=128, epochs=2)
     cfg = LoopConfig(
-        steps=2048,
-        rollout=512,
-        minibatch=128,
-        epochs=2,
-        stop_mask_steps=5,
-        stop_penalty=10.0,
-        dataset=dataset,
+        steps=2048, stop_mask_steps=5, stop_penalty=10.0, stop_shaping_steps=1024, dataset=dataset, **small
     )
     agent, log = train(cfg, tmp_path / "loop", echo=lambda s: None)
     episodes = log["episodes"]  # [step, success, return, length]
     assert log["steps"] == 2048 and episodes
-    assert min(e[3] for e in episodes) > cfg.stop_mask_steps  # no STOP in an episode's first 5 steps
+    shaped = [e for e in episodes if e[0] <= 1024]  # ended while the settings applied
+    plain = [e for e in episodes if e[0] - e[3] >= 1024]  # began after they ended
+    assert shaped and min(e[3] for e in shaped) > cfg.stop_mask_steps  # no STOP in the first 5 steps
+    assert plain and min(e[3] for e in plain) <= cfg.stop_mask_steps  # STOP allowed from the first step
     # a failed STOP cost a success's worth (normalised: 1), more than any progress made (at most 0.8)
-    assert all(e[2] < 0 for e in episodes if not e[1] and e[3] < 500)
+    assert all(e[2] < 0 for e in shaped if not e[1] and e[3] < 500)
     saved = Agent(26, 4)
     saved.load_state_dict(torch.load(tmp_path / "loop" / "agent.pt", weights_only=True))
     ev = evaluate(agent, cfg, "ms_val", 2)
@@ -71,7 +70,7 @@ def test_both_loops_train_evaluate_unshaped_and_report(dataset, tmp_path):
     table = json.loads((data / "ppo_recipe.json").read_text())
     assert [row[:2] for row in table["rows"]] == [
         ["SB3 (1 env)", "failed STOP -10"],
-        ["ManiSkill-style (1 env)", "STOP masked 5 steps, failed STOP -10"],
+        ["ManiSkill-style (1 env)", "STOP masked 5 steps, failed STOP -10 in the first 1.024k steps"],
     ]
     curves = json.loads((data / "ppo_curves.json").read_text())["runs"]
     assert table["columns"][2:6] == ["0–0.5k", "0.5–1k", "1–1.5k", "1.5–2k"]

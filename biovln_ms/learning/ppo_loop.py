@@ -2,16 +2,16 @@
 torch on the env's device, one batched env of ``num_envs`` sub-envs (thousands on ``physx_cuda``; one on
 the CPU, where ManiSkill allows no more).
 
-Two settings make this env trainable by it, both of which differ from ManiSkill's PPO example:
+It differs from ManiSkill's PPO example in two ways:
 
-- partial resets (``ignore_terminations=False``): STOP ends an episode and the env then holds still until
-  reset, so a loop that ignores terminations would fill its rollouts with frozen, rewardless steps;
-- the STOP settings of :class:`biovln_ms.wrappers.StopShaping` (STOP masked in an episode's first steps,
-  a failed STOP penalised), with the policy's logits masked by ``action_masks()``.
+- partial resets always (``ignore_terminations=False``): STOP ends an episode and the env then holds still
+  until reset, so a loop that ignored terminations would fill its rollouts with frozen, rewardless steps;
+- the training-only STOP settings of :class:`biovln_ms.wrappers.StopShaping` (STOP masked in an episode's
+  first steps, a failed STOP penalised), throughout or in the first ``stop_shaping_steps`` steps, with the
+  policy's logits masked by ``action_masks()``.
 
-Evaluation runs the greedy policy on the env without ``StopShaping`` and without masks.
-
-    python benchmarks/ppo_recipe.py loop --steps 100000 --stop-mask-steps 10 --out runs/ppo_loop
+Evaluation runs the greedy policy on the env as registered: no ``StopShaping``, no masks. The learning
+guide's recipe runs it with ``python benchmarks/ppo_recipe.py loop``.
 """
 
 from __future__ import annotations
@@ -46,6 +46,9 @@ class LoopConfig:
     seed: int = 0
     stop_mask_steps: int = 0
     stop_penalty: float = 0.0
+    #: the STOP settings apply in the first this many env steps only (None: throughout), so that the rest
+    #: of training learns STOP in the env as evaluation runs it
+    stop_shaping_steps: int | None = None
     rollout: int = 2048  # transitions per update, all sub-envs together
     minibatch: int = 256
     epochs: int = 10
@@ -153,6 +156,9 @@ def train(
                 buf["logp"][t], buf["done"][t] = d.log_prob(action), next_done
                 obs, reward, term, trunc, info = venv.step(action)
                 step, batched = step + n, batched + 1
+                if cfg.stop_shaping_steps and step >= cfg.stop_shaping_steps:  # from the next step on
+                    shaping.mask_steps = 0
+                    shaping.set_penalty(0.0)
                 reward = reward.to(device, torch.float32)
                 done = term | trunc
                 if done.any():
