@@ -13,7 +13,6 @@ import threading
 import zipfile
 from pathlib import Path
 
-import numpy as np
 import pytest
 import yaml
 from pydantic import TypeAdapter, ValidationError
@@ -204,27 +203,12 @@ def test_nav2_yaml_stays_one_map_whatever_the_name(tmp_path):
 
 # --- SB3 checkpoints ------------------------------------------------------------------------------------
 def test_a_plain_json_checkpoint_of_a_huge_network_is_refused_before_building(tmp_path, monkeypatch):
-    import gymnasium as gym
+    from fuzz_targets import _sb3_setup
     from stable_baselines3 import PPO
 
     from biovln_ms.learning.sb3_safe import MAX_PARAMETERS, load_sb3_model
 
-    class StateEnv(gym.Env):
-        observation_space = gym.spaces.Box(-np.inf, np.inf, (19,), np.float32)
-        action_space = gym.spaces.Discrete(4)
-
-        def reset(self, *, seed=None, options=None):
-            return np.zeros(19, np.float32), {}
-
-        def step(self, action):
-            return np.zeros(19, np.float32), 0.0, False, True, {}
-
-    small = tmp_path / "small.zip"
-    PPO(
-        "MlpPolicy", StateEnv(), n_steps=16, batch_size=16, device="cpu", policy_kwargs={"net_arch": [8]}
-    ).save(small)
-    with zipfile.ZipFile(small) as z:
-        entries = {n: z.read(n) for n in z.namelist()}
+    entries = _sb3_setup(tmp_path)  # a small PPO checkpoint's zip members
     data = json.loads(entries["data"])
     data["policy_kwargs"] = {"net_arch": [4096] * 32}  # plain JSON: nothing pickled
     entries["data"] = json.dumps(data).encode()
