@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import copy
 import ipaddress
 import json
 import os
@@ -48,6 +49,53 @@ def _guarded_connect(self, address):
 def _no_network(monkeypatch):
     monkeypatch.setattr(socket.socket, "connect", _guarded_connect)
     yield
+
+
+def _registries() -> list[tuple[object, str]]:
+    """(module, attribute) of every registry a test can extend from outside the package."""
+    import biovln_ms.eval.methods as methods
+    import biovln_ms.metrics.measures as measures
+    import biovln_ms.registration as registration
+    import biovln_ms.scene.templates as templates
+    import tasks.sensors as sensors
+
+    return [
+        (methods, "METHODS"),
+        (measures, "_REGISTRY"),
+        (registration, "VARIANTS"),
+        (registration, "ENV_IDS"),
+        (registration, "VARIANT_HOOKS"),
+        (templates, "_REGISTRY"),
+        (templates, "_SKIPPED"),
+        (templates, "_BUILTIN_LOADED"),
+        (sensors, "SENSORS"),
+    ]
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _registries_restored():
+    """A test file's registrations (plugins, templates, measures, variants) end with the file, so the next
+    file on the same pytest-xdist worker sees only what the package ships."""
+    import gymnasium as gym
+    from mani_skill.utils.registration import REGISTERED_ENVS
+
+    from biovln_ms.registration import ENV_IDS
+
+    held = [(m, a, copy.copy(getattr(m, a))) for m, a in _registries()]
+    env_ids = set(ENV_IDS)
+    yield
+    for uid in set(ENV_IDS) - env_ids:  # a variant the file registered: gone from gymnasium and ManiSkill
+        gym.registry.pop(uid, None)
+        REGISTERED_ENVS.pop(uid, None)
+    for module, attr, saved in held:
+        now = getattr(module, attr)
+        if isinstance(now, dict):
+            now.clear()
+            now.update(saved)
+        elif isinstance(now, list):
+            now[:] = saved
+        else:
+            setattr(module, attr, saved)
 
 
 @pytest.fixture(scope="session")

@@ -9,6 +9,7 @@ import biovln_ms  # noqa: F401
 from biovln_ms.render.lighting import LIGHTING, LightingError, fixture_positions, lighting_preset
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.sim.footprints import collision_footprints
+from biovln_ms.tasks.config_checks import EnvConfigError
 
 
 def test_presets_and_one_line_error():
@@ -31,7 +32,9 @@ def test_quality_fixtures_are_a_grid_under_the_ceiling():
 
 
 def test_unknown_preset_is_rejected_by_the_env():
-    with pytest.raises(LightingError, match="use one of: fast, quality"):
+    with pytest.raises(
+        EnvConfigError, match="field .lighting.: unknown lighting .studio.*use one of: fast, quality"
+    ):
         gym.make("BioVLN-OpFace-v0", lighting="studio")
 
 
