@@ -74,6 +74,7 @@ def test_operational_face_carries_the_controls(catalog):
         assert np.median(front) > 0, f"{a.name}: controls are not on the {a.face} side"
 
 
+@pytest.mark.slow
 def test_regeneration_is_bit_identical(tmp_path, catalog):
     # GLBs are regenerated; the coacd cache is reused when its input mesh is unchanged.
     out = tmp_path / "assets"
@@ -85,6 +86,7 @@ def test_regeneration_is_bit_identical(tmp_path, catalog):
     assert (out / "manifest.json").read_bytes() == (ASSET_DIR / "manifest.json").read_bytes()
 
 
+@pytest.mark.slow
 def test_coacd_decomposition_is_deterministic_and_cached(tmp_path, catalog):
     out = tmp_path / "assets"
     generate_assets(out, catalog, names=["waste_bin"], progress=False)  # no cache: runs coacd

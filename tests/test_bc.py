@@ -65,6 +65,7 @@ def bc_run(trained, dataset, episodes: int, noise: str = "ideal") -> dict:
     return run_ms_val("bc", tmp, dataset, max_episodes=episodes, method_kwargs=kwargs, noise=noise)
 
 
+@pytest.mark.slow
 def test_bc_is_evaluated_through_the_harness(trained, dataset):
     tmp, _ = trained
     summary = bc_run(trained, dataset, 2)
@@ -108,6 +109,7 @@ def test_bad_checkpoints_are_refused(tmp_path, trained, dataset):
         )
 
 
+@pytest.mark.slow
 def test_bc_runs_without_gps_on_its_own_pose_estimate(trained, dataset):
     tmp, _ = trained
     bc_run(trained, dataset, 1, noise="realistic")

@@ -68,6 +68,7 @@ def _runnable(page: Page) -> list:
     return [b for b in page.blocks if b.lang == "python" and external_tool(b.code) is None]
 
 
+@pytest.mark.slow
 def test_site_builds_in_strict_mode(tmp_path: Path) -> None:
     site = tmp_path / "site"
     r = subprocess.run(
@@ -101,6 +102,7 @@ def test_every_block_is_checked() -> None:
                 compile(b.code, f"{p.name} line {b.line}", "exec")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("page", [p for p in PAGES if _runnable(p)], ids=lambda p: p.name[5:])
 def test_python_blocks_run(page: Page, tmp_path: Path) -> None:
     r = run_python(page.name, _runnable(page), tmp_path)
@@ -151,6 +153,7 @@ RUN = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("page", [name for name, cmds in RUN.items() if cmds])
 def test_page_commands_run(page: str, workspace: Path, tmp_path: Path) -> None:
     ws = shutil.copytree(workspace, tmp_path / "ws")

@@ -15,6 +15,7 @@ from biovln_ms.wrappers import make_gym_env
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
 
 
+@pytest.mark.slow
 def test_record_cli_writes_mp4_with_ego_view_and_map(tmp_path):
     out = tmp_path / "ep.mp4"
     r = subprocess.run(

@@ -107,6 +107,7 @@ def test_failing_episode_is_recorded_and_the_run_continues(dataset, tmp_path, mo
     assert s["failed_episodes"][0]["error"] == "RuntimeError: planner exploded"
 
 
+@pytest.mark.slow
 def test_cli_eval_and_unknown_method(dataset, tmp_path):
     exe = [sys.executable, "-m", "biovln_ms.cli", "eval"]
     r = subprocess.run(
@@ -136,6 +137,7 @@ def test_cli_eval_and_unknown_method(dataset, tmp_path):
     assert r.returncode == 2 and "unknown method 'telepathy'" in r.stderr and "random, oracle" in r.stderr
 
 
+@pytest.mark.slow
 def test_report_has_the_paper_tables_figures_and_a_video(dataset, tmp_path):
     from biovln_ms.eval.report import write_report
 
@@ -194,6 +196,7 @@ def test_report_has_the_paper_tables_figures_and_a_video(dataset, tmp_path):
     assert r.returncode == 2 and "no results under" in r.stderr
 
 
+@pytest.mark.slow
 def test_ray_local_instance_runs_and_resumes(dataset, tmp_path):
     pytest.importorskip("ray")
     cfg = EvalConfig(

@@ -61,6 +61,7 @@ def _floor_shading(lighting: str) -> tuple[float, np.ndarray]:
     return lum[under].mean() / lum[open_floor].mean(), rgb
 
 
+@pytest.mark.slow
 @pytest.mark.render
 def test_quality_shadows_the_floor_under_furniture():
     fast, fast_rgb = _floor_shading("fast")

@@ -306,6 +306,7 @@ def dataset(held_out_dataset):
     return held_out_dataset(ms_val=6)
 
 
+@pytest.mark.slow
 def test_frontier_without_gps_localises_by_scan_matching(dataset):
     corrected = _episodes(dataset, scan_match=True)
     dead_reckoning = _episodes(dataset, scan_match=False)

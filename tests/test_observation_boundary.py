@@ -134,6 +134,7 @@ def dataset(tmp_path_factory):
     return root
 
 
+@pytest.mark.slow
 def test_non_privileged_methods_run_from_observations_alone(tmp_path, dataset, guarded):
     policies = _policies(tmp_path, dataset)
     assert set(policies) | {"a2c", "sac"} == {m for m, s in METHODS.items() if not s.privileged}

@@ -92,6 +92,7 @@ def test_a_plugin_sensor_and_template_reach_the_env(plugin):
         env.close()
 
 
+@pytest.mark.slow
 def test_the_cli_lists_what_a_plugin_registers(plugin):
     def run(*args: str) -> str:
         cmd = [sys.executable, "-m", "biovln_ms.cli", "--plugin", plugin, "list", *args]

@@ -61,6 +61,7 @@ def test_readme_has_what_this_file_checks() -> None:
 @pytest.mark.parametrize(
     "block", [b for b in README.blocks if b.lang == "python"], ids=lambda b: f"L{b.line}"
 )
+@pytest.mark.slow
 def test_python_snippet_runs(block, tmp_path: Path) -> None:
     r = run_python(README.name, [block], tmp_path)
     assert r.returncode == 0, (

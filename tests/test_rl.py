@@ -48,6 +48,7 @@ def test_learned_method_errors(dataset, tmp_path):
         train_rl(RLConfig(algo="dqn2"), tmp_path)
 
 
+@pytest.mark.slow
 def test_ray_vec_env_trains_sb3_on_a_local_ray_instance(dataset):
     """Beyond one machine: the same env factories in Ray actors (here a local Ray instance)."""
     pytest.importorskip("ray")

@@ -74,6 +74,7 @@ def test_rebuild_on_reconfigure(env_and_spec):
     assert set(env.scene_builder.built[0].objects) == {o.id for o in spec.objects()}
 
 
+@pytest.mark.slow
 def test_cli_render(tmp_path):
     import subprocess
     import sys

@@ -187,6 +187,7 @@ def dataset(held_out_dataset):
     return held_out_dataset(ms_val=3)
 
 
+@pytest.mark.slow
 def test_vlfm_with_the_gt_detector_through_the_harness(dataset, tmp_path):
     cfg = EvalConfig("vlfm", "ms_val", str(tmp_path), dataset, workers=1, camera=(320, 240))
     summary = evaluate(cfg, progress=False)
