@@ -225,13 +225,16 @@ def json_depth(raw: bytes) -> int:
     return int(np.cumsum(step, dtype=np.int32).max(initial=0))
 
 
-def _utf8(raw: bytes, source: str, what: str, error: type[BioVLNError], fix: str | None) -> str:
+def _utf8(
+    raw: bytes, source: str, what: str, error: type[BioVLNError], fix: str | None, field: str | None = None
+) -> str:
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as e:
         raise error(
             f"{what} is not UTF-8 text (byte 0x{raw[e.start]:02x} at offset {e.start})",
             source=source,
+            field=field,
             fix=fix,
         ) from None
 
@@ -244,24 +247,27 @@ def parse_json(
     error: type[BioVLNError] = BioVLNError,
     fix: str | None = None,
     max_depth: int = MAX_DATA_DEPTH,
+    field: str | None = None,
 ):
-    """JSON of ``raw`` after the UTF-8 and depth checks; every failure is one ``error``."""
-    text = _utf8(raw, source, what, error, fix)
+    """JSON of ``raw`` after the UTF-8 and depth checks; every failure is one ``error`` (naming ``field``
+    when given: e.g. ``"file"`` for a whole file that is not what it should be)."""
+    text = _utf8(raw, source, what, error, fix, field)
     depth = json_depth(raw)
     if depth > max_depth:
         raise error(
             f"{what} JSON is nested {depth} levels deep, more than the limit of {max_depth}",
             source=source,
+            field=field,
             fix=fix,
         )
     try:
         return json.loads(text)
     except RecursionError:  # unreachable after the depth check; kept so no input gives a traceback
-        raise error(f"{what} JSON is nested too deeply", source=source, fix=fix) from None
+        raise error(f"{what} JSON is nested too deeply", source=source, field=field, fix=fix) from None
     except ValueError as e:  # JSONDecodeError, or an integer literal with too many digits
         where = f" at line {e.lineno} column {e.colno}" if isinstance(e, json.JSONDecodeError) else ""
         msg = e.msg if isinstance(e, json.JSONDecodeError) else str(e)
-        raise error(f"{what} is not valid JSON{where}: {msg}", source=source, fix=fix) from None
+        raise error(f"{what} is not valid JSON{where}: {msg}", source=source, field=field, fix=fix) from None
 
 
 def parse_yaml(

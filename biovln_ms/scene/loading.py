@@ -8,12 +8,12 @@ next (the generator checks its own drafts' rules itself).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from pydantic import ValidationError
 
 from biovln_ms.errors import describe_validation_error
+from biovln_ms.io_utils import parse_json
 from biovln_ms.scene.spec import (
     MAX_FILE_BYTES,
     MAX_JSON_DEPTH,
@@ -24,7 +24,6 @@ from biovln_ms.scene.spec import (
     SCHEMA_VERSION,
     SceneSpec,
     SceneSpecError,
-    json_depth,
 )
 
 _COUNT_LIMITS = {"rooms": MAX_ROOMS, "walls": MAX_WALLS, "openings": MAX_OPENINGS}
@@ -87,36 +86,25 @@ def load_spec(path: str | Path) -> SceneSpec:
     path = Path(path)
     src = str(path)
 
-    def refuse(message: str, fix: str) -> SceneSpecError:
-        return SceneSpecError(message, source=src, field="file", fix=fix)
-
     try:
         with path.open("rb") as f:
             raw = f.read(MAX_FILE_BYTES + 1)
     except OSError as e:
         raise SceneSpecError(f"cannot read the scene spec ({e.strerror})", source=src) from None
     if len(raw) > MAX_FILE_BYTES:
-        raise refuse(
-            f"larger than the limit of {MAX_FILE_BYTES // 2**20} MiB", "is this a scene spec? regenerate it"
+        raise SceneSpecError(
+            f"larger than the limit of {MAX_FILE_BYTES // 2**20} MiB",
+            source=src,
+            field="file",
+            fix="is this a scene spec? regenerate it",
         )
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise refuse(
-            f"not UTF-8 text (byte 0x{raw[e.start]:02x} at offset {e.start})", "save the spec as UTF-8 JSON"
-        ) from None
-    depth = json_depth(raw)
-    if depth > MAX_JSON_DEPTH:
-        raise refuse(
-            f"JSON nested {depth} levels deep, more than the limit of {MAX_JSON_DEPTH}",
-            "a scene spec nests a few levels; regenerate it",
-        )
-    try:
-        obj = json.loads(text)
-    except RecursionError:  # unreachable after the depth check; kept so no input gives a traceback
-        raise refuse("JSON nested too deeply", "regenerate the spec") from None
-    except ValueError as e:  # JSONDecodeError, or an integer literal with too many digits
-        where = f" at line {e.lineno} column {e.colno}" if isinstance(e, json.JSONDecodeError) else ""
-        msg = e.msg if isinstance(e, json.JSONDecodeError) else str(e)
-        raise refuse(f"not valid JSON{where}: {msg}", "fix the JSON syntax, or regenerate the spec") from None
+    obj = parse_json(
+        raw,
+        src,
+        "the scene spec",
+        error=SceneSpecError,
+        field="file",
+        fix="save the spec as UTF-8 JSON with valid syntax (a spec nests a few levels), or regenerate it",
+        max_depth=MAX_JSON_DEPTH,
+    )
     return parse_spec(obj, src)
