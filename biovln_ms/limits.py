@@ -28,8 +28,10 @@ RUN_NAME_RULE = (
     f"{MAX_ID_LENGTH} characters"
 )
 
-#: an id in a pydantic schema (the anchors are the Rust engine's: ``$`` is the end of the text)
-Identifier = Annotated[str, Field(min_length=1, max_length=MAX_ID_LENGTH, pattern=f"^{ID_CHARS}$")]
+#: the pattern of an id in a pydantic schema (the anchors are the Rust engine's: ``$`` is the end of the text)
+ID_PATTERN = f"^{ID_CHARS}$"
+#: an id in a pydantic schema
+Identifier = Annotated[str, Field(min_length=1, max_length=MAX_ID_LENGTH, pattern=ID_PATTERN)]
 
 #: nesting of any JSON or YAML file read (``[`` / ``{`` levels, YAML block levels)
 MAX_DATA_DEPTH = 64

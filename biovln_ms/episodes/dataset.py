@@ -35,7 +35,7 @@ from biovln_ms.constants import SCENE_GENERATOR_VERSION
 from biovln_ms.episodes.schema import EPISODES, STRICT, Count, Episode
 from biovln_ms.errors import BioVLNError, describe_validation_error
 from biovln_ms.io_utils import READ_CHUNK, inside, parse_json, read_bounded, regular_size
-from biovln_ms.limits import Identifier
+from biovln_ms.limits import ID_PATTERN, ID_RULE, Identifier
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.loading import load_spec
 from biovln_ms.scene.rules import validate_spec
@@ -67,6 +67,9 @@ def _oneline(text: str) -> str:
 
 def _schema_error(e: ValidationError, source: str, prefix: str = "") -> DatasetError:
     loc, msg = describe_validation_error(e)
+    first = e.errors()[0]
+    if first["type"] == "string_pattern_mismatch" and first.get("ctx", {}).get("pattern") == ID_PATTERN:
+        msg = f"{_show(first['input'])} is not an id ({ID_RULE})"
     if prefix:
         loc = prefix if loc == "<root>" else (f"{prefix}{loc}" if loc.startswith("[") else f"{prefix}.{loc}")
     fix = (

@@ -6,9 +6,10 @@ types on loading (``EPISODES``) and the env reads them. They are ``TypedDict``s,
 the JSON object itself, validated but never converted, so a loaded episode is exactly what was stored.
 
 Validation is strict (no ``"1.5"`` -> 1.5 or ``true`` -> 1 coercion), refuses NaN and infinities, keeps
-coordinates within ``MAX_COORDINATE`` of the origin and ignores unknown keys. Which scene an episode
-belongs to, whether its category is the catalog's, and whether a protocol's lists are K long are checked
-by the loader, which knows the file and the catalog.
+coordinates within ``MAX_COORDINATE`` of the origin and ignores unknown keys. Episode, scene and object
+ids and categories are ids (``biovln_ms.limits.Identifier``): they become file names (hand-offs,
+recordings). Which scene an episode belongs to, whether its category is the catalog's, and whether a
+protocol's lists are K long are checked by the loader, which knows the file and the catalog.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from pydantic import AfterValidator, ConfigDict, Field, TypeAdapter, with_config
 from typing_extensions import NotRequired, TypedDict
 
 from biovln_ms.constants import MAX_VISITS, MIN_VISITS
+from biovln_ms.limits import MAX_ID_LENGTH, Identifier
 from biovln_ms.scene.spec import MAX_COORDINATE
 
 MAX_GOALS = 64  # per episode
@@ -65,8 +67,8 @@ class Goal(TypedDict):
 
     position: _Vec3
     radius: Annotated[float, Field(gt=0, le=MAX_COORDINATE)]
-    object_id: str
-    object_category: str
+    object_id: Identifier
+    object_category: Identifier
     eq1_goal: _Vec2
     view_points: Annotated[list[ViewPoint], Field(max_length=MAX_VIEW_POINTS)]
 
@@ -93,7 +95,7 @@ class SamplerInfo(TypedDict):
 class ProtocolInfo(TypedDict):
     """A protocol episode's (``biovln_ms.protocols.episodes``): its K goals are visited in order."""
 
-    id: Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$")]
+    id: Annotated[str, Field(max_length=MAX_ID_LENGTH, pattern=r"^[a-z][a-z0-9_]*$")]
     k: Annotated[int, Field(ge=MIN_VISITS, le=MAX_VISITS)]
     instruction: Annotated[str, Field(min_length=1, max_length=2**16)]
     purposes: Annotated[list[str], Field(min_length=MIN_VISITS, max_length=MAX_VISITS)]
@@ -108,12 +110,12 @@ class Episode(TypedDict):
     """A Habitat-style episode: a start pose in a scene and its goals (one; every instance of the category
     where any counts; or a protocol's K in visit order), ``object_category`` / ``object_id`` the first."""
 
-    episode_id: str
-    scene_id: str
+    episode_id: Identifier
+    scene_id: Identifier
     start_position: _Vec3
     start_rotation: _Quat
-    object_category: str
-    object_id: str
+    object_category: Identifier
+    object_id: Identifier
     goals: Annotated[list[Goal], Field(min_length=1, max_length=MAX_GOALS)]
     info: SamplerInfo
     protocol: NotRequired[ProtocolInfo]  # a protocol split's episode: K ordered goals

@@ -92,15 +92,7 @@ class EvalConfig:
 
     @property
     def run_name(self) -> str:
-        if self.name:
-            return self.name
-        suffix = (
-            ""
-            if self.env_id == DEFAULT_ENV
-            else "@" + self.env_id.removeprefix("BioVLN-").removesuffix("-v0").lower()
-        )
-        robot = "" if self.robot == DEFAULT_ROBOT else f"-{self.robot}"
-        return self.method + suffix + robot + ("" if self.noise == "ideal" else f"+{self.noise}")
+        return self.name or run_name(self.method, self.env_id, self.robot, self.noise)
 
     @property
     def run_dir(self) -> Path:
@@ -114,6 +106,22 @@ class EvalConfig:
                 f"split {self.split[:60]!r} is not a split name", field="--split", fix=f"use {ID_RULE}"
             )
         return inside(self.out, self.run_name, self.split, what="run folder", field="name")
+
+
+def run_name(method: str, env_id: str | None = None, robot: str = DEFAULT_ROBOT, noise: str = "ideal") -> str:
+    """The results folder ``biovln-ms eval`` names a run of ``method`` on ``env_id`` (None: the method's
+    env) with ``robot`` under noise ``noise`` when no ``--name`` is given:
+    ``METHOD[@variant][-robot][+preset]`` (``frontier@centroid-fetch+realistic``). A name only: nothing is
+    checked and no run is configured."""
+    if env_id is None:
+        env_id = method_spec(method).env_id or DEFAULT_ENV
+    suffix = "" if env_id == DEFAULT_ENV else "@" + env_id.removeprefix("BioVLN-").removesuffix("-v0").lower()
+    return (
+        method
+        + suffix
+        + ("" if robot == DEFAULT_ROBOT else f"-{robot}")
+        + ("" if noise == "ideal" else f"+{noise}")
+    )
 
 
 def check_options(cfg: EvalConfig) -> None:

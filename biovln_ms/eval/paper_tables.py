@@ -10,7 +10,7 @@ import math
 from biovln_ms.variants import CENTROID_ENV
 from biovln_ms.splits import HARD_SPLITS, HELD_OUT, LSAT_EPISODES, TWO_ROOM_BENCH
 from biovln_ms.eval import paper
-from biovln_ms.eval.harness import EvalConfig
+from biovln_ms.eval.harness import run_name
 from biovln_ms.eval.methods import METHODS, method_of_paper_key, report_methods
 from biovln_ms.eval.aggregate import PROTOCOL_INTERVALS
 from biovln_ms.eval.tables import STANDARD_MEASURES, fmt as _fmt, table_keys
@@ -24,7 +24,7 @@ CENTROID_ENV_SUFFIX = "@centroid"  # in its runs' names
 
 def _run_name(method: str, env_id: str | None = None) -> str:
     """The results folder `biovln-ms eval` writes for the method on ``env_id`` (None: its own env)."""
-    return EvalConfig(method=method, split="", out="", env_id=env_id).run_name
+    return run_name(method, env_id)
 
 
 def _preset_run(method: str, preset: str) -> str:

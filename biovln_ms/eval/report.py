@@ -40,7 +40,7 @@ from biovln_ms.eval.figures import (
     plot_sr,
     plot_trajectories,
 )
-from biovln_ms.eval.harness import EvalConfig, episode_key, load_records, read_manifest, unique_records
+from biovln_ms.eval.harness import episode_key, load_records, read_manifest, run_name, unique_records
 from biovln_ms.eval.methods import METHODS, report_methods
 from biovln_ms.eval.paper_tables import (
     ALPHA,
@@ -104,10 +104,8 @@ def run_key(who: dict) -> str:
     """A run's name in the report, from its manifest: the method's name for its own env, robot and the
     ``ideal`` preset; else the name ``biovln-ms eval`` gives such a run (``frontier+realistic``,
     ``frontier@centroid``)."""
-    cfg = EvalConfig(
-        method=who["method"], split="", out="", env_id=who["env_id"], robot=who["robot"], noise=who["noise"]
-    )
-    return who["method"] if cfg.run_name == _run_name(who["method"]) else cfg.run_name
+    name = run_name(who["method"], who["env_id"], who["robot"], who["noise"])
+    return who["method"] if name == _run_name(who["method"]) else name
 
 
 SCHEMA = 2  # measured.json: 2 = intervals, strict SR, split sizes, Holm-adjusted McNemar tests

@@ -11,6 +11,10 @@ was Y-up). Full mode writes RGB PNGs to ``images/`` beside the JSONL; trace-only
 
 Each worker appends complete gzip members to its own file (``trajectories-<pid>.jsonl.gz``); a killed
 run can leave only a truncated last member, which readers skip.
+
+A frame's file name holds the episode's scene and episode ids (``<scene_id>_<episode_id>_<step>.png``):
+each must be one plain name, and the file stays inside ``images/`` (``biovln_ms.io_utils.inside``), so an
+episode from a crafted dataset or source never writes elsewhere; anything else is one ``RecordingError``.
 """
 
 from __future__ import annotations
@@ -26,9 +30,16 @@ import numpy as np
 from PIL import Image
 
 from biovln_ms.errors import BioVLNError
+from biovln_ms.io_utils import inside
+from biovln_ms.limits import ID_RULE
 
 RECORDER_VERSION = 1
 MODES = ("full", "trace")
+IMAGE_FORMATS = ("png", "jpg", "jpeg")
+
+
+class RecordingError(BioVLNError):
+    """A recording that cannot be written where it belongs (a frame name leaving the recording folder)."""
 
 
 class TrajectoryRecorder:
@@ -43,6 +54,12 @@ class TrajectoryRecorder:
         if mode not in MODES:
             raise BioVLNError(
                 f"unknown recording mode '{mode}'", field="record_mode", fix=f"use one of: {', '.join(MODES)}"
+            )
+        if image_format not in IMAGE_FORMATS:
+            raise RecordingError(
+                f"unknown image format {str(image_format)[:40]!r}",
+                field="image_format",
+                fix=f"use one of: {', '.join(IMAGE_FORMATS)}",
             )
         self.root = Path(root)
         self.mode = mode
@@ -61,6 +78,9 @@ class TrajectoryRecorder:
         return self.mode == "full"
 
     def start(self, episode: dict, goal_xy) -> None:
+        if self.mode == "full":  # frame names hold the ids: each one plain name, before the episode runs
+            for key in ("scene_id", "episode_id"):
+                self._frame_path(str(episode[key]), key)
         self._meta = {
             "recorder_version": RECORDER_VERSION,
             "mode": self.mode,
@@ -92,10 +112,11 @@ class TrajectoryRecorder:
             if self.image_size is not None:
                 img = img.resize(self.image_size, Image.BILINEAR)
             name = f"{self._meta['scene_id']}_{self._meta['episode_id']}_{step_idx:04d}.{self.image_format}"
+            path = self._frame_path(name, "episode_id")
             if self.image_format == "png":
-                img.save(self.root / "images" / name, compress_level=6)
+                img.save(path, compress_level=6)
             else:
-                img.save(self.root / "images" / name, quality=90)
+                img.save(path, quality=90)
             rec["obs"]["rgb_path"] = f"images/{name}"
             if "depth" in cam:
                 depth = cam["depth"][0, ..., 0].cpu().numpy().astype(np.float32) / 1000.0
@@ -103,6 +124,17 @@ class TrajectoryRecorder:
                 rec["obs"]["depth"] = base64.b64encode(small.tobytes()).decode()
                 rec["obs"]["depth_shape"] = [self.depth_size[1], self.depth_size[0]]
         self._steps.append(rec)
+
+    def _frame_path(self, name: str, field: str) -> Path:
+        """``images/<name>``, refused in one line unless ``name`` is one plain name that stays inside."""
+        return inside(
+            self.root / "images",
+            name,
+            what="frame name",
+            error=RecordingError,
+            field=field,
+            fix=f"give the episode ids of {ID_RULE}",
+        )
 
     def finish(self, success: bool) -> None:
         for s in self._steps:

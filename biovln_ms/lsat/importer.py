@@ -43,9 +43,10 @@ from shapely.geometry import MultiPoint, Point, Polygon, box
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import ROBOT_RADIUS
-from biovln_ms.errors import BioVLNError
+from biovln_ms.errors import BioVLNError, one_line
 from biovln_ms.geometry.zones import placement_z, rot2, wrap_angle
 from biovln_ms.io_utils import atomic_write_text
+from biovln_ms.limits import ID_CHARS, ID_RULE, MAX_ID_LENGTH
 from biovln_ms.lsat.gltf import GLTFScene, Node, read_gltf
 from biovln_ms.lsat.names import (
     FACE_PART_WORDS,
@@ -695,6 +696,33 @@ def _failure(report: ImportReport, report_path: Path | None) -> LSATImportError:
     )
 
 
+def name_as_id(text: str) -> str:
+    """An id made of ``text`` (``My Lab (v2)`` -> ``My_Lab_v2``): each run of other characters one ``_``."""
+    out = re.sub(r"[^A-Za-z0-9_.\-]+", "_", text).lstrip("_.-")[:MAX_ID_LENGTH].rstrip("_.-")
+    return out or "scene"
+
+
+def scene_name(path: Path, name: str | None) -> str:
+    """The imported scene's name: ``name``, else the GLB's file name without its suffix. It names the scene's
+    files, so it must be an id; one that is not is refused in one line suggesting an id for ``--name``
+    (``name=``), before the GLB is read."""
+    value = path.stem if name is None else name
+    if isinstance(value, str) and len(value) <= MAX_ID_LENGTH and re.fullmatch(ID_CHARS, value):
+        return value
+    text = str(value)
+    suggestion = name_as_id(text)
+    shown = one_line(repr(text), 60)
+    given = name is not None
+    what = f"scene name {shown}" if given else f"the GLB's file name {shown} (the default scene name)"
+    rename = "" if given else ", or rename the file"
+    raise LSATImportError(
+        f"{what} is not an id",
+        source=str(path),
+        field="--name",
+        fix=f"pass --name {suggestion} (name= in Python){rename}; a scene name is {ID_RULE}",
+    )
+
+
 def import_glb(
     path: str | Path,
     name: str | None = None,
@@ -713,6 +741,7 @@ def import_glb(
     report_path = None if report_path is None else Path(report_path)
     report = ImportReport(str(path))
     try:
+        name = scene_name(path, name)
         scene = read_gltf(path, allow_external=allow_external)
         rects, wall_height = _rooms(scene, report)
         if not rects:
@@ -720,7 +749,7 @@ def import_glb(
         shell = _Shell(*rooms_from_rects(rects, wall_height))
         found, markers = _adopt(scene, _classify(scene, report, names), report)
         placed = _assign_markers(_place(scene, found, rects, report), markers, report)
-        spec = _assemble(name or path.stem, shell, placed, robot_radius, report)
+        spec = _assemble(name, shell, placed, robot_radius, report)
         if report.problems:
             raise _failure(report, report_path)
         return spec, report

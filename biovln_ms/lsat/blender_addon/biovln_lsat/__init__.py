@@ -120,11 +120,11 @@ class BIOVLN_OT_import_export(bpy.types.Operator):
         _library()
         from biovln_ms.io_utils import atomic_write_text
         from biovln_ms.lsat.exporters import goal_json, lsat_json, write_json, write_usd
-        from biovln_ms.lsat.importer import import_glb
+        from biovln_ms.lsat.importer import import_glb, name_as_id
 
         out = Path(bpy.path.abspath(self.directory))
         out.mkdir(parents=True, exist_ok=True)
-        name = Path(bpy.data.filepath).stem if bpy.data.filepath else "scene"
+        name = name_as_id(Path(bpy.data.filepath).stem) if bpy.data.filepath else "scene"  # an id
         glb = out / f"{name}.glb"
         bpy.ops.export_scene.gltf(
             filepath=str(glb), export_format="GLB", export_yup=True, use_selection=False
