@@ -18,6 +18,7 @@ from mani_skill.utils.wrappers.gymnasium import CPUGymWrapper
 import biovln_ms  # noqa: F401
 from biovln_ms.errors import BioVLNError
 from biovln_ms.task_config import STOP
+from biovln_ms.tasks.config_checks import check_seed
 from biovln_ms.variants import RL_ENV
 
 
@@ -28,8 +29,12 @@ class GymnasiumEnv(CPUGymWrapper):
         return self.unwrapped.spec
 
     def reset(self, *, seed=None, options=None):
+        """ManiSkill's reset, with gymnasium's ``np_random`` seeded too; a bad seed is the env's one-line
+        error (field 'seed'), checked before gymnasium's seeding would raise its own."""
         if seed is not None:
-            self.base_env._np_random, _ = seeding.np_random(seed)
+            checked = check_seed(seed, self.base_env.num_envs)
+            first = checked[0] if isinstance(checked, list) else checked
+            self.base_env._np_random, _ = seeding.np_random(first)
         return super().reset(seed=seed, options=options)
 
 

@@ -1,6 +1,8 @@
 """The navigation env's input checks: one-line errors (field and fix) for ``gym.make`` arguments, ``reset``
 seeds and options and ``set_state_dict`` states that ManiSkill would reject with a traceback, or accept
-silently, and for episodes of the other task kind. They run before anything is built or read.
+silently, and for episodes of the other task kind. They run before anything is built or read. The
+scene-only env (``BioVLN-LabScene-v0``) gets the same checks of ManiSkill's arguments and of its own
+(:func:`check_scene_env_arguments`), and of its ``reset`` seeds and options.
 
 :func:`task_config` turns an env's keyword arguments into its :class:`~biovln_ms.task_config.NavTaskConfig`
 (the config's fields may be passed as keyword arguments, paper §3.2's parameters among them). The limits are
@@ -38,6 +40,7 @@ from biovln_ms.metrics.reach_measures import REACH_MEASURES
 from biovln_ms.noise import NoiseConfig, resolve_noise
 from biovln_ms.render.lighting import LIGHTING
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
+from biovln_ms.scene.spec import SceneSpec
 from biovln_ms.task_config import INSTRUCTION_SENSORS, NavTaskConfig, ProtocolTaskConfig
 from biovln_ms.tasks.sensors import SENSORS
 
@@ -69,6 +72,12 @@ CAMERAS = {"sensor_configs": ("head",), "human_render_camera_configs": ("follow"
 CAMERAS["viewer_camera_configs"] = ("viewer",)
 #: what ``reset(options=...)`` may hold
 RESET_OPTIONS = ("episode_index", "episode_id", "scene_id", "env_idx", "reconfigure")
+#: what the scene-only env's ``reset(options=...)`` may hold, and its cameras of each camera-config argument
+SCENE_RESET_OPTIONS = ("env_idx", "reconfigure")
+SCENE_CAMERAS = {"sensor_configs": (), "human_render_camera_configs": ("overview",)}
+SCENE_CAMERAS["viewer_camera_configs"] = ("viewer",)
+#: the scene-only env's own arguments
+SCENE_ARGUMENTS = ("specs", "template", "seed", "ceiling", "render_size", "lighting")
 MAX_SEED = 2**32 - 1  # NumPy's RandomState, which ManiSkill seeds with it
 MAX_NUM_ENVS = 16_384
 
@@ -373,6 +382,12 @@ def check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> None
             field="control_mode",
             fix=f"use one of: {', '.join(CONTROL_MODES)}",
         )
+    check_backends(kwargs)
+    check_maniskill_arguments(kwargs)
+
+
+def check_backends(kwargs: dict) -> None:
+    """The simulation and render backends, and the number of sub-envs they can run."""
     for key, known in (("sim_backend", SIM_BACKENDS), ("render_backend", RENDER_BACKENDS)):
         name = str(kwargs.get(key, "auto")).split(":")[0]
         if not isinstance(kwargs.get(key, "auto"), str) or name not in known:
@@ -402,11 +417,11 @@ def check_arguments(cfg: NavTaskConfig, control_mode: str, kwargs: dict) -> None
             "process (gymnasium AsyncVectorEnv or SB3 SubprocVecEnv, see the envs guide)",
             field="num_envs",
         )
-    check_maniskill_arguments(kwargs)
 
 
-def check_maniskill_arguments(kwargs: dict) -> None:
-    """ManiSkill's own arguments: modes, flags, camera configs and the physics rates."""
+def check_maniskill_arguments(kwargs: dict, cameras: dict[str, tuple[str, ...]] = CAMERAS) -> None:
+    """ManiSkill's own arguments: modes, flags, camera configs (of the env's ``cameras``) and the physics
+    rates."""
     obs_mode = kwargs.get("obs_mode", "state")
     check_obs_mode("obs_mode", obs_mode)
     for key, known in (("reward_mode", REWARD_MODES), ("render_mode", RENDER_MODES)):
@@ -434,9 +449,9 @@ def check_maniskill_arguments(kwargs: dict) -> None:
             field="parallel_in_single_scene",
             fix="pass it with obs_mode='state' (or 'state_dict', 'none')",
         )
-    for key, cameras in CAMERAS.items():
+    for key, names in cameras.items():
         keys = SENSOR_CONFIG_KEYS if key == "sensor_configs" else VIEW_CONFIG_KEYS
-        kwargs[key] = check_camera_configs(key, kwargs.get(key, {}), cameras, keys)
+        kwargs[key] = check_camera_configs(key, kwargs.get(key, {}), names, keys)
     if "sim_config" in kwargs:
         check_sim_config(kwargs["sim_config"])
     freq = kwargs.get("reconfiguration_freq")
@@ -541,10 +556,80 @@ def _finite(obj) -> bool:
     return not isinstance(obj, float) or math.isfinite(obj)
 
 
+# --- the scene-only env ----------------------------------------------------------------------------------
+def check_scene_env_arguments(own: dict, kwargs: dict) -> None:
+    """``BioVLN-LabScene-v0``'s arguments: its own (``own``: specs, template, seed, ceiling, render size,
+    lighting) and ManiSkill's (``kwargs``), as the navigation envs check theirs; an unknown argument names
+    the nearest known one. Only a robot-less, reward-less env: ``robot_uids`` and ``reward_mode`` 'none'."""
+    for name in kwargs:
+        if name not in MANISKILL_ARGUMENTS:
+            near = difflib.get_close_matches(str(name), list(SCENE_ARGUMENTS + MANISKILL_ARGUMENTS), n=1)
+            hint = f"did you mean {near[0]}? " if near else ""
+            raise EnvConfigError(
+                f"unknown argument {_show(name)}",
+                field=str(name),
+                fix=f"{hint}the arguments are {', '.join(SCENE_ARGUMENTS)} and ManiSkill's BaseEnv arguments",
+            )
+    specs = own["specs"]
+    if specs is not None:
+        kinds = (SceneSpec, str, os.PathLike)
+        ok = isinstance(specs, (list, tuple)) and 0 < len(specs) <= MAX_NUM_ENVS
+        if not ok or not all(isinstance(s, kinds) for s in specs):
+            raise EnvConfigError(
+                f"specs must be a list of scene specs or spec files, got {_show(specs)}",
+                field="specs",
+                fix="pass e.g. specs=[generate_scene('single_room', 0)] or specs=['scene.json']",
+            )
+    if not isinstance(own["template"], str):
+        raise EnvConfigError(
+            f"template must be a template name, got {_show(own['template'])}",
+            field="template",
+            fix="pass e.g. template='single_room'",
+        )
+    Bound(0, MAX_SEED, integer=True, closed=True).check("seed", own["seed"])
+    if not isinstance(own["ceiling"], (bool, np.bool_)):
+        raise EnvConfigError(
+            f"ceiling must be True or False, got {_show(own['ceiling'])}", field="ceiling", fix="pass a bool"
+        )
+    size = own["render_size"]
+    if not isinstance(size, (list, tuple)) or len(size) != 2:
+        raise EnvConfigError(
+            f"render_size must be (width, height), got {_show(size)}",
+            field="render_size",
+            fix="pass e.g. render_size=(960, 720)",
+        )
+    for name, v in zip(("width", "height"), size):
+        VIEW_LIMITS[name].check("render_size", v)
+    lighting = own["lighting"]
+    if not isinstance(lighting, str) or lighting not in LIGHTING:
+        raise EnvConfigError(
+            f"unknown lighting {_show(lighting)}", field="lighting", fix=f"use one of: {', '.join(LIGHTING)}"
+        )
+    for key in ("robot_uids", "reward_mode"):
+        v = kwargs.get(key)
+        if v is not None and not (isinstance(v, str) and v == "none"):
+            raise EnvConfigError(
+                f"{key} {_show(v)}: this env has no robot and no task",
+                field=key,
+                fix=f"leave {key} out (or pass 'none'); make a navigation env (BioVLN-OpFace-v0) for a robot",
+            )
+    if kwargs.get("obs_mode", 0) is None:  # ManiSkill's default, "state"
+        del kwargs["obs_mode"]
+    check_obs_mode("obs_mode", kwargs.get("obs_mode", "state"))
+    if kwargs.get("obs_mode") == "pointcloud":
+        raise EnvConfigError(
+            "obs_mode 'pointcloud': BioVLN-LabScene-v0 has no sensor to fuse one from",
+            field="obs_mode",
+            fix="use render() (the overview camera) or obs_mode 'none'/'state'",
+        )
+    check_backends(kwargs)
+    check_maniskill_arguments(kwargs, SCENE_CAMERAS)
+
+
 # --- reset and state ---------------------------------------------------------------------------------------
-def reset_arguments(seed, options, num_envs: int, device) -> tuple:
-    """``reset``'s seed and options checked: (the seed as an int or a list of ints, a copy of the options with
-    ``env_idx`` as ManiSkill's index tensor, the sub-envs reset)."""
+def reset_arguments(seed, options, num_envs: int, device, known: tuple[str, ...] = RESET_OPTIONS) -> tuple:
+    """``reset``'s seed and options (of ``known`` keys) checked: (the seed as an int or a list of ints, a copy
+    of the options with ``env_idx`` as ManiSkill's index tensor, the sub-envs reset)."""
     seed = check_seed(seed, num_envs)
     if options is None:
         return seed, {}, list(range(num_envs))
@@ -556,17 +641,17 @@ def reset_arguments(seed, options, num_envs: int, device) -> tuple:
         )
     options = dict(options)
     for key in options:
-        if key == "reset_to_env_states":
+        if key == "reset_to_env_states" and "episode_index" in known:  # a navigation env's
             raise EnvConfigError(
                 "a reset to a saved state is not supported (the task's episode state would not follow)",
                 field="options['reset_to_env_states']",
                 fix="reset to its episode (options={'episode_index': k}), then env.set_state_dict(state)",
             )
-        if key not in RESET_OPTIONS:
+        if key not in known:
             raise EnvConfigError(
                 f"unknown reset option {_show(key)}",
                 field="options",
-                fix=f"use one of: {', '.join(RESET_OPTIONS)}",
+                fix=f"use one of: {', '.join(known)}",
             )
     _check_episode_options(options)
     if not isinstance(options.get("reconfigure", False), (bool, np.bool_)):

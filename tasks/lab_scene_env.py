@@ -1,4 +1,8 @@
-"""``BioVLN-LabScene-v0``: a lab scene with no robot, for viewing, rendering and timing scene builds."""
+"""``BioVLN-LabScene-v0``: a lab scene with no robot, for viewing, rendering and timing scene builds.
+
+Its arguments, ``reset`` seeds and options are checked as the navigation envs' are
+(:func:`~.config_checks.check_scene_env_arguments`): a bad one is one line naming it and the fix, before
+anything is built."""
 
 from __future__ import annotations
 
@@ -17,6 +21,7 @@ from biovln_ms.render.lighting import lighting_preset
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.scene.spec import SceneSpec
+from biovln_ms.tasks.config_checks import SCENE_RESET_OPTIONS, check_scene_env_arguments, reset_arguments
 
 
 def overview_pose(spec: SceneSpec):
@@ -47,20 +52,29 @@ class LabSceneEnv(BaseEnv):
         lighting: str = "fast",
         **kwargs,
     ) -> None:
-        if kwargs.get("obs_mode") == "pointcloud":
-            raise NotImplementedError(
-                "obs_mode 'pointcloud': BioVLN-LabScene-v0 has no sensor to fuse one "
-                "from; use render() (the overview camera) or obs_mode 'none'/'state'"
-            )
+        own = dict(
+            specs=specs,
+            template=template,
+            seed=seed,
+            ceiling=ceiling,
+            render_size=render_size,
+            lighting=lighting,
+        )
+        check_scene_env_arguments(own, kwargs)
         self._specs = list(specs) if specs else [generate_scene(template, seed)]
         self._ceiling = ceiling
-        lighting_preset(lighting)  # a one-line error for an unknown preset, before ManiSkill builds anything
+        lighting_preset(lighting)
         self._lighting = lighting
         self._render_size = render_size
         # Every other ManiSkill obs mode works; the default, "state", is empty (no robot, no task state).
         kwargs.setdefault("robot_uids", "none")
         kwargs.setdefault("reward_mode", "none")
         super().__init__(*args, **kwargs)
+
+    def reset(self, seed=None, options=None):
+        """ManiSkill's, after checking the seed and options (``env_idx`` as the base env's index tensor)."""
+        seed, options, _ = reset_arguments(seed, options, self.num_envs, self.device, SCENE_RESET_OPTIONS)
+        return super().reset(seed=seed, options=options)
 
     @property
     def _default_sensor_configs(self):

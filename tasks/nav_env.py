@@ -27,6 +27,7 @@ from biovln_ms.metrics.measure_set import MeasureSet
 from biovln_ms.metrics.measures import BatchContext, EpisodeContext, StepState
 from biovln_ms.metrics.reach_measures import REACH_MEASURES
 from biovln_ms.render.camera_shaders import head_camera_shader, use_depth_only_format
+from biovln_ms.render.progress import first_camera_render
 from biovln_ms.robot_specs import DEFAULT_ROBOT, ROBOTS, robot_spec
 from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
@@ -97,6 +98,7 @@ class BioVLNNavEnv(BaseEnv):
         self._set_scenes()
         self._arm: FetchArm | None = None  # Fetch's arm model for the reach check, made at the first STOP
         self._head_noise: HeadCameraNoise | None = None  # the image noise models, made once
+        first_camera_render(kwargs["obs_mode"], software=not torch.cuda.is_available())  # its first render
         super().__init__(*args, robot_uids=NAV_AGENTS[self.robot_id].uid, control_mode=control_mode, **kwargs)
 
     @property

@@ -13,6 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 from biovln_ms.cli import app
+from biovln_ms.errors import BioVLNError
 
 runner = CliRunner()
 
@@ -143,5 +144,5 @@ def test_lab_scene_env_readme_call_default_obs_mode() -> None:
         assert obs == {"agent": {}, "extra": {}}
     finally:
         env.close()
-    with pytest.raises(NotImplementedError, match="pointcloud"):
+    with pytest.raises(BioVLNError, match="field 'obs_mode'.*pointcloud"):
         gym.make("BioVLN-LabScene-v0", specs=[spec], obs_mode="pointcloud")
