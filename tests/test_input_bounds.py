@@ -367,6 +367,6 @@ def test_manifest_split_and_scene_names_follow_the_id_rule(held_out_dataset, tmp
     else:
         m["scenes"]["../x"] = m["scenes"]["lab_s154_v0"]
     (root / "manifest.json").write_text(json.dumps(m))
-    with pytest.raises(DatasetError, match="should match pattern") as e:
+    with pytest.raises(DatasetError, match=r"is not an id \(letters, digits") as e:
         EpisodeDataset(root)
     _one_line(e.value)
