@@ -20,24 +20,145 @@ app.add_typer(dataset_app, name="dataset")
 
 @dataset_app.command("build")
 def dataset_build(
-    out: Path = typer.Option(Path("data/biovln"), "-o", "--out", help="Dataset folder to (re)write."),
+    out: Optional[Path] = typer.Option(
+        None,
+        "-o",
+        "--out",
+        help="Dataset folder to (re)write (default: data/biovln; needed with --template).",
+    ),
     robot: str = typer.Option(
         "biovln_base", "--robot", help="Robot the scenes and episodes are made for: biovln_base, fetch."
+    ),
+    template: Optional[str] = typer.Option(
+        None,
+        "--template",
+        help="Build one training split of generated scenes of this template instead (biovln-ms list "
+        "templates); the benchmark scenes' seeds are skipped.",
+    ),
+    scenes: Optional[int] = typer.Option(None, "--scenes", help="With --template: scenes in the split."),
+    episodes_per_scene: Optional[int] = typer.Option(
+        None, "--episodes-per-scene", help="With --template: episodes per scene."
+    ),
+    seed: Optional[int] = typer.Option(None, "--seed", help="With --template: the first seed (default 0)."),
+    workers: Optional[int] = typer.Option(
+        None, "--workers", help="With --template: worker processes, or Ray tasks (default: one per core)."
+    ),
+    ray_address: Optional[str] = typer.Option(
+        None,
+        "--ray-address",
+        help="With --template: run on Ray: 'local' (a local instance), 'auto' or 'ray://host:port'.",
+    ),
+    split: Optional[str] = typer.Option(
+        None, "--split", help="With --template: the split's name (default: train)."
     ),
 ) -> None:
     """Build the paper's datasets.
 
-    Every scene and episode, deterministically and atomically, for one robot (its footprint radius)."""
-    from biovln_ms.splits import paper_splits
-    from biovln_ms.episodes.writer import write_dataset
+    Every scene and episode of the paper's datasets, deterministically and atomically, for one robot (its
+    footprint radius). With --template: one training split of --scenes generated scenes x
+    --episodes-per-scene episodes instead, in parallel; the same arguments give the same bytes, a killed
+    build resumes where it stopped, and no scene of a benchmark split enters it."""
     from biovln_ms.robot_specs import robot_spec
 
     robot_spec(robot, "--robot")
+    given = {
+        "--scenes": scenes,
+        "--episodes-per-scene": episodes_per_scene,
+        "--seed": seed,
+        "--workers": workers,
+        "--ray-address": ray_address,
+        "--split": split,
+    }
+    if template is None:
+        extra = next((k for k, v in given.items() if v is not None), None)
+        if extra:
+            raise BioVLNError(
+                "builds a training split of generated scenes, which needs --template",
+                field=extra,
+                fix="add --template NAME (biovln-ms list templates), or drop it for the paper's datasets",
+            )
+        _build_paper(out or Path("data/biovln"), robot)
+        return
+    for name in ("--scenes", "--episodes-per-scene"):
+        if given[name] is None:
+            raise BioVLNError("needed with --template", field=name, fix=f"add {name} N")
+    if out is None:
+        raise BioVLNError(
+            "needed with --template", field="--out", fix="add -o DIR (a folder of its own: it is rewritten)"
+        )
+    _build_training(out, robot, template, scenes, episodes_per_scene, seed, workers, ray_address, split)
+
+
+def _build_paper(out: Path, robot: str) -> None:
+    from biovln_ms.splits import paper_splits
+    from biovln_ms.episodes.writer import write_dataset
+
     m = write_dataset(out, paper_splits(robot), robot=robot)
     for name, s in m["splits"].items():
         note = f"  (missing: {s['missing']})" if s.get("missing") else ""
         typer.echo(f"{name:<14} {len(s['scenes']):>3} scenes {s['episodes']:>5} episodes{note}")
     typer.echo(f"wrote {out}")
+
+
+def _build_training(
+    out, robot, template, scenes, episodes_per_scene, seed, workers, ray_address, split
+) -> None:
+    import os
+    import time
+
+    from biovln_ms.episodes.bulk import build_training_split, check_request
+
+    seed = 0 if seed is None else seed
+    workers = (os.cpu_count() or 1) if workers is None else workers
+    split = "train" if split is None else split
+    check_request(scenes, episodes_per_scene, seed, workers, split, ray_address)
+    t0 = time.perf_counter()
+    m = build_training_split(
+        out,
+        template,
+        scenes,
+        episodes_per_scene,
+        held_out=held_out_seeds(),
+        first_seed=seed,
+        workers=workers,
+        ray_address=ray_address,
+        split=split,
+        robot=robot,
+        echo=typer.echo,
+    )
+    s = m["splits"][split]
+    seeds = [m["scenes"][name]["seed"] for name in s["scenes"]]
+    typer.echo(
+        f"{split}: {s['description']}; {s['episodes']:,} episodes, seeds {seeds[0]}-{seeds[-1]}, "
+        f"{time.perf_counter() - t0:.0f} s"
+    )
+    typer.echo(f"wrote {out}")
+
+
+def held_out_seeds() -> dict[str, frozenset[int]]:
+    """Template -> the seeds of the scenes of the paper's evaluation splits (every split but ``full``,
+    ``train`` and ``protocol_train``, whose scenes are for training), which no training split built by
+    ``dataset build --template`` uses: MS DEV/VAL/TEST, the two-room benchmark scene, the Hard track (and its
+    dressed scenes), the protocol validation and test splits (every seed their scan may take) and the
+    molecular-biology splits."""
+    from collections import defaultdict
+
+    from biovln_ms import splits as sp
+
+    seeds: dict[str, set[int]] = defaultdict(set)
+    for held, _ in sp.HELD_OUT.values():
+        seeds["single_room"].update(held)
+    seeds["two_room"].add(sp.TWO_ROOM_BENCH[0])
+    for rows in sp.HARD_SPLITS.values():  # hard_dressed_test: hard_test's seeds
+        for template, seed, _ in rows:
+            seeds[template].add(seed)
+    for name, (first, _) in sp.PROTOCOL_SPLITS.items():
+        if name != "protocol_train":
+            for template in sp.PROTOCOL_TEMPLATES:
+                seeds[template].update(range(first, first + sp.PROTOCOL_SEED_SCAN))
+    for first, count in sp.MOLBIO_SPLITS.values():
+        seeds[sp.MOLBIO_TEMPLATE].update(range(first, first + count))
+    return {t: frozenset(s) for t, s in seeds.items()}
 
 
 @dataset_app.command("stats")
