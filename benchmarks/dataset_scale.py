@@ -22,7 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from biovln_ms.cli.dataset import held_out_seeds
+from biovln_ms.splits import held_out_seeds
 from biovln_ms.episodes.bulk import build_training_split
 from biovln_ms.episodes.dataset import MAX_MANIFEST_BYTES, EpisodeDataset
 from biovln_ms.measured import docs_data_dir, write_table

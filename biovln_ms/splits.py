@@ -32,6 +32,8 @@ robot's default dataset is a sibling folder (``default_dataset_dir``).
 
 from __future__ import annotations
 
+from collections import defaultdict
+
 import contextlib
 import os
 from pathlib import Path
@@ -329,3 +331,25 @@ def _ensure(root: Path, echo, robot: str, progress: bool | None) -> Path:
 def dataset_root(root: str | Path | None, robot: str = DEFAULT_ROBOT) -> Path:
     """``root``, or ``robot``'s default dataset (built on first use)."""
     return Path(root) if root is not None else ensure_default_dataset(robot=robot)
+
+
+def held_out_seeds() -> dict[str, frozenset[int]]:
+    """Template -> the seeds of the scenes of the paper's evaluation splits (all but ``full``, ``train`` and
+    ``protocol_train``): MS DEV/VAL/TEST, the two-room benchmark scene, the Hard track (and its dressed
+    scenes), every seed the protocol validation and test scans may take, and the molecular-biology splits.
+    A training split built by ``dataset build --template`` uses none of them (the ``held_out`` of
+    :func:`biovln_ms.episodes.bulk.build_training_split`)."""
+    seeds: dict[str, set[int]] = defaultdict(set)
+    for held, _ in HELD_OUT.values():
+        seeds["single_room"].update(held)
+    seeds["two_room"].add(TWO_ROOM_BENCH[0])
+    for rows in HARD_SPLITS.values():  # hard_dressed_test: hard_test's seeds
+        for template, seed, _ in rows:
+            seeds[template].add(seed)
+    for name, (first, _) in PROTOCOL_SPLITS.items():
+        if name != "protocol_train":
+            for template in PROTOCOL_TEMPLATES:
+                seeds[template].update(range(first, first + PROTOCOL_SEED_SCAN))
+    for first, count in MOLBIO_SPLITS.values():
+        seeds[MOLBIO_TEMPLATE].update(range(first, first + count))
+    return {t: frozenset(s) for t, s in seeds.items()}

@@ -14,7 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 from biovln_ms.cli import app
-from biovln_ms.cli.dataset import held_out_seeds
+from biovln_ms.splits import held_out_seeds
 from biovln_ms.episodes import bulk
 from biovln_ms.episodes.bulk import BulkError, build_training_split, check_request, shards_dir
 from biovln_ms.episodes.dataset import EpisodeDataset

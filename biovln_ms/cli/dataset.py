@@ -107,6 +107,7 @@ def _build_training(
     import time
 
     from biovln_ms.episodes.bulk import build_training_split, check_request
+    from biovln_ms.splits import held_out_seeds
 
     seed = 0 if seed is None else seed
     workers = (os.cpu_count() or 1) if workers is None else workers
@@ -133,32 +134,6 @@ def _build_training(
         f"{time.perf_counter() - t0:.0f} s"
     )
     typer.echo(f"wrote {out}")
-
-
-def held_out_seeds() -> dict[str, frozenset[int]]:
-    """Template -> the seeds of the scenes of the paper's evaluation splits (every split but ``full``,
-    ``train`` and ``protocol_train``, whose scenes are for training), which no training split built by
-    ``dataset build --template`` uses: MS DEV/VAL/TEST, the two-room benchmark scene, the Hard track (and its
-    dressed scenes), the protocol validation and test splits (every seed their scan may take) and the
-    molecular-biology splits."""
-    from collections import defaultdict
-
-    from biovln_ms import splits as sp
-
-    seeds: dict[str, set[int]] = defaultdict(set)
-    for held, _ in sp.HELD_OUT.values():
-        seeds["single_room"].update(held)
-    seeds["two_room"].add(sp.TWO_ROOM_BENCH[0])
-    for rows in sp.HARD_SPLITS.values():  # hard_dressed_test: hard_test's seeds
-        for template, seed, _ in rows:
-            seeds[template].add(seed)
-    for name, (first, _) in sp.PROTOCOL_SPLITS.items():
-        if name != "protocol_train":
-            for template in sp.PROTOCOL_TEMPLATES:
-                seeds[template].update(range(first, first + sp.PROTOCOL_SEED_SCAN))
-    for first, count in sp.MOLBIO_SPLITS.values():
-        seeds[sp.MOLBIO_TEMPLATE].update(range(first, first + count))
-    return {t: frozenset(s) for t, s in seeds.items()}
 
 
 @dataset_app.command("stats")
