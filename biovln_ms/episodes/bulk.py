@@ -31,7 +31,6 @@ from pathlib import Path
 from biovln_ms.catalog import load_catalog
 from biovln_ms.constants import SCENE_GENERATOR_VERSION
 from biovln_ms.episodes.dataset import (
-    DATASET_FORMAT_VERSION,
     EPISODE_GENERATOR_VERSION,
     MAX_EPISODES_PER_SPLIT,
     DatasetError,
@@ -39,9 +38,9 @@ from biovln_ms.episodes.dataset import (
 )
 from biovln_ms.episodes.generator import EpisodeError
 from biovln_ms.episodes.samplers import SceneSamplers, SingleGoalEpisodes
-from biovln_ms.episodes.writer import _lock_folder, gz_json, remove_stale_builds, stable_split_seed
+from biovln_ms.episodes.writer import gz_json, new_manifest, partial_folder, put_in_place, stable_split_seed
 from biovln_ms.errors import BioVLNError
-from biovln_ms.io_utils import exclusive_lock
+from biovln_ms.io_utils import atomic_write_bytes, exclusive_lock
 from biovln_ms.limits import ID_CHARS, ID_RULE, MAX_ID_LENGTH, MAX_WORKERS
 from biovln_ms.plugins import load_plugins, loaded_plugins
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
@@ -305,20 +304,13 @@ def _plan(t: Template, first_seed: int, k: int, split: str, robot: str, radius: 
     }
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    """``path`` holds ``data`` or what it held before, whenever the process is killed."""
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)
-
-
 def _save_shard(folder: Path, result: dict, plan_id: str) -> dict:
     """Write ``result`` as ``<seed>.json``; returns what the build keeps of it in memory."""
     record = {k: v for k, v in result.items() if k != "episodes_gz"}
     record["plan"] = plan_id
     if result["ok"]:
         record["episodes_gz"] = base64.b64encode(result["episodes_gz"]).decode()
-    _write_atomic(folder / f"{result['seed']}.json", json.dumps(record, sort_keys=True).encode())
+    atomic_write_bytes(folder / f"{result['seed']}.json", json.dumps(record, sort_keys=True).encode())
     return {"ok": result["ok"], "name": result.get("name"), "reason": result.get("reason")}
 
 
@@ -358,7 +350,7 @@ def _open_shards(folder: Path, plan: dict, echo: Callable[[str], None]) -> str:
             echo(f"[biovln-ms] {folder}: shards of other arguments, discarded")
         for p in stale:
             shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
-        _write_atomic(path, (plan_text + "\n").encode())
+        atomic_write_bytes(path, (plan_text + "\n").encode())
     return plan_id
 
 
@@ -512,24 +504,10 @@ def _assemble(
 ) -> dict:
     """Write the dataset of ``seeds``' shards into a locked temporary sibling of ``out`` and rename it into
     place; the manifest is ``write_dataset``'s for a one-split plan of these scenes."""
-    remove_stale_builds(out)
-    tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
-    if tmp.exists():
-        shutil.rmtree(tmp)
-    (tmp / "scenes").mkdir(parents=True)
-    (tmp / split / "content").mkdir(parents=True)
-    lock = _lock_folder(tmp)
+    tmp, lock = partial_folder(out)
     try:
-        manifest: dict = {
-            "format_version": DATASET_FORMAT_VERSION,
-            "robot": robot,
-            "agent_radius": radius,
-            "catalog_sha256": catalog_sha256,
-            "scene_generator_version": SCENE_GENERATOR_VERSION,
-            "episode_generator_version": EPISODE_GENERATOR_VERSION,
-            "scenes": {},
-            "splits": {},
-        }
+        (tmp / split / "content").mkdir(parents=True)
+        manifest = new_manifest(robot, radius, catalog_sha256)
         entry: dict = {"description": description, "scenes": [], "episodes": 0, "files": {}}
         for seed in seeds:
             rec = json.loads((folder / f"{seed}.json").read_bytes())
@@ -551,19 +529,10 @@ def _assemble(
             entry["episodes"] += rec["episodes"]
             entry["files"][name] = {"file": rel, "sha256": sha256(blob), "episodes": rec["episodes"]}
         manifest["splits"][split] = entry
-        manifest["complete"] = True
-        (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
-        if out.exists():
-            old = out.parent / f".{out.name}.old-{os.getpid()}"
-            out.rename(old)
-            tmp.rename(out)
-            shutil.rmtree(old)
-        else:
-            tmp.rename(out)
+        return put_in_place(out, tmp, manifest)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     finally:
         if lock is not None:
             os.close(lock)
-    return manifest

@@ -117,12 +117,7 @@ def write_dataset(
     into place; first removes what killed builds left there (``remove_stale_builds``)."""
     radius = robot_spec(robot, "robot").footprint_radius
     out = Path(out)
-    remove_stale_builds(out)
-    tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
-    if tmp.exists():
-        shutil.rmtree(tmp)
-    (tmp / "scenes").mkdir(parents=True)
-    lock = _lock_folder(tmp)
+    tmp, lock = partial_folder(out)
     try:
         return _build(out, tmp, splits, progress, robot, radius)
     finally:
@@ -130,21 +125,51 @@ def write_dataset(
             os.close(lock)
 
 
-def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, robot: str, radius: float) -> dict:
-    """``write_dataset``'s work: every file into ``tmp``, the manifest last, then the rename to ``out``."""
-    from tqdm import tqdm
+def partial_folder(out: Path) -> tuple[Path, int | None]:
+    """A fresh ``.<name>.partial-<pid>`` beside ``out`` with its ``scenes/`` folder, and the lock held on it
+    while the build runs (close it when done); first removes what killed builds left there."""
+    remove_stale_builds(out)
+    tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    (tmp / "scenes").mkdir(parents=True)
+    return tmp, _lock_folder(tmp)
 
-    cat = load_catalog()
-    manifest: dict = {
+
+def new_manifest(robot: str, radius: float, catalog_sha256: str) -> dict:
+    """A dataset manifest without scenes or splits yet."""
+    return {
         "format_version": DATASET_FORMAT_VERSION,
         "robot": robot,
         "agent_radius": radius,
-        "catalog_sha256": cat.sha256,
+        "catalog_sha256": catalog_sha256,
         "scene_generator_version": SCENE_GENERATOR_VERSION,
         "episode_generator_version": EPISODE_GENERATOR_VERSION,
         "scenes": {},
         "splits": {},
     }
+
+
+def put_in_place(out: Path, tmp: Path, manifest: dict) -> dict:
+    """Write ``manifest`` (complete) into ``tmp``, last, and rename ``tmp`` to ``out`` (an existing ``out``
+    goes only once the new one is in place); returns the manifest."""
+    manifest["complete"] = True
+    (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    if out.exists():
+        old = out.parent / f".{out.name}.old-{os.getpid()}"
+        out.rename(old)
+        tmp.rename(out)
+        shutil.rmtree(old)
+    else:
+        tmp.rename(out)
+    return manifest
+
+
+def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, robot: str, radius: float) -> dict:
+    """``write_dataset``'s work: every file into ``tmp``, the manifest last, then the rename to ``out``."""
+    from tqdm import tqdm
+
+    manifest = new_manifest(robot, radius, load_catalog().sha256)
     scenes = SceneSamplers()  # shared by every split: a scene's geometry is built once
     total = sum(len(s.scenes) for s in splits if not s.view_of)
     bar = tqdm(total=total, desc="dataset scenes", disable=not progress)
@@ -191,16 +216,7 @@ def _build(out: Path, tmp: Path, splits: list[SplitPlan], progress: bool, robot:
             bar.update(1)
         manifest["splits"][split.name] = entry
     bar.close()
-    manifest["complete"] = True
-    (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
-    if out.exists():
-        old = out.parent / f".{out.name}.old-{os.getpid()}"
-        out.rename(old)
-        tmp.rename(out)
-        shutil.rmtree(old)
-    else:
-        tmp.rename(out)
-    return manifest
+    return put_in_place(out, tmp, manifest)
 
 
 def stable_split_seed(name: str) -> int:
