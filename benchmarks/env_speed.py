@@ -31,7 +31,7 @@ import numpy as np
 import torch
 
 import biovln_ms  # noqa: F401
-from biovln_ms.measured import docs_data_dir, write_table
+from biovln_ms.measured import docs_data_dir, timed, write_table
 from biovln_ms.render.sapien_utils import raw_camera_rate, vulkan_device_label
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
@@ -45,27 +45,18 @@ def rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def time_noise_work(env) -> list[float]:
+def time_noise_work(env) -> dict[str, float]:
     """Wrap the noise work of ``env`` (actuation noise, the no-sliding check, the image noise models, the
-    camera extrinsics re-expressed in the base frame without GPS+compass) with a timer; the returned
-    one-element list accumulates its seconds. Under actuation noise the robot takes another path than the
-    ideal run, and a frame's cost depends on what it sees, so the end-to-end ratio of two runs mixes
-    the noise's cost with the views'; this is the noise's own."""
-    u, spent = env.unwrapped, [0.0]
-
-    def timed(fn):
-        def run(*args, **kwargs):
-            t = time.perf_counter()
-            out = fn(*args, **kwargs)
-            spent[0] += time.perf_counter() - t
-            return out
-
-        return run
+    camera extrinsics re-expressed in the base frame without GPS+compass) with a timer; the returned dict's
+    ``"noise"`` accumulates its seconds. Under actuation noise the robot takes another path than the ideal
+    run, and a frame's cost depends on what it sees, so the end-to-end ratio of two runs mixes the noise's
+    cost with the views'; this is the noise's own."""
+    u, spent = env.unwrapped, {"noise": 0.0}
 
     def time_controllers():  # the locomotion controllers are made anew when a scene is built
         for controller in u.agent.controllers.values():
-            controller._perturb = timed(controller._perturb)
-            controller._no_sliding = timed(controller._no_sliding)
+            controller._perturb = timed(controller._perturb, spent, "noise")
+            controller._no_sliding = timed(controller._no_sliding, spent, "noise")
 
     load_agent = u._load_agent
 
@@ -76,8 +67,8 @@ def time_noise_work(env) -> list[float]:
     u._load_agent = load_and_time
     time_controllers()
     noise = u._head_noise
-    noise.camera_params_in_base_frame = timed(noise.camera_params_in_base_frame)
-    noise.apply_image_noise = timed(noise.apply_image_noise)
+    noise.camera_params_in_base_frame = timed(noise.camera_params_in_base_frame, spent, "noise")
+    noise.apply_image_noise = timed(noise.apply_image_noise, spent, "noise")
     return spent
 
 
@@ -170,11 +161,11 @@ def main() -> None:
         )
         env.reset(seed=0)
         raw = raw_camera_rate(env, max(20, args.steps // 5)) if obs_mode != "state" else None
-        spent = time_noise_work(env) if noise != "ideal" else [0.0]
+        spent = time_noise_work(env) if noise != "ideal" else {"noise": 0.0}
         steps = args.steps if obs_mode != "state" else args.steps * 5
         rate = step_rate(env, steps)
         rows.append((label, rate, raw))
-        noise_seconds[label] = spent[0] / (steps + 10)  # per step, the 10 warm-up steps included
+        noise_seconds[label] = spent["noise"] / (steps + 10)  # per step, the 10 warm-up steps included
         env.close()
     print(f"{'mode':<44} {'env steps/s':>12} {'raw SAPIEN frames/s':>20} {'ratio':>7}")
     for label, rate, raw in rows:

@@ -23,7 +23,7 @@ import shapely
 import torch
 
 import biovln_ms  # noqa: F401
-from biovln_ms.measured import docs_data_dir, write_table
+from biovln_ms.measured import docs_data_dir, timed, write_table
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.templates import register_template
 
@@ -111,20 +111,11 @@ def measure(template: str, seed: int, steps: int) -> dict:
         t = time.perf_counter()
         env.reset(seed=i + 1)
         resets.append(time.perf_counter() - t)
-    spent = [0.0]
-    update = u._measures.update
-
-    def timed(*a, **k):
-        t0 = time.perf_counter()
-        try:
-            return update(*a, **k)
-        finally:
-            spent[0] += time.perf_counter() - t0
-
-    u._measures.update = timed
+    spent = {"measures": 0.0}
+    u._measures.update = timed(u._measures.update, spent, "measures")
     rng = np.random.default_rng(seed)
     env.step(1)
-    spent[0] = 0.0
+    spent["measures"] = 0.0
     t = time.perf_counter()
     for a in rng.integers(1, 4, steps):
         _, _, term, trunc, _ = env.step(int(a))
@@ -139,7 +130,7 @@ def measure(template: str, seed: int, steps: int) -> dict:
         build=build,
         reset=statistics.median(resets),
         step=step,
-        measures=spent[0] / steps,
+        measures=spent["measures"] / steps,
     )
 
 

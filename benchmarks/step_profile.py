@@ -22,20 +22,9 @@ import numpy as np
 import torch
 
 import biovln_ms  # noqa: F401
-from biovln_ms.measured import docs_data_dir, write_table
+from biovln_ms.measured import docs_data_dir, timed, write_table
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
-
-
-def _timed(spent: dict[str, float], label: str, fn):
-    def run(*args, **kwargs):
-        t = time.perf_counter()
-        try:
-            return fn(*args, **kwargs)
-        finally:
-            spent[label] += time.perf_counter() - t
-
-    return run
 
 
 def _parts(env) -> dict[str, float]:
@@ -45,14 +34,14 @@ def _parts(env) -> dict[str, float]:
         ("SAPIEN physics", "robot command", "controller end of step", "measures", "info", "observation",
          "reward"), 0.0
     )  # fmt: skip
-    u.scene.step = _timed(spent, "SAPIEN physics", u.scene.step)
-    u.agent.set_action = _timed(spent, "robot command", u.agent.set_action)
+    u.scene.step = timed(u.scene.step, spent, "SAPIEN physics")
+    u.agent.set_action = timed(u.agent.set_action, spent, "robot command")
     ctrl = u.agent.controller
-    ctrl.end_step = _timed(spent, "controller end of step", ctrl.end_step)
-    u._measures.update = _timed(spent, "measures", u._measures.update)
-    u.get_info = _timed(spent, "info", u.get_info)
-    u.get_obs = _timed(spent, "observation", u.get_obs)
-    u.get_reward = _timed(spent, "reward", u.get_reward)
+    ctrl.end_step = timed(ctrl.end_step, spent, "controller end of step")
+    u._measures.update = timed(u._measures.update, spent, "measures")
+    u.get_info = timed(u.get_info, spent, "info")
+    u.get_obs = timed(u.get_obs, spent, "observation")
+    u.get_reward = timed(u.get_reward, spent, "reward")
     return spent
 
 
