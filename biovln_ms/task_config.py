@@ -105,6 +105,8 @@ class NavTaskConfig:
     default_obs_mode: str = "state"
     lighting: str = "fast"  # a preset of biovln_ms.render.lighting.LIGHTING: "fast" or "quality" (shadows)
     noise: NoiseConfig = field(default_factory=NoiseConfig)  # biovln_ms.noise: the paper's is ideal
+    people: int = 0  # technicians walking the lab (biovln_ms.people, docs/guides/people.md); 0: none
+    person_collision_ends: bool = True  # with people: a collision with a person ends the episode, failed
 
     @property
     def protocol(self) -> bool:

@@ -37,6 +37,8 @@ from biovln_ms.metrics import protocol_measures
 from biovln_ms.metrics.measures import measure_names, measure_type
 from biovln_ms.metrics.protocol_measures import check_protocol_options
 from biovln_ms.metrics.reach_measures import REACH_MEASURES
+from biovln_ms.metrics import people_measures  # noqa: F401  (registers the measures of people=)
+from biovln_ms.people.crowd import MAX_PEOPLE, people_config
 from biovln_ms.noise import NoiseConfig, resolve_noise
 from biovln_ms.render.lighting import LIGHTING
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
@@ -138,8 +140,9 @@ CONFIG_LIMITS = {
     "safety_penalty": Bound(0, 1e6, closed=True),
     "position_scale": Bound(0.01, 1000, "m", closed=True),
     "steps_per_goal": Bound(1, 100_000, integer=True, closed=True),
+    "people": Bound(0, MAX_PEOPLE, integer=True, closed=True),
 }
-BOOL_FIELDS = ("proportional_safety", "shuffle_episodes", "agent_obs")
+BOOL_FIELDS = ("proportional_safety", "shuffle_episodes", "agent_obs", "person_collision_ends")
 VIEW_LIMITS = {
     "width": Bound(1, 4096, "pixels", integer=True, closed=True),
     "height": Bound(1, 4096, "pixels", integer=True, closed=True),
@@ -247,7 +250,11 @@ def checked_config(cfg: NavTaskConfig, robot: str) -> NavTaskConfig:
     check_measures(cfg, values["measures"], robot)
     if cfg.protocol:
         check_protocol_options(cfg.wrong_stop, cfg.subgoal_rule, values["steps_per_goal"])
-    return replace(cfg, **values)
+        if values["people"]:
+            raise EnvConfigError(
+                "people walk in the single-goal variants only", field="people", fix="pass people=0 here"
+            )
+    return people_config(replace(cfg, **values))
 
 
 def _names(name: str, v, known) -> tuple[str, ...]:
@@ -284,6 +291,10 @@ def check_measures(cfg: NavTaskConfig, measures: tuple[str, ...], robot: str) ->
         if not cfg.protocol and measure_type(m).__module__ == protocol_measures.__name__:
             raise EnvConfigError(
                 f"measure '{m}' is a protocol measure", field="measures", fix="use it in BioVLN-Protocol-v0"
+            )
+        if measure_type(m).__module__ == people_measures.__name__ and not cfg.people:
+            raise EnvConfigError(
+                f"measure '{m}' is a measure of people", field="measures", fix="pass people=1 or more"
             )
         if m in REACH_MEASURES and (robot != "fetch" or cfg.protocol):
             raise EnvConfigError(

@@ -37,6 +37,7 @@ from biovln_ms.tasks.config_checks import SIM_FREQUENCIES, EnvConfigError, check
 from biovln_ms.tasks.config_checks import REWARD_MODES, reset_arguments, task_config
 from biovln_ms.tasks.episodes import choose_episodes, episode_context
 from biovln_ms.tasks.observations import HeadCameraNoise, segmentation_lookup
+from biovln_ms.tasks.people import EnvPeople
 from biovln_ms.tasks.privileged import PrivilegedView
 from biovln_ms.tasks.sensors import SENSORS, SensorInputs, semantic_category
 from biovln_ms.variants import BENCHMARK_ENV, VARIANTS
@@ -141,8 +142,9 @@ class BioVLNNavEnv(BaseEnv):
         )
         self.scene_builder.build([scene_ids.index(s) for s in self._scene_ids])
         self._segmentation_lookup = segmentation_lookup(self.scene_builder, self.category_names, self.device)
+        self._people = EnvPeople(self) if self.cfg.people else None  # figures, and "person" in segmentation
         for controller in self.agent.controllers.values():
-            controller.motions = self._motions
+            controller.motions, controller.people = self._motions, self._people
 
     def _load_lighting(self, options: dict):
         """Lights come from the scene builder."""
@@ -202,7 +204,8 @@ class BioVLNNavEnv(BaseEnv):
         self._done[idx] = False
         self._frozen[idx] = False
         self.agent.controller.actuation_error[idx] = 0.0
-        self._measures.reset(self._ctx, StepState.at_rest(pose), idx)
+        people = self._people.reset(idx.tolist(), pose) if self._people else None
+        self._measures.reset(self._ctx, StepState.at_rest(pose, people), idx)
 
     def _step_action(self, action):
         """ManiSkill's, after checking the action (:func:`~biovln_ms.agents.robots.locomotion.as_action`).
@@ -219,7 +222,8 @@ class BioVLNNavEnv(BaseEnv):
     def _after_control_step(self):
         """The measures of the move the controller made, once per step (``evaluate`` only reads them)."""
         move = self.agent.controller.end_step()
-        state = StepState(move.pose[:, :2], move.pose[:, 2], move.stop, move.forward, move.moved)
+        people = self._people.step(move.pose, self._frozen) if self._people else None  # they move meanwhile
+        state = StepState(move.pose[:, :2], move.pose[:, 2], move.stop, move.forward, move.moved, people)
         active = None if not self._frozen.any() else np.flatnonzero(~self._frozen)
         self._measures.update(self._ctx, state, active)
         c = self.cfg
@@ -284,6 +288,8 @@ class BioVLNNavEnv(BaseEnv):
             actuation_error=torch.tensor(self.agent.controller.actuation_error, device=self.device),
             measures=self._measures.state_dict(),
         )
+        if self._people:  # the crowds' (their figures' poses are ManiSkill's actor state)
+            state["task"]["people"] = self._people.state_dict()
         return state
 
     def set_state_dict(self, state: dict, env_idx: torch.Tensor | None = None):
@@ -309,6 +315,8 @@ class BioVLNNavEnv(BaseEnv):
         error = torch.as_tensor(task["actuation_error"]).cpu().numpy()[rows]
         self.agent.controller.actuation_error[rows] = error
         self._measures.load_state_dict(task["measures"], idx)
+        if self._people:
+            self._people.load_state_dict(task["people"], rows)
 
     # --- rendering -----------------------------------------------------------------------------
     def render_rgb_array(self, camera_name: str | None = None):

@@ -164,6 +164,7 @@ class LocomotionController(PDJointPosController):
     actuation = 0.0  # actuation noise level (biovln_ms.noise), 0: exact moves
     sliding = True  # a blocked move slides along the obstacle (False: it stays where it started)
     motions: list[SweptMotion] | None = None  # per sub-env swept-motion checks (None: no checks)
+    people = None  # the env's people (biovln_ms.tasks.people.EnvPeople): moves are cut at their bodies
     frozen: np.ndarray | None = None  # (N,) sub-envs whose episode has ended: their actions are ignored
 
     def _initialize_action_space(self):
@@ -312,11 +313,13 @@ class LocomotionController(PDJointPosController):
 
     def _limit_targets(self, pose: np.ndarray, target: np.ndarray, moving: np.ndarray) -> np.ndarray:
         """Drive targets of moves cut before an obstacle the straight path would cross (no tunnelling at any
-        step size)."""
+        step size), and with people, where the body would first touch a person's."""
         out = target.copy()
         for i in np.flatnonzero(moving).tolist():
             x, y = pose[i, :2].tolist()
             out[i, 0], out[i, 1] = self.motions[i].target(x, y, *target[i, :2].tolist())
+            if self.people is not None:
+                out[i, 0], out[i, 1] = self.people.cut(i, x, y, *out[i, :2].tolist())
         return out
 
     def _undo_crossings(self, start: np.ndarray, pose: np.ndarray) -> np.ndarray:

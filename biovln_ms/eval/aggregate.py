@@ -22,6 +22,7 @@ import numpy as np
 
 import biovln_ms.metrics.protocol_measures  # noqa: F401  (registers the protocol measures' metrics)
 import biovln_ms.metrics.reach_measures  # noqa: F401  (registers Fetch's reach metric)
+import biovln_ms.metrics.people_measures  # noqa: F401  (registers the human-aware metrics of people=)
 from biovln_ms.constants import MAX_VISITS as MAX_STAGES
 from biovln_ms.eval.stats import BOOTSTRAP_RESAMPLES, BOOTSTRAP_SEED, bootstrap_interval, wilson_interval
 from biovln_ms.metrics.measures import OUTCOME, Aggregate, Metric, measure_names, measure_type
@@ -183,6 +184,8 @@ def aggregate(records: Iterable[dict]) -> dict:
     wins = [r for r in ran if r[OUTCOME]]
     out: dict = {"episodes": len(records), "errors": len(records) - len(ran)}
     for metric, _ in kind_metrics(any(is_protocol(r) for r in records)).values():
+        if metric.when_recorded and not any(metric.key in r for r in records):
+            continue
         for a in metric.aggregates:
             out.update(_aggregate(a, metric.key, records, ran, wins))
     walls = [r["wall_time_s"] for r in records if isinstance(r.get("wall_time_s"), (int, float))]

@@ -20,7 +20,8 @@ declarations without loading torch. Conventions (paper §4.2):
 * ``facing_instrument``: the target's centre lies within half the camera's horizontal field of view.
 * ``strict_success`` (operational success, this platform's rule beside the paper's radius rule): a
   successful STOP (within r) that also stands in Zone 3 and faces the operational face, the heading within
-  ``strict_facing_deg`` (30 by default) of the face's inward normal ``-f`` (``facing_face``).
+  ``strict_facing_deg`` (30 by default) of the face's inward normal ``-f`` (``facing_face``); with people
+  (:mod:`biovln_ms.people`), that Zone 3 free of them. ``success`` (the radius rule) ignores people.
 * ``collisions``: steps whose commanded forward motion was cut short by contact (moved < 90 %).
 * SPL = success * l_opt / max(l, l_opt); soft SPL = (1 - d_T / d_0) * l_opt / max(l, l_opt) with geodesic
   d_T at the end and d_0 at the start; DTG = final Euclidean distance; VRT = fraction of steps
@@ -40,6 +41,7 @@ from typing import Callable, ClassVar, Protocol
 import numpy as np
 
 from biovln_ms.geometry.zones import SAFETY_THRESHOLD, InstrumentArray, PlacedInstrument
+from biovln_ms.people.body import PERSON_RADIUS, PeopleStep
 from biovln_ms.task_config import NavTaskConfig
 
 F64 = np.float64
@@ -139,15 +141,16 @@ class StepState:
     stopped: np.ndarray  # (N,) bool
     commanded_forward: np.ndarray  # (N,) float64
     moved_forward: np.ndarray  # (N,) float64
+    people: PeopleStep | None = None  # an env with people: where they are (biovln_ms.people)
     #: per-goal arrays several measures share, computed once per (quantity, rows) (see :func:`_once`)
     cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
-    def at_rest(cls, pose: np.ndarray) -> "StepState":
+    def at_rest(cls, pose: np.ndarray, people: PeopleStep | None = None) -> "StepState":
         """The state at reset: pose (N, 3), no command."""
         pose = np.asarray(pose, F64)
         zeros = np.zeros(len(pose))
-        return cls(pose[:, :2], pose[:, 2], np.zeros(len(pose), dtype=bool), zeros, zeros)
+        return cls(pose[:, :2], pose[:, 2], np.zeros(len(pose), dtype=bool), zeros, zeros, people)
 
 
 @dataclass(frozen=True)
@@ -196,6 +199,9 @@ class Metric:
     at: str = "end"
     required: bool = True
     aggregates: tuple[Aggregate, ...] = ()
+    #: True: a set of records none of which holds it has none of its aggregates (a measure that only some
+    #: envs report, such as the people's, is absent from the summaries of the others)
+    when_recorded: bool = False
 
 
 #: the record key of an episode's outcome: every variant's success measure is recorded under it
@@ -351,6 +357,20 @@ def _facing_face(ctx: BatchContext, s: StepState, idx: Rows, cfg: NavTaskConfig)
     return _once(s, idx, "facing_face", compute)
 
 
+def _zone3_occupied(ctx: BatchContext, s: StepState, idx: Rows) -> np.ndarray:
+    """(N, k) whether a person's body overlaps each goal's Zone 3 (``s.people`` given)."""
+
+    def compute() -> np.ndarray:
+        z = ctx.zone3[idx][:, :, None, :]  # (n, k, 1, 8)
+        d = s.people.positions[idx][:, None, :, :] - z[..., 0:2]  # (n, k, P, 2)
+        du = np.abs(d[..., 0] * z[..., 2] + d[..., 1] * z[..., 3]) - z[..., 6]
+        dv = np.abs(d[..., 0] * z[..., 4] + d[..., 1] * z[..., 5]) - z[..., 7]
+        near = np.hypot(np.maximum(du, 0.0), np.maximum(dv, 0.0)) < PERSON_RADIUS
+        return ctx.has_zone3[idx] & near.any(axis=2)
+
+    return _once(s, idx, "zone3_occupied", compute)
+
+
 @register_measure
 class DistanceToGoal(Measure):
     """To the nearest goal (the episode's one, or any instance of its category)."""
@@ -430,7 +450,8 @@ class FacingFace(Measure):
 
 @register_measure
 class StrictSuccess(Measure):
-    """Operational success: STOP within a goal's radius, in that goal's Zone 3, facing its face."""
+    """Operational success: STOP within a goal's radius, in that goal's Zone 3, facing its face; with
+    people, that Zone 3 free of them (an instrument whose face is occupied cannot be operated)."""
 
     uuid = "strict_success"
     metric = Metric(
@@ -444,6 +465,8 @@ class StrictSuccess(Measure):
     def compute(self, ctx, s, m, idx):
         within = _goal_distances(ctx, s, idx) <= ctx.radii[idx]
         at = within & _in_zone3(ctx, s, idx) & _facing_face(ctx, s, idx, self.cfg)
+        if s.people is not None:
+            at &= ~_zone3_occupied(ctx, s, idx)
         return m["stopped"][idx] & _any_goal(at)
 
 

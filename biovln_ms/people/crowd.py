@@ -1,0 +1,334 @@
+"""One sub-env's technicians: routes on the robot's free space, schedules, waiting, and the robot's moves cut
+at a person's body. Pure NumPy and shapely; every number of a crowd's state is in :meth:`Crowd.state`, so a
+replay restored from it continues exactly.
+
+A person is a disc of :data:`PERSON_RADIUS` (the SAPIEN figure fits inside it). People walk at their own
+speed (uniform in :data:`SPEED_RANGE`) along shortest paths of the robot's navigable area (the robot's
+footprint is at least their radius, so they never touch a wall, a piece of furniture or an instrument) to an
+instrument's operational face, and stand at its Eq. 1 goal point (their body in its Zone 3) for a dwell time
+(uniform in :data:`DWELL_RANGE`), then walk to another face that no one else has claimed. Each action step
+lasts :func:`step_seconds`; people move in ticks of :data:`TICK` meanwhile, in index order. A tick's move
+that would bring a body within :data:`GAP` of another person or of the robot (and closer than before) is
+replaced by a sidestep of the same length (right first, then left) when that one is free, else the person
+waits; after :data:`PATIENCE` seconds of waiting on one walk the person picks another face (no deadlock in a
+narrow aisle). Draws are stateless, keyed by (episode seed, :data:`PEOPLE_STREAM`, person, visit), as the
+actuation noise is (:mod:`biovln_ms.noise`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString
+
+from biovln_ms.errors import BioVLNError
+from biovln_ms.geometry.navigation import NavGeometry, UnreachableError
+from biovln_ms.people.body import PERSON_RADIUS
+
+#: m/s: walking speeds; s: how long a person stands at a face
+SPEED_RANGE = (0.8, 1.4)
+DWELL_RANGE = (10.0, 40.0)
+#: the robot's speeds that give an action step its duration (:func:`step_seconds`)
+ROBOT_SPEED = 0.5  # m/s
+ROBOT_TURN_RATE = 60.0  # degrees/s
+#: s: people move in ticks of this within a step
+TICK = 0.1
+#: m kept between a person's body and another's or the robot's
+GAP = 0.1
+#: m: at reset no person stands closer than this to the robot's body
+START_CLEARANCE = 0.5
+#: s of waiting on one walk after which a person walks to another face
+PATIENCE = 8.0
+#: degrees off the way ahead of a sidestep
+SIDESTEP_DEG = 60.0
+#: ``people=`` ranges over 0 to this
+MAX_PEOPLE = 8
+#: waypoints a route keeps (a longer one is planned again from its last kept point)
+ROUTE_POINTS = 48
+#: the people's draws: default_rng([episode seed, PEOPLE_STREAM, person + 1, visit, purpose])
+PEOPLE_STREAM = 0x70706C
+STAND, WALK = 0, 1
+#: what a person's wait is blamed on
+_PERSON, _ROBOT = 1, 2
+
+#: the measures an env with people reports besides its variant's (:mod:`biovln_ms.metrics.people_measures`)
+PEOPLE_MEASURES = (
+    "person_distance",
+    "person_collision",
+    "min_person_distance",
+    "personal_space_rate",
+    "person_collisions",
+    "robot_wait_time",
+    "people_wait_time",
+    "mcr_people",
+    "vrt_people",
+)
+#: the single-goal variants' fail measures, which ``people_fail`` extends with a person collision
+STOP_FAIL_MEASURES = ("failed_stop", "strict_failed_stop")
+
+
+class CrowdError(BioVLNError):
+    """A crowd that cannot be made: too many people for the scene's instrument faces."""
+
+
+def step_seconds(forward_step: float, turn_deg: float) -> float:
+    """The duration (s) of every action step: the longer of a FORWARD at :data:`ROBOT_SPEED` and a turn at
+    :data:`ROBOT_TURN_RATE` (0.5 s for the benchmark's 0.25 m and 30 degrees). A STOP, a blocked move and a
+    no-action step last as long: the people move meanwhile."""
+    return max(forward_step / ROBOT_SPEED, turn_deg / ROBOT_TURN_RATE)
+
+
+def people_config(cfg):
+    """A :class:`~biovln_ms.task_config.NavTaskConfig` with people: its measures and the people's, and, for a
+    variant whose episode fails at a wrong STOP, the fail measure ``people_fail`` (that, or a person
+    collision when ``person_collision_ends``). Unchanged without people."""
+    if not cfg.people:
+        return cfg
+    fail = "people_fail" if cfg.fail_measure in STOP_FAIL_MEASURES else cfg.fail_measure
+    return replace(cfg, measures=tuple(dict.fromkeys(cfg.measures + PEOPLE_MEASURES)), fail_measure=fail)
+
+
+@dataclass(frozen=True)
+class Stations:
+    """The instrument faces people stand at: ids, Eq. 1 goal points and the people's yaw there."""
+
+    ids: tuple[str, ...]
+    stand: np.ndarray  # (S, 2)
+    yaw: np.ndarray  # (S,) facing the face (along -f)
+
+
+def stations(spec, nav: NavGeometry, start_xy) -> Stations:
+    """The goal objects of scene ``spec`` whose Eq. 1 goal point is navigable on the robot start's island:
+    every face a person can walk to from where the robot starts."""
+    island = nav.island_of(np.asarray(start_xy, float))
+    ids, stand, yaw = [], [], []
+    for o in spec.goal_objects():
+        if o.face is None or o.goal is None or nav.island_of(np.asarray(o.goal)) != island:
+            continue
+        ids.append(o.id)
+        stand.append(o.goal)
+        yaw.append(math.atan2(-o.face[1], -o.face[0]))
+    return Stations(tuple(ids), np.asarray(stand, float).reshape(-1, 2), np.asarray(yaw, float))
+
+
+class Crowd:
+    """``n`` people of one sub-env (:meth:`reset` places them for an episode)."""
+
+    #: the arrays of a crowd's state, each with a leading person dimension
+    STATE = (
+        "pos",
+        "yaw",
+        "mode",
+        "target",
+        "timer",
+        "waited",
+        "visits",
+        "speed",
+        "route",
+        "route_len",
+        "leg",
+    )
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.pos, self.yaw = np.zeros((n, 2)), np.zeros(n)
+        self.mode, self.target = np.zeros(n, np.int64), np.zeros(n, np.int64)
+        self.timer, self.waited, self.speed = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.visits = np.zeros(n, np.int64)
+        self.route = np.zeros((n, ROUTE_POINTS, 2))
+        self.route_len, self.leg = np.zeros(n, np.int64), np.zeros(n, np.int64)
+        self.nav: NavGeometry | None = None
+        self.robot_radius, self.seed = 0.0, 0
+
+    # --- an episode -------------------------------------------------------------------------------
+    def reset(
+        self, nav: NavGeometry, st: Stations, robot_xy, robot_radius: float, seed: int, scene=""
+    ) -> None:
+        """People standing at faces apart from each other and from the robot's start, each for a part of a
+        dwell time, drawn from ``seed``; a one-line CrowdError when the scene has too few such faces."""
+        if robot_radius < PERSON_RADIUS:
+            raise CrowdError(
+                f"people walk the robot's free space, and this robot's {robot_radius} m footprint is "
+                f"smaller than a person's {PERSON_RADIUS} m",
+                field="people",
+                fix="use people=0 with this robot",
+            )
+        self.nav, self.st, self.robot_radius, self.seed = nav, st, float(robot_radius), int(seed)
+        rng = np.random.default_rng([self.seed, PEOPLE_STREAM])
+        self.speed[:] = rng.uniform(*SPEED_RANGE, self.n)
+        robot = np.asarray(robot_xy, float)[:2]
+        chosen: list[int] = []
+        for s in rng.permutation(len(st.ids)).tolist():
+            if len(chosen) == self.n:
+                break
+            far = np.hypot(*(st.stand[s] - robot)) >= PERSON_RADIUS + robot_radius + START_CLEARANCE
+            if far and all(self._apart(s, c) for c in chosen):
+                chosen.append(s)
+        if len(chosen) < self.n:
+            raise CrowdError(
+                f"scene '{scene}' has {len(chosen)} instrument faces where people can stand apart from each "
+                f"other and from the robot's start; people={self.n} needs {self.n}",
+                field="people",
+                fix=f"pass people={len(chosen)} or fewer, or use a scene with more instruments",
+            )
+        self.pos[:] = st.stand[chosen]
+        self.yaw[:] = st.yaw[chosen]
+        self.target[:] = chosen
+        self.mode[:] = STAND
+        self.timer[:] = rng.uniform(0.0, DWELL_RANGE[1], self.n)
+        self.waited[:] = 0.0
+        self.visits[:] = 0
+        self.route_len[:] = 0
+        self.leg[:] = 0
+
+    def state(self) -> dict[str, np.ndarray]:
+        """Copies of every state array."""
+        return {k: getattr(self, k).copy() for k in self.STATE}
+
+    def load(self, state: dict) -> None:
+        """Restore :meth:`state` output (the same episode: its stations and seed are the reset's)."""
+        for k in self.STATE:
+            getattr(self, k)[...] = np.asarray(state[k])
+
+    # --- the robot's move -------------------------------------------------------------------------
+    def cut(self, x: float, y: float, tx: float, ty: float) -> tuple[float, float, bool]:
+        """The robot's move from (x, y) toward (tx, ty) stopped 1 mm before its body first touches a
+        person's, and whether it was (a person collision)."""
+        d = np.array([tx - x, ty - y])
+        length2 = float(d @ d)
+        if length2 == 0.0:
+            return tx, ty, False
+        contact = PERSON_RADIUS + self.robot_radius
+        f = np.array([x, y]) - self.pos  # (P, 2)
+        b = f @ d
+        c = (f * f).sum(axis=1) - contact * contact
+        disc = b * b - length2 * c
+        toward = b < 0
+        inside = toward & (c <= 0)  # already touching and moving closer
+        t = np.where(toward & (c > 0) & (disc >= 0), (-b - np.sqrt(np.maximum(disc, 0.0))) / length2, np.inf)
+        t = np.where(inside, 0.0, t)
+        first = float(t.min(initial=np.inf))
+        if first > 1.0:
+            return tx, ty, False
+        first = max(0.0, first - 1e-3 / math.sqrt(length2))
+        return x + d[0] * first, y + d[1] * first, True
+
+    # --- the people's moves -----------------------------------------------------------------------
+    def advance(self, seconds: float, robot_xy) -> float:
+        """Move the people for ``seconds`` with the robot at ``robot_xy``; the person-seconds they spent
+        waiting for the robot."""
+        robot = np.asarray(robot_xy, float)[:2]
+        ticks = max(1, round(seconds / TICK))
+        dt, waited_for_robot = seconds / ticks, 0.0
+        for _ in range(ticks):
+            for p in range(self.n):
+                waited_for_robot += self._tick(p, dt, robot)
+        return waited_for_robot
+
+    def _tick(self, p: int, dt: float, robot: np.ndarray) -> float:
+        """Person ``p``'s tick; the seconds it waited for the robot."""
+        if self.mode[p] == STAND:
+            self.timer[p] -= dt
+            if self.timer[p] <= 0.0 and not self._retarget(p):
+                self.timer[p] = DWELL_RANGE[0]  # no free face: stand a while longer
+            return 0.0
+        step = self.speed[p] * dt
+        cand, leg = self._along(p, step)
+        blocker = self._blocker(p, cand, robot)
+        if blocker == 0:
+            self._move(p, cand, leg)
+            return 0.0
+        side = self._sidestep(p, cand, step, robot)
+        self.waited[p] += dt
+        if side is not None:  # off the route: a new one from there
+            d = side - self.pos[p]
+            self.pos[p], self.yaw[p] = side, math.atan2(d[1], d[0])
+            self._plan(p, int(self.target[p]))
+        elif self.waited[p] >= PATIENCE:
+            self._retarget(p)
+        return dt if blocker == _ROBOT and side is None else 0.0
+
+    def _along(self, p: int, dist: float) -> tuple[np.ndarray, int]:
+        """Where ``dist`` metres along person ``p``'s route end, and the index of the next waypoint."""
+        x, k = self.pos[p].copy(), int(self.leg[p])
+        while dist > 0.0 and k < self.route_len[p]:
+            w = self.route[p, k]
+            d = math.hypot(*(w - x))
+            if d <= dist:
+                x, dist, k = w.copy(), dist - d, k + 1
+            else:
+                x, dist = x + (w - x) * (dist / d), 0.0
+        return x, k
+
+    def _blocker(self, p: int, cand: np.ndarray, robot: np.ndarray) -> int:
+        """What a move of person ``p`` to ``cand`` would come too close to (0: nothing): the robot's body or
+        another person's, nearer than GAP and nearer than before."""
+        old = self.pos[p]
+        r = math.hypot(*(cand - robot))
+        if r < PERSON_RADIUS + self.robot_radius + GAP and r <= math.hypot(*(old - robot)):
+            return _ROBOT
+        others = np.delete(self.pos, p, axis=0)
+        near = np.hypot(*(others - cand).T)
+        closer = near <= np.hypot(*(others - old).T)
+        return _PERSON if bool(((near < 2 * PERSON_RADIUS + GAP) & closer).any()) else 0
+
+    def _sidestep(self, p: int, cand: np.ndarray, step: float, robot: np.ndarray) -> np.ndarray | None:
+        """A step of length ``step`` off the way to ``cand`` (right, then left) inside the free space and
+        clear of everyone, or None."""
+        d = cand - self.pos[p]
+        if not d.any():
+            return None
+        heading = math.atan2(d[1], d[0])
+        for turn in (-SIDESTEP_DEG, SIDESTEP_DEG):
+            a = heading + math.radians(turn)
+            side = self.pos[p] + step * np.array([math.cos(a), math.sin(a)])
+            inside = shapely.covers(self.nav.free, LineString([self.pos[p], side]))
+            if inside and self._blocker(p, side, robot) == 0:
+                return side
+        return None
+
+    def _move(self, p: int, to: np.ndarray, leg: int) -> None:
+        d = to - self.pos[p]
+        if d.any():
+            self.yaw[p] = math.atan2(d[1], d[0])
+        self.pos[p], self.leg[p] = to, leg
+        if leg < self.route_len[p]:
+            return
+        s = int(self.target[p])
+        if (self.pos[p] == self.st.stand[s]).all():  # arrived: stand at the face
+            self.mode[p], self.yaw[p], self.waited[p] = STAND, self.st.yaw[s], 0.0
+            rng = np.random.default_rng([self.seed, PEOPLE_STREAM, p + 1, int(self.visits[p]), 1])
+            self.timer[p] = rng.uniform(*DWELL_RANGE)
+        else:  # the end of a long route's kept part
+            self._plan(p, s)
+
+    def _apart(self, s: int, other: int) -> bool:
+        """Whether people standing at faces ``s`` and ``other`` keep GAP between their bodies."""
+        d = self.st.stand[s] - self.st.stand[other]
+        return s != other and math.hypot(*d) >= 2 * PERSON_RADIUS + GAP
+
+    def _retarget(self, p: int) -> bool:
+        """Person ``p`` walks to another face no one else has claimed, in a stateless random order; whether
+        one was found."""
+        self.visits[p] += 1
+        rng = np.random.default_rng([self.seed, PEOPLE_STREAM, p + 1, int(self.visits[p])])
+        others = [int(self.target[q]) for q in range(self.n) if q != p]
+        for s in rng.permutation(len(self.st.ids)).tolist():
+            if s != self.target[p] and all(self._apart(s, o) for o in others) and self._plan(p, s):
+                self.target[p], self.mode[p], self.waited[p] = s, WALK, 0.0
+                return True
+        self.waited[p] = 0.0
+        return False
+
+    def _plan(self, p: int, s: int) -> bool:
+        """Person ``p``'s route to face ``s`` (its first ROUTE_POINTS waypoints); whether there is one."""
+        try:
+            path = self.nav.shortest_path(self.pos[p], self.st.stand[s])[1:][:ROUTE_POINTS]
+        except UnreachableError:
+            return False
+        self.route[p, : len(path)] = path
+        self.route_len[p], self.leg[p] = len(path), 0
+        return True

@@ -1,0 +1,237 @@
+"""Technicians in the lab (``people=N``): the crowd model on a generated scene (determinism, exact replay from
+its state, routes inside the free space, bodies apart, the robot's move cut at a person), the human-aware
+measures and strict success on hand-built states, and the env: one-line errors for bad ``people``, a replay
+from ``get_state_dict`` and a person collision ending the episode per configuration."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import shapely
+from shapely.geometry import LineString
+
+import biovln_ms  # noqa: F401
+from biovln_ms.episodes.source import GeneratedEpisodes
+from biovln_ms.errors import BioVLNError
+from biovln_ms.metrics.measure_set import MeasureSet
+from biovln_ms.metrics.measures import BatchContext, StepState
+from biovln_ms.people.body import PERSON_RADIUS, PeopleStep
+from biovln_ms.people.crowd import GAP, PEOPLE_MEASURES, Crowd, CrowdError, people_config, stations
+from biovln_ms.scene.rules import scene_navigation
+from biovln_ms.task_config import NavTaskConfig
+from tests.test_measures import BOX, GOAL, ctx
+
+CPU = dict(sim_backend="physx_cpu", render_backend="cpu", obs_mode="none")
+
+
+@pytest.fixture(scope="module")
+def scene():
+    src = GeneratedEpisodes("single_room", 2)
+    ep = src.episodes[0]
+    spec = src.spec(ep["scene_id"])
+    nav = scene_navigation(spec)
+    start = np.asarray(ep["start_position"][:2], float)
+    return spec, nav, stations(spec, nav, start), start
+
+
+def _crowd(scene, n=2, seed=7) -> Crowd:
+    spec, nav, st, start = scene
+    c = Crowd(n)
+    c.reset(nav, st, start, spec.robot_radius, seed, spec.name)
+    return c
+
+
+def _walk(c: Crowd, steps: int, robot) -> list[np.ndarray]:
+    out = []
+    for _ in range(steps):
+        c.advance(0.5, robot)
+        out.append(c.pos.copy())
+    return out
+
+
+def test_the_same_seed_gives_the_same_trajectories(scene):
+    start = scene[3]
+    a, b = _walk(_crowd(scene), 300, start), _walk(_crowd(scene), 300, start)
+    assert all(np.array_equal(x, y) for x, y in zip(a, b))
+    moved = np.abs(np.diff(np.stack(a), axis=0)).sum()
+    assert moved > 5.0  # they walk, not only stand
+    other = _walk(_crowd(scene, seed=8), 300, start)
+    assert not all(np.array_equal(x, y) for x, y in zip(a, other))
+
+
+def test_a_crowd_restored_from_its_state_continues_exactly(scene):
+    start = scene[3]
+    c = _crowd(scene)
+    _walk(c, 120, start)
+    saved = c.state()
+    rest = _walk(c, 150, start)
+    again = _crowd(scene)  # a fresh reset of the same episode, then the state
+    again.load(saved)
+    assert all(np.array_equal(x, y) for x, y in zip(rest, _walk(again, 150, start)))
+
+
+def test_people_stay_in_the_free_space_and_apart(scene):
+    spec, nav, st, start = scene
+    free = nav.free.buffer(1e-6)
+    c = _crowd(scene, n=3, seed=11)
+    previous = c.pos.copy()
+    for _ in range(400):
+        c.advance(0.5, start)
+        assert shapely.covers(free, shapely.points(c.pos)).all()
+        for p in range(c.n):  # each tick's way is a segment of at most 0.14 m; a step's ends stay visible
+            if (previous[p] != c.pos[p]).any():
+                assert np.hypot(*(c.pos[p] - previous[p])) <= 1.4 * 0.5 + 1e-9
+        d = np.hypot(*(c.pos[:, None] - c.pos[None]).transpose(2, 0, 1))
+        assert (d[np.triu_indices(c.n, 1)] >= 2 * PERSON_RADIUS).all()
+        robot = np.hypot(*(c.pos - start).T)
+        assert (robot >= PERSON_RADIUS + spec.robot_radius).all()  # nobody walks into the standing robot
+        previous = c.pos.copy()
+    for p in range(c.n):  # the route ahead lies in the free space
+        k, n = int(c.leg[p]), int(c.route_len[p])
+        if n > k:
+            line = LineString([c.pos[p], *c.route[p, k:n]])
+            assert free.covers(line)
+
+
+def test_the_robots_move_is_cut_at_a_persons_body(scene):
+    c = _crowd(scene, n=1)
+    c.pos[0] = (2.0, 0.0)
+    r = c.robot_radius
+    tx, ty, hit = c.cut(0.0, 0.0, 3.0, 0.0)
+    assert hit and ty == 0.0 and math.isclose(tx, 2.0 - PERSON_RADIUS - r - 1e-3, abs_tol=1e-9)
+    assert c.cut(0.0, 0.0, 1.0, 0.0)[2] is False  # stops short of the body
+    assert c.cut(0.0, 0.0, -1.0, 0.0) == (-1.0, 0.0, False)  # away from the person
+
+
+def test_too_many_people_for_the_scene_is_one_line(scene):
+    spec, nav, st, start = scene
+    with pytest.raises(CrowdError, match="field 'people'.*instrument faces") as e:
+        Crowd(len(st.ids) + 1).reset(nav, st, start, spec.robot_radius, 0, spec.name)
+    assert "\n" not in str(e.value)
+
+
+def _people_state(points, people, hit=(False,), wait=(0.0,)) -> StepState:
+    s = StepState(
+        np.array(points, float), np.array([math.pi / 2]), np.array([True]), np.zeros(1), np.zeros(1)
+    )
+    s.people = PeopleStep(np.array([people], float), np.array(hit), np.array(wait), 0.2, 0.5)
+    return s
+
+
+def test_a_person_at_the_face_makes_strict_success_fail():
+    """The robot at the goal, facing the face: strict success unless a person's body is in the Zone 3."""
+    cfg = people_config(replace(NavTaskConfig(), people=1))
+    names = cfg.measures + ("strict_success", "success", "people_fail")
+    b = BatchContext(1)
+    b.set(0, ctx())
+    at_face = GOAL[0] + 0.4, GOAL[1] + 0.3  # in Zone 3 (x in [-0.5, 0.5], y in [-1.1, -0.5])
+    for person, strict in (((3.0, -3.0), True), (at_face, False)):
+        m = MeasureSet(names, 1, cfg=cfg)
+        m.reset(b, _people_state([GOAL], [person]))
+        m.update(b, _people_state([GOAL], [person]))
+        assert bool(m["success"][0]) and bool(m["strict_success"][0]) == strict
+    assert BOX.model_face is not None
+
+
+def test_human_aware_measures_on_a_constructed_case():
+    cfg = people_config(replace(NavTaskConfig(), people=1))
+    m = MeasureSet(cfg.measures + (cfg.fail_measure,), 1, cfg=cfg)
+    b = BatchContext(1)
+    b.set(0, ctx())
+    person = [(3.0, -3.0)]
+    m.reset(b, _people_state([(3.0, -2.0)], person))  # centres 1 m apart: bodies 0.6 m
+    fails = []
+    for robot, hit, wait in (((3.0, -2.0), True, 1.5), ((3.0, -2.5), False, 0.0), ((3.0, -2.5), False, 0.5)):
+        s = _people_state([robot], person, (hit,), (wait,))
+        s.stopped[:] = False
+        m.update(b, s)
+        fails.append(bool(m["people_fail"][0]))
+    v = {k: float(m[k][0]) for k in PEOPLE_MEASURES}
+    assert math.isclose(v["min_person_distance"], 0.1) and math.isclose(v["person_distance"], 0.1)
+    assert v["personal_space_rate"] == 0.5  # 2 of 4 poses within 0.5 m
+    assert v["person_collisions"] == 1 and v["people_wait_time"] == 2.0
+    assert v["robot_wait_time"] == 1.0  # the two still steps (a person within 1 m) of 0.5 s; one moved
+    assert math.isclose(v["mcr_people"], 0.3)  # the robot's centre to the person's body
+    assert v["vrt_people"] == 0.5
+    assert fails == [True, False, False]  # the collision's step fails (person_collision_ends)
+
+
+@pytest.mark.parametrize("bad", [-1, 9, 1.5, True, "2"])
+def test_bad_people_values_are_one_line(bad):
+    with pytest.raises(BioVLNError, match="field 'people'") as e:
+        gym.make("BioVLN-OpFace-v0", people=bad, **CPU)
+    assert "\n" not in str(e.value)
+
+
+def test_people_in_a_protocol_env_and_their_measures_without_people_are_refused():
+    with pytest.raises(BioVLNError, match="field 'people'.*single-goal"):
+        gym.make("BioVLN-Protocol-v0", people=1, **CPU)
+    measures = NavTaskConfig().measures + ("min_person_distance",)
+    with pytest.raises(BioVLNError, match="field 'measures'.*measure of people"):
+        gym.make("BioVLN-OpFace-v0", measures=measures, **CPU)
+
+
+def test_env_with_people_replays_from_its_state_and_a_collision_ends_it():
+    e = gym.make("BioVLN-OpFace-v0", people=2, **CPU)
+    try:
+        u = e.unwrapped
+        assert "min_person_distance" in u.cfg.measures and u.cfg.fail_measure == "people_fail"
+        rng = np.random.default_rng(0)
+        actions = [int(a) for a in rng.integers(1, 4, 60)]
+
+        def run(acts):
+            out = []
+            for a in acts:
+                info = e.step(a)[4]
+                people = np.stack([c.pos.copy() for c in u._people.crowds])
+                out.append((people, float(info["person_distance"][0]), u._pose().copy()))
+            return out
+
+        e.reset(seed=5)
+        first = run(actions[:20])
+        state = u.get_state_dict()
+        rest = run(actions[20:])
+        e.reset(seed=5)
+        assert all(np.array_equal(a[0], b[0]) for a, b in zip(first, run(actions[:20])))  # same seed
+        u.set_state_dict(state)
+        again = run(actions[20:])
+        assert all(np.array_equal(a[0], b[0]) and a[1] == b[1] for a, b in zip(rest, again))
+
+        # a person right ahead of the robot: FORWARD touches them, a collision that ends the episode
+        e.reset(seed=5)
+        pose = u._pose()[0]
+        ahead = pose[:2] + (PERSON_RADIUS + u._footprint + 0.1) * np.array(
+            [math.cos(pose[2]), math.sin(pose[2])]
+        )
+        crowd = u._people.crowds[0]
+        crowd.pos[0] = ahead
+        crowd.timer[0] = 100.0
+        _, _, term, _, info = e.step(1)
+        assert bool(info["person_collision"][0]) and int(info["person_collisions"][0]) == 1
+        assert bool(term) and bool(info["fail"][0]) and not bool(info["success"][0])
+        assert float(info["min_person_distance"][0]) <= 0.01
+    finally:
+        e.close()
+
+
+def test_a_collision_need_not_end_the_episode_and_people_are_persons_in_segmentation():
+    e = gym.make("BioVLN-OpFace-v0", people=1, person_collision_ends=False, **CPU)
+    try:
+        u = e.unwrapped
+        e.reset(seed=1)
+        pose = u._pose()[0]
+        crowd = u._people.crowds[0]
+        crowd.pos[0] = pose[:2] + (PERSON_RADIUS + u._footprint + GAP) * np.array(
+            [math.cos(pose[2]), math.sin(pose[2])]
+        )
+        crowd.timer[0] = 100.0
+        _, _, term, _, info = e.step(1)
+        assert bool(info["person_collision"][0]) and not bool(term) and not bool(info["fail"][0])
+        ids = u._people.actors[0].per_scene_id.cpu().numpy()
+        assert (u._segmentation_lookup[ids] == len(u.category_names) + 1).all()
+    finally:
+        e.close()
