@@ -24,6 +24,9 @@ ENV_IDS: dict[str, int] = {
     **{uid: cfg.max_episode_steps for uid, cfg in VARIANTS.items()},
     LAB_SCENE_ENV: 1,
 }
+#: The ids this package ships, with their configurations (None: not a navigation variant). Their gymnasium
+#: specs' ids are ``biovln_ms:<id>`` (:func:`spec_id`).
+SHIPPED: dict[str, NavTaskConfig | None] = {**VARIANTS, LAB_SCENE_ENV: None}
 #: The lazy specs' entry point. Gymnasium resolves it by name on the first ``gym.make``, and resolving it
 #: imports :mod:`biovln_ms.tasks`, which registers every env; it lives there so that this module, which the
 #: tasks import, never imports them back.
@@ -49,12 +52,23 @@ class VectorisableSpec(EnvSpec):
         )
 
 
+def spec_id(uid: str) -> str:
+    """The id an env's ``spec.id`` gives, which ManiSkill's ``RecordEpisode`` writes into a recording's
+    JSON: ``biovln_ms:<uid>`` for an id this package ships with its shipped configuration, gymnasium's
+    "module:id" form, so that ``gym.make`` of it in a process that never imported this package (ManiSkill's
+    ``replay_trajectory``) imports it first. An id registered from your code stays ``uid``: importing this
+    package does not register it."""
+    if uid in SHIPPED and VARIANTS.get(uid) == SHIPPED[uid]:
+        return f"biovln_ms:{uid}"
+    return uid
+
+
 def gym_spec(uid: str, max_episode_steps: int) -> VectorisableSpec:
-    """The gymnasium spec of env ``uid``: built by ``biovln_ms.tasks.make_lazy`` and limited to
-    ``max_episode_steps`` by ManiSkill's ``TimeLimitWrapper`` (batched truncation), as ManiSkill's
-    own registration does."""
+    """The gymnasium spec of env ``uid`` (registered under ``uid``, its id :func:`spec_id`'s): built by
+    ``biovln_ms.tasks.make_lazy`` and limited to ``max_episode_steps`` by ManiSkill's ``TimeLimitWrapper``
+    (batched truncation), as ManiSkill's own registration does."""
     return VectorisableSpec(
-        id=uid,
+        id=spec_id(uid),
         entry_point=LAZY_ENTRY_POINT,
         kwargs={"env_id": uid},
         max_episode_steps=max_episode_steps,

@@ -746,11 +746,23 @@ def _env_rows(env_idx, num_envs: int) -> list[int]:
 def check_state(state, reference: dict, num_envs: int) -> None:
     """A state for ``set_state_dict``: keys of ``reference`` (the env's own ``get_state_dict()``; the
     simulation's may be left out, the task's come whole), arrays of its shapes (unbatched, or a row per
-    sub-env) and finite numbers."""
-    _check_tree(state, reference, "state", num_envs, whole=False)
+    sub-env) and finite numbers, or NaN in the measures' states (a measure's "none", as Fetch's reach
+    configuration when the instrument is out of reach)."""
+    _check_tree(state, reference, "state", num_envs, whole=False, nan_ok=False)
 
 
-def _check_tree(given, ref, path: str, n: int, whole: bool) -> None:
+def state_rows(state, reference, num_envs: int):
+    """A checked (:func:`check_state`) state subtree with every array as one row per sub-env: an unbatched
+    array, one step of a recording as ManiSkill's trajectory tools hand it back, goes to every row, as
+    ManiSkill's ``set_state_dict`` does with an unbatched simulation state."""
+    if isinstance(reference, dict):
+        return {k: state_rows(v, reference[k], num_envs) for k, v in state.items()}
+    a = torch.as_tensor(state.cpu() if isinstance(state, torch.Tensor) else np.asarray(state))
+    shape = tuple(reference.shape[1:])
+    return a.expand(num_envs, *shape) if a.shape == shape else a
+
+
+def _check_tree(given, ref, path: str, n: int, whole: bool, nan_ok: bool) -> None:
     if isinstance(ref, dict):
         if not isinstance(given, Mapping):
             raise EnvConfigError(
@@ -762,17 +774,21 @@ def _check_tree(given, ref, path: str, n: int, whole: bool) -> None:
             what = f"unknown key {_show(unknown[0])}" if unknown else f"no key {_show(missing[0])}"
             raise EnvConfigError(f"{path} has {what}", field=path, fix=_STATE_FIX)
         for k, v in given.items():
-            _check_tree(v, ref[k], f"{path}[{_show(k)}]", n, whole or k == "task")
+            measures = whole and k == "measures"
+            _check_tree(v, ref[k], f"{path}[{_show(k)}]", n, whole or k == "task", nan_ok or measures)
         return
     try:
         a = np.asarray(given.cpu() if isinstance(given, torch.Tensor) else given)
     except (TypeError, ValueError, RuntimeError):
         a = np.asarray(None)
     shape = tuple(ref.shape[1:])
-    ok = a.dtype.kind in "biuf" and (a.shape == (n, *shape) or (a.shape == shape and not whole))
-    if not ok or (a.dtype.kind == "f" and not np.isfinite(a).all()):
+    ok = a.dtype.kind in "biuf" and a.shape in ((n, *shape), shape)
+    if ok and a.dtype.kind == "f":
+        ok = bool((np.isfinite(a) | (nan_ok & np.isnan(a))).all())
+    if not ok:
+        numbers = "numbers (or NaN)" if nan_ok else "finite numbers"
         raise EnvConfigError(
-            f"{path} must be finite numbers of shape {(n, *shape)}, got {getattr(a, 'shape', None)}",
+            f"{path} must be {numbers} of shape {(n, *shape)} or {shape}, got {getattr(a, 'shape', None)}",
             field=path,
             fix=_STATE_FIX,
         )

@@ -33,7 +33,13 @@ from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.sim.reach import FetchArm, ReachResult, reach_goals
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
-from biovln_ms.tasks.config_checks import SIM_FREQUENCIES, EnvConfigError, check_episode_kind, check_state
+from biovln_ms.tasks.config_checks import (
+    SIM_FREQUENCIES,
+    EnvConfigError,
+    check_episode_kind,
+    check_state,
+    state_rows,
+)
 from biovln_ms.tasks.config_checks import REWARD_MODES, reset_arguments, task_config
 from biovln_ms.tasks.episodes import choose_episodes, episode_context
 from biovln_ms.tasks.observations import HeadCameraNoise, segmentation_lookup
@@ -277,9 +283,14 @@ class BioVLNNavEnv(BaseEnv):
     # --- state: the simulator's and the task's -------------------------------------------------
     def get_state_dict(self):
         """ManiSkill's simulation and controller state plus the task's: each sub-env's episode, start pose,
-        elapsed steps and every measure's state, so a replay from it gives the same rewards and infos."""
+        elapsed steps and every measure's state, so a replay from it gives the same rewards and infos.
+
+        The task's integers (episode, seed, counters) are given as float64, exact below 2**53: a recorded
+        step's one-number integer is a NumPy integer scalar, which ManiSkill's trajectory tools cannot
+        batch (``replay_trajectory --use-env-states --save-traj``), while floats and flags they can.
+        ``set_state_dict`` takes either."""
         state = super().get_state_dict()
-        state["task"] = dict(
+        task = dict(
             episode=self._episode_indices(),
             start=torch.tensor(self._start, device=self.device),
             elapsed_steps=torch.as_tensor(self._elapsed_steps).clone(),
@@ -289,17 +300,19 @@ class BioVLNNavEnv(BaseEnv):
             measures=self._measures.state_dict(),
         )
         if self._people:  # the crowds' (their figures' poses are ManiSkill's actor state)
-            state["task"]["people"] = self._people.state_dict()
+            task["people"] = self._people.state_dict()
+        state["task"] = _integers_as_float(task)
         return state
 
     def set_state_dict(self, state: dict, env_idx: torch.Tensor | None = None):
-        check_state(state, self.get_state_dict(), self.num_envs)  # of this env's keys and shapes
+        reference = self.get_state_dict()
+        check_state(state, reference, self.num_envs)  # of this env's keys and shapes
         super().set_state_dict(state, env_idx)
-        task = state.get("task")
-        if task is None:
+        if state.get("task") is None:
             return
+        task = state_rows(state["task"], reference["task"], self.num_envs)
         idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx.to(self.device)
-        saved = torch.as_tensor(task["episode"]).to(self.device)
+        saved = task["episode"].to(self.device, torch.int64)
         if not torch.equal(saved[idx], self._episode_indices()[idx]):
             raise EnvConfigError(
                 "the state belongs to another episode",
@@ -408,3 +421,11 @@ class BioVLNNavEnv(BaseEnv):
 
     def _episode_indices(self) -> torch.Tensor:
         return torch.tensor(self._episode_index, device=self.device)
+
+
+def _integers_as_float(tree):
+    """``tree`` with its integer tensors as float64 (see ``BioVLNNavEnv.get_state_dict``)."""
+    if isinstance(tree, dict):
+        return {k: _integers_as_float(v) for k, v in tree.items()}
+    floating = tree.is_floating_point() or tree.dtype == torch.bool
+    return tree if floating else tree.to(torch.float64)

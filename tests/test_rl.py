@@ -68,7 +68,7 @@ def test_ray_vec_env_trains_sb3_on_a_local_ray_instance(dataset):
         assert obs.shape == (2, *venv.observation_space.shape)
         obs, rew, done, infos = venv.step(np.array([1, 2]))
         assert rew.shape == (2,) and len(infos) == 2 and "clearance" in infos[0]
-        assert venv.get_attr("spec")[0].id == "BioVLN-OpFace-RL-v0"
+        assert venv.get_attr("spec")[0].id == "biovln_ms:BioVLN-OpFace-RL-v0"  # gym.make-able anywhere
         model = PPO("MlpPolicy", venv, n_steps=32, batch_size=32, n_epochs=1, device="cpu")
         model.learn(64)
         assert model.num_timesteps >= 64

@@ -1,6 +1,6 @@
 """ManiSkill 3.0.1 wrappers that fail on every task, each reproduced beside the alternative the envs guide
-names for it (its table "Wrappers that fail upstream"). A reproduction that stops failing means ManiSkill
-fixed it: update that table."""
+names for it (its page "ManiSkill wrappers and tools"). A reproduction that stops failing means ManiSkill
+fixed it: update that page."""
 
 from __future__ import annotations
 
