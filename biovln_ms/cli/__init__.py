@@ -15,7 +15,7 @@ from biovln_ms.eval.methods import report_methods
 from biovln_ms.plugins import load_plugins
 
 # the command modules register their commands on import, in the order `biovln-ms --help` lists them
-from biovln_ms.cli import info, assets, scene, dataset, evaluate, lsat, train, export  # noqa: F401
+from biovln_ms.cli import info, assets, scene, dataset, evaluate, lsat, train, export, perception  # noqa: F401
 from biovln_ms.cli.common import _method_line, _methods_help, app  # noqa: F401 (_methods_help: re-exported)
 from biovln_ms.cli.evaluate import _record_index  # noqa: F401 (re-exported)
 
