@@ -241,8 +241,8 @@ def dataset_export(
 ) -> None:
     """Export a split as another tool's dataset.
 
-    habitat: habitat-lab ObjectNav-v1 episodes (Y-up), the scenes as GLB and a habitat-sim scene dataset
-    config."""
+    habitat: habitat-lab ObjectNav-v1 episodes (Y-up), each scene as a habitat-sim scene instance (a
+    navmesh-safe stage, a render-only overhead object, instance semantics) and a scene dataset config."""
     from biovln_ms.splits import dataset_root
     from biovln_ms.bridges.habitat import export_habitat
     from biovln_ms.episodes.dataset import EpisodeDataset
@@ -254,4 +254,4 @@ def dataset_export(
             fix=f"use one of: {', '.join(DATASET_EXPORT_FORMATS)}",
         )
     files = export_habitat(EpisodeDataset(dataset_root(dataset), robot=None), split, out)
-    typer.echo(f"wrote {files[-1]}, {files[-2]} and {len(files) - 2} scene GLBs")
+    typer.echo(f"wrote {files[-1]}, {files[-2]} and {len(files) - 2} scene files")
