@@ -16,7 +16,8 @@ from typer.testing import CliRunner
 from biovln_ms.cli import app
 from biovln_ms.splits import held_out_seeds
 from biovln_ms.episodes import bulk
-from biovln_ms.episodes.bulk import BulkError, build_training_split, check_request, shards_dir
+from biovln_ms.cluster import ClusterError
+from biovln_ms.episodes.bulk import build_training_split, check_request, shards_dir
 from biovln_ms.episodes.dataset import EpisodeDataset
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.errors import BioVLNError
@@ -249,7 +250,7 @@ def test_cli_builds_the_same_split(reference: Path, tmp_path: Path) -> None:
 )
 def test_bad_arguments_one_line(args: dict, field: str) -> None:
     given = dict(scenes=3, episodes_per_scene=2, first_seed=0, workers=1, split="train", ray_address=None)
-    with pytest.raises(BulkError) as e:
+    with pytest.raises(BioVLNError) as e:  # BulkError, or ClusterError for the address
         check_request(**{**given, **args})
     assert e.value.field == field and e.value.fix and "\n" not in str(e.value)
 
@@ -295,7 +296,7 @@ def test_a_second_build_of_the_same_folder_is_refused(tmp_path: Path) -> None:
 @pytest.mark.parametrize("address", ["127.0.0.1:1", "ray://127.0.0.1:1"])
 def test_no_ray_head_node_is_one_line(tmp_path: Path, address: str) -> None:
     pytest.importorskip("ray")
-    with pytest.raises(BulkError) as e:
+    with pytest.raises(ClusterError) as e:
         build(tmp_path / "ds", ray_address=address)  # port 1: nothing listens
     assert e.value.field == "ray_address" and "\n" not in str(e.value)
     assert not shards_dir(tmp_path / "ds").exists()  # nothing to resume: nothing left

@@ -39,6 +39,7 @@ from biovln_ms.episodes.dataset import (
 from biovln_ms.episodes.generator import EpisodeError
 from biovln_ms.episodes.samplers import SceneSamplers, SingleGoalEpisodes
 from biovln_ms.episodes.writer import gz_json, new_manifest, partial_folder, put_in_place, stable_split_seed
+from biovln_ms.cluster import check_address, start_ray
 from biovln_ms.errors import BioVLNError
 from biovln_ms.io_utils import atomic_write_bytes, exclusive_lock
 from biovln_ms.limits import ID_CHARS, ID_RULE, MAX_ID_LENGTH, MAX_WORKERS
@@ -56,10 +57,6 @@ MAX_SEED = 2**32 - 1
 #: seeds that gave no scene or no episodes, beyond which a build stops (the template rarely works)
 MAX_UNUSABLE = 1_000
 SHARD_FORMAT = 1
-#: a Ray address: a local instance, the running cluster, or a head node
-RAY_ADDRESS = re.compile(r"local|auto|(ray://)?[A-Za-z0-9][A-Za-z0-9.\-]*:[0-9]{1,5}")
-RAY_CONNECT_TIMEOUT_S = 10  # a head node that does not accept a connection in this time is refused
-RAY_ADDRESS_RULE = "'local' (a local instance), 'auto' (the running cluster) or 'ray://HOST:PORT'"
 
 
 class BulkError(BioVLNError):
@@ -114,14 +111,8 @@ def check_request(
         )
     if not isinstance(split, str) or len(split) > MAX_ID_LENGTH or not re.fullmatch(ID_CHARS, split):
         raise BulkError(f"{str(split)[:60]!r} is not an id", field="split", fix=f"use {ID_RULE}")
-    if ray_address is not None and (
-        not isinstance(ray_address, str) or not RAY_ADDRESS.fullmatch(ray_address)
-    ):
-        raise BulkError(
-            f"{str(ray_address)[:60]!r} is not a Ray address",
-            field="ray_address",
-            fix=f"use {RAY_ADDRESS_RULE}",
-        )
+    if ray_address is not None:
+        check_address(ray_address)
 
 
 def usable_seeds(template: str, first_seed: int, held_out: Mapping[str, Collection[int]]) -> Iterator[int]:
@@ -221,49 +212,13 @@ class _Pool:
                 proc.terminate()
 
 
-def _reachable(address: str, timeout_s: float = RAY_CONNECT_TIMEOUT_S) -> None:
-    """Refuse a head node that does not answer (Ray itself would wait minutes for it)."""
-    import socket
-
-    if address in ("local", "auto"):
-        return
-    host, _, port = address.removeprefix("ray://").rpartition(":")
-    try:
-        socket.create_connection((host, int(port)), timeout=timeout_s).close()
-    except OSError as e:
-        raise BulkError(
-            f"no Ray head node answers at '{address}' ({e.strerror or e})",
-            field="ray_address",
-            fix="start the cluster first (ray start --head), check the host and port, or use 'local'",
-        ) from None
-
-
 class _Ray:
     """Ray tasks of one CPU each; ``local`` starts a local instance of ``workers`` CPUs, another address joins
     a running cluster (whose nodes need this package, its catalog and the plugins)."""
 
     def __init__(self, address: str, workers: int) -> None:
-        try:
-            import ray
-        except ImportError:
-            raise BulkError(
-                "--ray-address needs Ray", field="ray_address", fix="pip install 'biovln-ms[cluster]'"
-            ) from None
+        ray, self._started = start_ray(address, workers)
         self._ray = ray
-        self._started = not ray.is_initialized()
-        if self._started:
-            _reachable(address)
-            try:
-                if address == "local":
-                    ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
-                else:
-                    ray.init(address=address, log_to_driver=False)
-            except Exception as e:  # ConnectionError, RuntimeError, ValueError: Ray's words, on one line
-                raise BulkError(
-                    f"cannot start or join Ray at '{address}': {type(e).__name__}: {e}",
-                    field="ray_address",
-                    fix=f"start the cluster first (ray start --head) or use {RAY_ADDRESS_RULE}",
-                ) from None
         self._task = ray.remote(num_cpus=1)(make_shard)
         self._pending: list = []
 

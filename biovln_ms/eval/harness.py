@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.variants import BENCHMARK_ENV
+from biovln_ms.cluster import check_address, start_ray
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import method_spec
 from biovln_ms.eval.aggregate import aggregate_all, record_error
@@ -147,6 +148,8 @@ def check_options(cfg: EvalConfig) -> None:
         if type(value) is not int or value < 1 or (top is not None and value > top):
             bound = f"1 to {top:,}" if top else "1 or more; leave it out to run all"
             raise refuse(flag, f"{flag} {value!r} is out of range", f"use {bound}")
+    if cfg.ray_address is not None:
+        check_address(cfg.ray_address)
     for key, flag in (("record_dir", "--record"), ("handoff_dir", "--export-handoff")):
         value = getattr(cfg, key)
         if value is not None and not str(value).strip():
@@ -597,18 +600,7 @@ class EpisodeRunner:
 
 def _run_on_ray(address: str, wcfg: dict, todo: list[int], workers: int, write) -> None:
     """Run episodes on Ray actors; results are written as they arrive, so resume works as with a pool."""
-    try:
-        import ray
-    except ImportError:
-        raise BioVLNError(
-            "--ray-address needs Ray", field="ray_address", fix="pip install 'biovln-ms[cluster]'"
-        ) from None
-    started = not ray.is_initialized()
-    if started:
-        if address == "local":
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
-        else:
-            ray.init(address=address, log_to_driver=False)
+    ray, started = start_ray(address, workers)
     try:
         runner = ray.remote(num_cpus=1)(EpisodeRunner)
         actors = [runner.remote(wcfg) for _ in range(workers)]

@@ -15,7 +15,7 @@ import gymnasium as gym
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices
 
-from biovln_ms.errors import BioVLNError
+from biovln_ms.cluster import start_ray
 
 
 class EnvActor:
@@ -68,23 +68,8 @@ class RayVecEnv(VecEnv):
     def __init__(
         self, env_fns: Sequence[Callable[[], gym.Env]], address: str = "local", num_cpus_per_env: float = 1.0
     ) -> None:
-        try:
-            import ray
-        except ImportError:
-            raise BioVLNError(
-                "RayVecEnv needs Ray", field="ray_address", fix="pip install 'biovln-ms[cluster]'"
-            ) from None
+        ray, self._started = start_ray(address, num_cpus=int(np.ceil(len(env_fns) * num_cpus_per_env)))
         self._ray = ray
-        self._started = not ray.is_initialized()
-        if self._started:
-            if address == "local":
-                ray.init(
-                    num_cpus=max(1, int(np.ceil(len(env_fns) * num_cpus_per_env))),
-                    include_dashboard=False,
-                    log_to_driver=False,
-                )
-            else:
-                ray.init(address=address, log_to_driver=False)
         actor = ray.remote(num_cpus=num_cpus_per_env)(EnvActor)
         self.actors = [actor.remote(fn) for fn in env_fns]
         obs_space, act_space, metadata = ray.get(self.actors[0].spaces.remote())

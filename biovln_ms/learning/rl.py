@@ -21,6 +21,7 @@ from typing import Callable
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
+from biovln_ms.cluster import check_address
 from biovln_ms.errors import BioVLNError
 from biovln_ms.learning.algorithms import SB3_CONTROL_MODES, algo_class
 from biovln_ms.variants import RL_ENV
@@ -181,6 +182,8 @@ def train_rl(
             field="timesteps",
             fix="e.g. --timesteps 200000",
         )
+    if cfg.ray_address is not None:
+        check_address(cfg.ray_address)
     if cfg.sim_backend and cfg.ray_address:
         raise BioVLNError(
             "a batched env (sim_backend) runs in this process, not on Ray actors",

@@ -1,0 +1,77 @@
+"""Ray, the way this package's work leaves one machine: the address rule and starting or joining a cluster.
+
+Evaluation actors, training env actors and training-split builds all start Ray here, so an address is
+checked, a silent head node refused and Ray's own errors turned into one line in one place. Ray is an
+optional dependency (``pip install 'biovln-ms[cluster]'``) and is imported only when used.
+"""
+
+from __future__ import annotations
+
+import re
+import socket
+from types import ModuleType
+
+from biovln_ms.errors import BioVLNError
+
+#: a Ray address: a local instance, the running cluster, or a head node
+RAY_ADDRESS = re.compile(r"local|auto|(ray://)?[A-Za-z0-9][A-Za-z0-9.\-]*:[0-9]{1,5}")
+RAY_ADDRESS_RULE = "'local' (a local instance), 'auto' (the running cluster) or 'ray://HOST:PORT'"
+RAY_CONNECT_TIMEOUT_S = 10  # a head node that does not accept a connection in this time is refused
+
+
+class ClusterError(BioVLNError):
+    """Ray is missing, the address is malformed, or the cluster cannot be started or joined."""
+
+
+def check_address(address: object) -> None:
+    """Refuse anything but a Ray address (``RAY_ADDRESS_RULE``), before any work starts."""
+    if not isinstance(address, str) or not RAY_ADDRESS.fullmatch(address):
+        raise ClusterError(
+            f"{str(address)[:60]!r} is not a Ray address", field="ray_address", fix=f"use {RAY_ADDRESS_RULE}"
+        )
+
+
+def _reachable(address: str, timeout_s: float) -> None:
+    """Refuse a head node that does not answer (Ray itself would wait minutes for it)."""
+    if address in ("local", "auto"):
+        return
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    try:
+        socket.create_connection((host, int(port)), timeout=timeout_s).close()
+    except OSError as e:
+        raise ClusterError(
+            f"no Ray head node answers at '{address}' ({e.strerror or e})",
+            field="ray_address",
+            fix="start the cluster first (ray start --head), check the host and port, or use 'local'",
+        ) from None
+
+
+def start_ray(
+    address: str, num_cpus: int, timeout_s: float = RAY_CONNECT_TIMEOUT_S
+) -> tuple[ModuleType, bool]:
+    """Ray, started (``'local'``, with ``num_cpus``) or joined, and whether this call started it.
+
+    A caller that started Ray shuts it down when done; one that found it running leaves it.
+    """
+    check_address(address)
+    try:
+        import ray
+    except ImportError:
+        raise ClusterError(
+            "--ray-address needs Ray", field="ray_address", fix="pip install 'biovln-ms[cluster]'"
+        ) from None
+    if ray.is_initialized():
+        return ray, False
+    _reachable(address, timeout_s)
+    try:
+        if address == "local":
+            ray.init(num_cpus=max(1, int(num_cpus)), include_dashboard=False, log_to_driver=False)
+        else:
+            ray.init(address=address, log_to_driver=False)
+    except Exception as e:  # ConnectionError, RuntimeError, ValueError: Ray's words, on one line
+        raise ClusterError(
+            f"cannot start or join Ray at '{address}': {type(e).__name__}: {' '.join(str(e).split())[:300]}",
+            field="ray_address",
+            fix=f"start the cluster first (ray start --head) or use {RAY_ADDRESS_RULE}",
+        ) from None
+    return ray, True
