@@ -102,11 +102,11 @@ def test_bad_resolution_and_split_through_the_cli(held_out_dataset, tmp_path):
         parse_resolution("320by240")
     data = held_out_dataset(ms_val=2)
     for extra, words in (
-        (["--resolution", "abc"], "resolution"),
+        (["--frame-size", "abc"], "resolution"),
         (["--frames", "0"], "frames"),
         (["--split", "nosuch"], "no split 'nosuch'"),
     ):
-        r = runner.invoke(app, ["perception", "dataset", "-o", str(tmp_path / "x"), "--data", data, *extra])
+        r = runner.invoke(app, ["perception", "dataset", data, "-o", str(tmp_path / "x"), *extra])
         assert isinstance(r.exception, F.FramesError), r.output
         assert words in str(r.exception) and "\n" not in str(r.exception)
     assert not (tmp_path / "x").exists()

@@ -62,7 +62,7 @@ def check_request(frames: object, width: object, height: object, workers: object
             raise FramesError(
                 f"{name} must be a whole number in [{lo}, {hi}], got {v!r}",
                 field=name,
-                fix="e.g. --frames 2000 --resolution 320x240 --workers 1 --seed 0",
+                fix="e.g. --frames 2000 --frame-size 320x240 --workers 1 --seed 0",
             )
 
 
