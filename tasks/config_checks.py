@@ -746,9 +746,9 @@ def _env_rows(env_idx, num_envs: int) -> list[int]:
 def check_state(state, reference: dict, num_envs: int) -> None:
     """A state for ``set_state_dict``: keys of ``reference`` (the env's own ``get_state_dict()``; the
     simulation's may be left out, the task's come whole), arrays of its shapes (unbatched, or a row per
-    sub-env) and finite numbers, or NaN in the measures' states (a measure's "none", as Fetch's reach
-    configuration when the instrument is out of reach)."""
-    _check_tree(state, reference, "state", num_envs, whole=False, nan_ok=False)
+    sub-env) and finite numbers; the measures' states may hold NaN and infinities (a measure's "none" or
+    "unreachable", as Fetch's reach configuration out of reach or a geodesic distance off the navmesh)."""
+    _check_tree(state, reference, "state", num_envs, whole=False, any_float=False)
 
 
 def state_rows(state, reference, num_envs: int):
@@ -762,7 +762,7 @@ def state_rows(state, reference, num_envs: int):
     return a.expand(num_envs, *shape) if a.shape == shape else a
 
 
-def _check_tree(given, ref, path: str, n: int, whole: bool, nan_ok: bool) -> None:
+def _check_tree(given, ref, path: str, n: int, whole: bool, any_float: bool) -> None:
     if isinstance(ref, dict):
         if not isinstance(given, Mapping):
             raise EnvConfigError(
@@ -775,7 +775,7 @@ def _check_tree(given, ref, path: str, n: int, whole: bool, nan_ok: bool) -> Non
             raise EnvConfigError(f"{path} has {what}", field=path, fix=_STATE_FIX)
         for k, v in given.items():
             measures = whole and k == "measures"
-            _check_tree(v, ref[k], f"{path}[{_show(k)}]", n, whole or k == "task", nan_ok or measures)
+            _check_tree(v, ref[k], f"{path}[{_show(k)}]", n, whole or k == "task", any_float or measures)
         return
     try:
         a = np.asarray(given.cpu() if isinstance(given, torch.Tensor) else given)
@@ -783,10 +783,10 @@ def _check_tree(given, ref, path: str, n: int, whole: bool, nan_ok: bool) -> Non
         a = np.asarray(None)
     shape = tuple(ref.shape[1:])
     ok = a.dtype.kind in "biuf" and a.shape in ((n, *shape), shape)
-    if ok and a.dtype.kind == "f":
-        ok = bool((np.isfinite(a) | (nan_ok & np.isnan(a))).all())
+    if ok and a.dtype.kind == "f" and not any_float:
+        ok = bool(np.isfinite(a).all())
     if not ok:
-        numbers = "numbers (or NaN)" if nan_ok else "finite numbers"
+        numbers = "numbers" if any_float else "finite numbers"
         raise EnvConfigError(
             f"{path} must be {numbers} of shape {(n, *shape)} or {shape}, got {getattr(a, 'shape', None)}",
             field=path,
