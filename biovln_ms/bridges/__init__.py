@@ -1,1 +1,2 @@
-"""Bridges to the tools users already run: Nav2 maps and goals, habitat-lab ObjectNav datasets."""
+"""Bridges to the tools users already run: Nav2 maps and goals, habitat-lab ObjectNav datasets, LeRobot
+datasets of recorded episodes."""
