@@ -342,3 +342,24 @@ def test_failed_export_leaves_no_folder(recording: Path, tmp_path: Path, monkeyp
     with pytest.raises(LeRobotExportError, match="ffmpeg could not encode"):
         export_lerobot(recording, tmp_path / "lr")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rec"]
+
+
+@pytest.mark.slow
+@pytest.mark.render
+def test_an_evaluation_recording_exports(held_out_dataset, tmp_path: Path) -> None:
+    """What `eval --record` writes from the simulator (the recorder's real frames and depth) exports, and
+    the export's frames are the recorded ones."""
+    from biovln_ms.eval.harness import EvalConfig, evaluate
+
+    rec = tmp_path / "rec"
+    cfg = EvalConfig("oracle", "ms_val", str(tmp_path / "res"), held_out_dataset(ms_val=2), workers=1,
+                     camera=(160, 120), record_dir=str(rec), record_mode="full")  # fmt: skip
+    evaluate(cfg, progress=False)
+    info = export_lerobot(rec, tmp_path / "lr")
+    check_v30(tmp_path / "lr")
+    assert info["total_episodes"] == 2
+    assert info["features"][lr.CAMERA_KEY]["shape"] == [224, 224, 3]
+    assert info["features"][lr.DEPTH_KEY]["shape"] == [60, 80]
+    rows = parquet_rows(tmp_path / "lr" / "data" / "chunk-000" / "file-000.parquet")
+    depth = np.array([r["observation.depth"] for r in rows])
+    assert np.isfinite(depth).all() and depth.max() > 0.1  # metres, not millimetres
