@@ -223,6 +223,15 @@ def test_same_recording_same_bytes(recording: Path, tmp_path: Path) -> None:
     assert all((a / f).read_bytes() == (b / f).read_bytes() for f in files)
 
 
+def test_recording_read_in_small_steps(recording: Path, tmp_path: Path, monkeypatch) -> None:
+    """Members read a few bytes at a time (and decompressed a few bytes at a time) give the same dataset."""
+    export_lerobot(recording, tmp_path / "a")
+    monkeypatch.setattr(lr, "_READ_CHUNK", 7)
+    export_lerobot(recording, tmp_path / "b")
+    for f in (p for p in (tmp_path / "a").rglob("*") if p.is_file()):
+        assert f.read_bytes() == (tmp_path / "b" / f.relative_to(tmp_path / "a")).read_bytes(), f
+
+
 def test_episodes_are_ordered_and_files_roll_over(tmp_path: Path, monkeypatch) -> None:
     """Several worker files give one fixed episode order; more frames than a file holds start a new data
     and video file, each episode's video time counted from its own file's start."""
@@ -286,8 +295,10 @@ def _set(field, value):
     [
         ("missing", ["recording folder is missing"]),
         ("empty", ["no trajectories-*.jsonl.gz"]),
-        ("not_gzip", ["no complete gzip member"]),
+        ("not_gzip", ["gzip member at byte 0 is corrupt"]),
         ("empty_file", ["holds no complete episode"]),
+        ("corrupt_member", ["is corrupt"]),
+        ("too_big", ["entry 0 decompresses to more than"]),
         ("not_json", ["not JSON"]),
         ("bad_action", ["entry 1: steps[2].action", "less than 4"]),
         ("bad_step_idx", ["steps[1].step_idx", "expected 1"]),
@@ -310,6 +321,12 @@ def test_bad_input_is_one_line(recording: Path, tmp_path: Path, damage: str, wor
         path.write_bytes(b"this is not a recording")
     elif damage == "empty_file":
         path.write_bytes(b"")
+    elif damage == "corrupt_member":
+        raw = bytearray(path.read_bytes())
+        raw[40:60] = bytes(20)  # inside the first member's deflate stream
+        path.write_bytes(bytes(raw))
+    elif damage == "too_big":
+        lr.MAX_ENTRY_BYTES = 1000  # restored below
     elif damage == "not_json":
         path.write_bytes(gzip.compress(b"{oops\n"))
     elif damage == "bad_action":
@@ -328,8 +345,12 @@ def test_bad_input_is_one_line(recording: Path, tmp_path: Path, damage: str, wor
         (recording / "trajectories-1.jsonl.gz").write_bytes(path.read_bytes())
     elif damage == "out_exists":
         out.mkdir()
-    with pytest.raises(LeRobotExportError) as exc:
-        export_lerobot(src, out)
+    limit = 256 * 2**20
+    try:
+        with pytest.raises(LeRobotExportError) as exc:
+            export_lerobot(src, out)
+    finally:
+        lr.MAX_ENTRY_BYTES = limit
     line = user_error_line(exc.value)
     assert "\n" not in line and all(w in line for w in words), line
     assert not any(p.name.startswith(".lr.partial") for p in tmp_path.iterdir())  # nothing half-written

@@ -34,6 +34,7 @@ import os
 import re
 import shutil
 import subprocess
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator, Literal
@@ -42,8 +43,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from biovln_ms.errors import BioVLNError, describe_validation_error
-from biovln_ms.io_utils import atomic_write_text, inside
-from biovln_ms.learning.recorder import RECORDER_VERSION, read_recordings
+from biovln_ms.io_utils import atomic_write_text, inside, regular_size
+from biovln_ms.learning.recorder import RECORDER_VERSION
 from biovln_ms.limits import Identifier
 
 CODEBASE_VERSION = "v3.0"
@@ -60,6 +61,13 @@ ACTIONS = ("STOP", "FORWARD", "LEFT", "RIGHT")
 #: the H.264 settings; LeRobot's own recorder uses g=2 too (fast random access when decoding one frame)
 VIDEO_CODEC = ["-c:v", "libx264", "-preset", "medium", "-crf", "23", "-g", "2", "-pix_fmt", "yuv420p"]
 MAX_FPS = 1_000
+#: a recording file (one per eval worker); it is mapped and read one episode at a time
+MAX_RECORDING_BYTES = 64 * 2**30
+#: one episode's entry, decompressed (a full-mode step is about 13 kB of JSON)
+MAX_ENTRY_BYTES = 256 * 2**20
+#: a frame's side in pixels (the env's largest camera)
+MAX_FRAME_SIDE = 4_096
+_READ_CHUNK = 2**20
 _FIX_FOLDER = "give the folder of `biovln-ms eval --record DIR`"
 
 
@@ -135,8 +143,7 @@ def read_episodes(folder: str | Path) -> list[Episode]:
         )
     episodes, seen = [], {}
     for path in files:
-        raw_entries = _entries(path)
-        for k, raw in enumerate(raw_entries):
+        for k, raw in enumerate(_entries(path)):
             try:
                 entry = _Entry.model_validate(raw)
             except ValidationError as e:
@@ -173,24 +180,77 @@ def read_episodes(folder: str | Path) -> list[Episode]:
     return sorted(episodes, key=lambda ep: (_natural(ep.entry.scene_id), _natural(ep.entry.episode_id)))
 
 
-def _entries(path: Path) -> list[dict]:
-    """The entries of one recording file; a file none of whose members reads back is corrupt."""
+def _entries(path: Path) -> Iterator[dict]:
+    """The entries of one recording file, one gzip member (one episode) at a time, each decompressed to
+    at most ``MAX_ENTRY_BYTES``; the file is mapped, never read whole. A truncated last member (a run
+    killed while writing) is skipped, as the trainers skip it; a corrupt one is an error."""
+    import mmap
+
+    regular_size(path, MAX_RECORDING_BYTES, "recording", error=LeRobotExportError, fix=_FIX_FOLDER)
+    if path.stat().st_size == 0:
+        return
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+        pos, k = 0, 0
+        while pos < len(mm):
+            data, pos = _member(mm, pos, path, k)
+            if data is None:
+                return  # truncated last member
+            try:
+                text = data.decode("utf-8")
+            except UnicodeDecodeError:
+                raise LeRobotExportError(
+                    f"entry {k} is not UTF-8 text", source=str(path), fix=_FIX_FOLDER
+                ) from None
+            for line in text.splitlines():
+                if line.strip():
+                    yield _entry_json(line, path, k)
+                    k += 1
+
+
+def _member(mm, pos: int, path: Path, k: int) -> tuple[bytes | None, int]:
+    """The gzip member starting at ``pos``, decompressed in bounded steps, and where the next begins;
+    (None, end) for a member cut short."""
+    d = zlib.decompressobj(zlib.MAX_WBITS | 16)
+    parts, size, start = [], 0, pos
+    while not d.eof:
+        if d.unconsumed_tail:
+            buf = d.unconsumed_tail
+        elif pos < len(mm):
+            buf = mm[pos : pos + _READ_CHUNK]  # a copy: no pointer into the map outlives this call
+            pos += len(buf)
+        else:
+            return None, pos
+        try:
+            part = d.decompress(buf, MAX_ENTRY_BYTES + 1 - size)
+        except zlib.error as e:
+            raise LeRobotExportError(
+                f"not a recording: the gzip member at byte {start} is corrupt ({e})",
+                source=str(path),
+                fix=_FIX_FOLDER,
+            ) from None
+        size += len(part)
+        parts.append(part)
+        if size > MAX_ENTRY_BYTES:
+            raise LeRobotExportError(
+                f"entry {k} decompresses to more than {MAX_ENTRY_BYTES // 2**20} MiB",
+                source=str(path),
+                fix="export recordings as eval writes them",
+            )
+    return b"".join(parts), pos - len(d.unused_data)
+
+
+def _entry_json(line: str, path: Path, k: int) -> dict:
     try:
-        entries = list(read_recordings(path))
-    except (ValueError, UnicodeDecodeError) as e:  # json.JSONDecodeError is a ValueError
+        entry = json.loads(line)
+    except ValueError as e:  # json.JSONDecodeError
         raise LeRobotExportError(
-            f"not a recording: an entry is not JSON ({str(e)[:80]})", source=str(path), fix=_FIX_FOLDER
+            f"not a recording: entry {k} is not JSON ({str(e)[:80]})", source=str(path), fix=_FIX_FOLDER
         ) from None
-    except OSError as e:
-        raise LeRobotExportError(f"cannot read the recording ({e})", source=str(path)) from None
-    if not entries and path.stat().st_size:
-        raise LeRobotExportError(
-            "not a recording: no complete gzip member", source=str(path), fix=_FIX_FOLDER
-        )
-    bad = next((k for k, e in enumerate(entries) if not isinstance(e, dict)), None)
-    if bad is not None:
-        raise LeRobotExportError("an entry is not a JSON object", source=str(path), field=f"entry {bad}")
-    return entries
+    except RecursionError:
+        raise LeRobotExportError(f"entry {k} is nested too deeply", source=str(path)) from None
+    if not isinstance(entry, dict):
+        raise LeRobotExportError("an entry is not a JSON object", source=str(path), field=f"entry {k}")
+    return entry
 
 
 def _check_steps(ep: Episode, k: int) -> None:
@@ -515,6 +575,13 @@ def _write(episodes: list[Episode], root: Path, fps: int) -> dict:
     image_hw = depth_hw = None
     if full:
         image_hw = _rgb(episodes[0], 0).shape[:2]
+        if max(image_hw) > MAX_FRAME_SIDE:
+            raise LeRobotExportError(
+                f"frames are {image_hw[1]} x {image_hw[0]}, more than {MAX_FRAME_SIDE} pixels a side",
+                source=str(episodes[0].source),
+                field=f"{episodes[0].name}: steps[0].obs.rgb_path",
+                fix="record with the env's camera sizes",
+            )
         if image_hw[0] % 2 or image_hw[1] % 2:
             raise LeRobotExportError(
                 f"frames are {image_hw[1]} x {image_hw[0]}; H.264 (yuv420p) needs even sides",
