@@ -148,11 +148,14 @@ def check_v30(root: Path, fps: int = FPS) -> dict:
     # videos: every frame there, of the feature's size and rate
     for rel, n in video_frames.items():
         reader = imageio_ffmpeg.read_frames(str(root / rel))
-        meta = reader.__next__()
-        key = rel.split("/")[1]
-        h, w, _ = feats[key]["shape"]
-        assert tuple(meta["size"]) == (w, h) and meta["fps"] == fps
-        assert sum(1 for _ in reader) == n, rel
+        try:
+            meta = reader.__next__()
+            key = rel.split("/")[1]
+            h, w, _ = feats[key]["shape"]
+            assert tuple(meta["size"]) == (w, h) and meta["fps"] == fps
+            assert sum(1 for _ in reader) == n, rel
+        finally:
+            reader.close()
     assert len(list((root / "videos").rglob("*.mp4"))) if videos else True
 
     # stats: every feature, LeRobot's keys and shapes, counted over every frame
@@ -200,8 +203,11 @@ def test_export_is_a_v30_dataset_of_the_recording(recording: Path, tmp_path: Pat
     reader = imageio_ffmpeg.read_frames(
         str(tmp_path / "lr" / "videos" / lr.CAMERA_KEY / "chunk-000" / "file-000.mp4")
     )
-    reader.__next__()
-    decoded = [np.frombuffer(f, np.uint8).reshape(48, 64, 3) for f in reader]
+    try:
+        reader.__next__()
+        decoded = [np.frombuffer(f, np.uint8).reshape(48, 64, 3) for f in reader]
+    finally:
+        reader.close()
     recorded = [_frame(t, e) for e, n in enumerate((4, 7, 5)) for t in range(n)]
     assert len(decoded) == len(recorded)
     assert max(np.abs(d.astype(int) - r).mean() for d, r in zip(decoded, recorded)) < 6
