@@ -20,6 +20,10 @@ default dataset built from them (a composition of the episode model and the LSAT
 * Protocol splits (ours): ``protocol_train`` / ``protocol_val`` / ``protocol_test``, lab protocols
   as multi-goal episodes (``biovln_ms.protocols.episodes``) in scenes of all four templates, their seeds
   disjoint from every other split's (see ``PROTOCOL_SPLITS``).
+* Busy splits (ours): ``busy_val`` / ``busy_test``, single-goal episodes in held-out scenes of the four
+  paper templates, each episode with its own crowd of 1-4 technicians (``biovln_ms.people.episodes``: count,
+  crowd seed, and how long its goal's face is occupied), at least a third of them with the goal's face
+  occupied for part of the episode (see ``BUSY_SPLITS``).
 * Molecular-biology splits (ours): ``molbio_val`` / ``molbio_test``, scenes of the
   ``molecular_biology`` template, the only one offering the catalog's seven molecular-biology categories,
   on seeds no other split uses (see ``MOLBIO_SPLITS``); any instance of the category counts. The paper's
@@ -39,15 +43,18 @@ import os
 from pathlib import Path
 
 from biovln_ms.episodes.dataset import DatasetError, EpisodeDataset
-from biovln_ms.episodes.samplers import AnyInstanceEpisodes, ProtocolEpisodes
+from biovln_ms.episodes.samplers import AnyInstanceEpisodes, ProtocolEpisodes, SingleGoalEpisodes
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.lsat.designer_scene import target_glb_path
 from biovln_ms.lsat.importer import import_glb
+from biovln_ms.people.crowd import step_seconds
+from biovln_ms.people.episodes import BusyEpisodes
 from biovln_ms.protocols.episodes import hosted_protocols
 from biovln_ms.protocols.library import ProtocolLibrary, load_protocols
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.spec import SceneSpec
+from biovln_ms.variants import BENCHMARK_ENV, BUSY_PEOPLE, VARIANTS
 
 FOUR_CATEGORIES = ("cabinet", "centrifuge", "refrigerator", "waste_bin")
 HELD_OUT = {"ms_dev": ((150, 151, 152, 153), 40), "ms_val": ((154,), 50), "ms_test": ((155, 156), 60)}
@@ -100,6 +107,15 @@ MOLBIO_WALL = ("fume_hood", "ultra_low_freezer", "autoclave")
 MOLBIO_TABLE = ("thermal_cycler", "microscope", "water_bath", "shaker")
 MOLBIO_SPLITS = {"molbio_val": (900, 4), "molbio_test": (950, 6)}
 MOLBIO_EPISODES = 30
+#: Busy splits (ours): per split, (template, seed) of its scenes (seeds no other split uses), BUSY_EPISODES
+#: single-goal episodes each, a crowd of 1 to BUSY_MAX_PEOPLE per episode; single rooms hold FOUR_CATEGORIES
+BUSY_SPLITS = {
+    "busy_val": (("single_room", 1000), ("two_room", 1001), ("suite", 1002), ("open_plan", 1003)),
+    "busy_test": (("single_room", 1050), ("two_room", 1051), ("suite", 1052), ("open_plan", 1053)),
+}
+BUSY_EPISODES = 16
+BUSY_MAX_PEOPLE = BUSY_PEOPLE  # the busy variants' figures
+BUSY_OCCUPIED_EVERY = 3  # every third episode has its goal's face occupied for part of the episode
 
 
 def lsat_target_scene(robot: str = DEFAULT_ROBOT):
@@ -188,7 +204,7 @@ def paper_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
             description="Table 4: designer-authored scene (LSAT import), 40 episodes, 8 categories",
         )
     )
-    return out + protocol_splits(robot) + molbio_splits(robot)
+    return out + protocol_splits(robot) + molbio_splits(robot) + busy_splits(robot)
 
 
 def protocol_scenes(
@@ -269,6 +285,41 @@ def molbio_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
     return out
 
 
+def busy_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
+    """The busy splits (``BUSY_SPLITS``): the benchmark variant's step limit and step time give each
+    episode's occupied steps."""
+    r, cfg = robot_spec(robot, "robot").footprint_radius, VARIANTS[BENCHMARK_ENV]
+    sampler = BusyEpisodes(
+        SingleGoalEpisodes(),
+        BUSY_MAX_PEOPLE,
+        cfg.max_episode_steps,
+        step_seconds(cfg.forward_step, cfg.turn_deg),
+        BUSY_OCCUPIED_EVERY,
+    )
+    out = []
+    for name, scenes in BUSY_SPLITS.items():
+        plan = [
+            (
+                generate_scene(
+                    t, seed, required_categories=FOUR_CATEGORIES if t == "single_room" else (), robot_radius=r
+                ),
+                BUSY_EPISODES,
+                False,
+            )
+            for t, seed in scenes
+        ]
+        out.append(
+            SplitPlan(
+                name,
+                plan,
+                description=f"people in the lab: {BUSY_EPISODES} episodes per scene of seeds "
+                f"{[seed for _, seed in scenes]}, 1-{BUSY_MAX_PEOPLE} people each",
+                sampler=sampler,
+            )
+        )
+    return out
+
+
 def default_dataset_dir(robot: str = DEFAULT_ROBOT) -> Path:
     """``$BIOVLN_DATA_DIR``, else ``~/.cache/biovln_ms/datasets/biovln``; another robot's is the sibling
     ``<that name>-<robot>`` (``biovln-fetch``)."""
@@ -336,8 +387,8 @@ def dataset_root(root: str | Path | None, robot: str = DEFAULT_ROBOT) -> Path:
 def held_out_seeds() -> dict[str, frozenset[int]]:
     """Template -> the seeds of the scenes of the paper's evaluation splits (all but ``full``, ``train`` and
     ``protocol_train``): MS DEV/VAL/TEST, the two-room benchmark scene, the Hard track (and its dressed
-    scenes), every seed the protocol validation and test scans may take, and the molecular-biology splits.
-    A training split built by ``dataset build --template`` uses none of them (the ``held_out`` of
+    scenes), every seed the protocol validation and test scans may take, the molecular-biology splits and the
+    busy splits. A training split built by ``dataset build --template`` uses none of them (the ``held_out`` of
     :func:`biovln_ms.episodes.bulk.build_training_split`)."""
     seeds: dict[str, set[int]] = defaultdict(set)
     for held, _ in HELD_OUT.values():
@@ -352,4 +403,7 @@ def held_out_seeds() -> dict[str, frozenset[int]]:
                 seeds[template].update(range(first, first + PROTOCOL_SEED_SCAN))
     for first, count in MOLBIO_SPLITS.values():
         seeds[MOLBIO_TEMPLATE].update(range(first, first + count))
+    for rows in BUSY_SPLITS.values():
+        for template, seed in rows:
+            seeds[template].add(seed)
     return {t: frozenset(s) for t, s in seeds.items()}

@@ -18,6 +18,9 @@ from biovln_ms.task_config import (
     ProtocolTaskConfig,
 )
 
+#: the busy variants' figures: the busy splits' largest crowd (biovln_ms.splits.BUSY_MAX_PEOPLE)
+BUSY_PEOPLE = 4
+
 # lab protocols: K = 2-5 ordered goals, a STOP at each; the step budget is steps_per_goal x K,
 # and the registered step limit (gymnasium's truncation) the largest budget, steps_per_goal x MAX_VISITS
 _PROTOCOL = ProtocolTaskConfig(
@@ -34,6 +37,8 @@ BENCHMARK_ENV = "BioVLN-OpFace-v0"
 CENTROID_ENV = "BioVLN-Centroid-v0"
 STRICT_ENV = "BioVLN-OpFace-Strict-v0"
 RL_ENV = "BioVLN-OpFace-RL-v0"
+BUSY_ENV = "BioVLN-OpFace-Busy-v0"
+BUSY_STRICT_ENV = "BioVLN-OpFace-Busy-Strict-v0"
 PROTOCOL_ENV = "BioVLN-Protocol-v0"
 PROTOCOL_STRICT_ENV = "BioVLN-Protocol-Strict-v0"
 LAB_SCENE_ENV = "BioVLN-LabScene-v0"  # the scene viewer (no task; not a variant)
@@ -55,6 +60,16 @@ VARIANTS: dict[str, NavTaskConfig] = {
         sensors=("rl_state", "objectgoal"),
         agent_obs=False,
         default_split="train",
+    ),
+    # people in the lab (docs/guides/people.md): the busy splits, each episode with its own crowd of 1-4
+    # technicians (up to 4 figures; a split or scene without crowds gets 4 people)
+    BUSY_ENV: NavTaskConfig(people=BUSY_PEOPLE, default_split="busy_val"),
+    # ... and operational success, which with people also needs the goal's Zone 3 free of them
+    BUSY_STRICT_ENV: NavTaskConfig(
+        success_measure="strict_success",
+        fail_measure="strict_failed_stop",
+        people=BUSY_PEOPLE,
+        default_split="busy_val",
     ),
     # lab protocols: a correct STOP is within the current goal's success radius r
     PROTOCOL_ENV: _PROTOCOL,

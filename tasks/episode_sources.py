@@ -24,8 +24,9 @@ SOURCE_ARGUMENTS = ("split", "dataset", "template", "scene_seed")
 def resolve_episodes(env_cls: type[BioVLNNavEnv], kwargs: dict) -> dict:
     """``kwargs`` for ``env_cls`` with ``episodes=`` in place of ``split`` (of ``dataset``, or the robot's
     default dataset; the config's ``default_split`` when none), or without a split the episodes sampled in
-    the scene generated from ``template`` / ``scene_seed``. The env's own argument checks run first, so an
-    invalid argument is reported before any dataset is read or built."""
+    the scene generated from ``template`` / ``scene_seed``. A split whose episodes bring their own crowds
+    (the busy splits) sets ``people`` to its largest crowd when not given. The env's own argument checks run
+    first, so an invalid argument is reported before any dataset is read or built."""
     kwargs = dict(kwargs)
     given = {k: kwargs.pop(k) for k in SOURCE_ARGUMENTS if k in kwargs}
     check_source_arguments(given)
@@ -43,6 +44,9 @@ def resolve_episodes(env_cls: type[BioVLNNavEnv], kwargs: dict) -> dict:
     split, dataset = given.get("split") or cfg.default_split, given.get("dataset")
     if split:
         kwargs["episodes"] = DatasetEpisodes(split, dataset_root(dataset, robot), robot)
+        crowd = max((e["people"]["count"] for e in kwargs["episodes"].episodes if "people" in e), default=0)
+        if crowd and "people" not in kwargs:  # a busy split: figures for its largest crowd
+            kwargs["people"] = max(crowd, cfg.people)
     elif dataset:
         raise EnvConfigError(
             f"a dataset ({dataset}) was given without a split",

@@ -20,6 +20,9 @@ from mani_skill.utils.structs.pose import Pose
 from biovln_ms.people.body import PERSON_HEIGHT, PeopleStep
 from biovln_ms.people.crowd import Crowd, stations, step_seconds
 
+#: m: an absent person's figure is kept this far below the floor, out of every camera's sight
+ABSENT_Z = -10.0
+
 #: (half size x, y, z, centre x, y, z, colour) of a figure's boxes, in its frame (x ahead, z up), metres
 _SCRUBS, _TROUSERS, _SKIN = (0.16, 0.42, 0.72), (0.12, 0.13, 0.18), (0.86, 0.66, 0.52)
 _BOXES = (
@@ -54,7 +57,7 @@ class EnvPeople:
             b.add_box_visual(sapien.Pose([x, y, z]), half_size=[hx, hy, hz], material=_material(rgb))
         radius, z, rgb = _HEAD
         b.add_sphere_visual(sapien.Pose([0.0, 0.0, z]), radius=radius, material=_material(rgb))
-        b.initial_pose = sapien.Pose([0.0, 0.0, -10.0])
+        b.initial_pose = sapien.Pose([0.0, 0.0, ABSENT_Z])
         return b.build_kinematic(name=f"person_{k}")
 
     def category(self, lookup: torch.Tensor, value: int) -> torch.Tensor:
@@ -68,12 +71,15 @@ class EnvPeople:
     # --- the hooks' share ----------------------------------------------------------------------------
     def reset(self, rows: list[int], pose: np.ndarray) -> PeopleStep:
         """New crowds for sub-envs ``rows`` (their episodes just began, the robots at ``pose``); the people
-        of every sub-env."""
+        of every sub-env. An episode carrying its own crowd (a busy split's) brings its count and crowd
+        seed; any other has ``people=`` people drawn from the sub-env's episode seed."""
         e = self.env
         for i in rows:
             spec, nav = e.scene_specs[i], e.navs[i]
             st = stations(spec, nav, pose[i, :2])
-            self.crowds[i].reset(nav, st, pose[i, :2], e._footprint, int(e._episode_seed[i]), spec.name)
+            own = e._episodes[i].get("people")
+            count, seed = (own["count"], own["seed"]) if own else (None, int(e._episode_seed[i]))
+            self.crowds[i].reset(nav, st, pose[i, :2], e._footprint, seed, spec.name, count)
         self.hit[rows] = False
         self._place(sorted(rows))
         return self._view(np.zeros(e.num_envs))
@@ -107,6 +113,7 @@ class EnvPeople:
             for j, i in enumerate(rows):
                 c = self.crowds[i]
                 p[j, :2] = torch.from_numpy(c.pos[k])
+                p[j, 2] = 0.0 if c.present[k] else ABSENT_Z
                 q[j, 0], q[j, 3] = math.cos(c.yaw[k] / 2), math.sin(c.yaw[k] / 2)
             actor.pose = Pose.create_from_pq(p.to(self.env.device), q.to(self.env.device))
         if self.env.gpu_sim_enabled:

@@ -168,6 +168,16 @@ def dataset_stats(
     for col in ("split", "protocols", "episodes", "mean K", "K = 2 / 3 / 4 / 5", "route m: mean (min-max)"):
         protocols.add_column(col)
     protocols.add_column("needing a relation: episodes % (visits %)")
+    busy = Table(title="busy splits (episodes with their own crowd)")
+    for col in (
+        "split",
+        "episodes",
+        "people: episodes",
+        "mean people",
+        "goal face occupied: episodes %",
+        "steps %",
+    ):
+        busy.add_column(col)
     for name in ds.split_names():
         info = ds.manifest["splits"][name]
         if info.get("missing") and not info["files"]:
@@ -202,9 +212,21 @@ def dataset_stats(
                 f"{route['mean']} ({route['min']}-{route['max']})",
                 f"{p['needs_relation']} ({p['relation_visits']})",
             )
+        if "people" in st:
+            p = st["people"]
+            busy.add_row(
+                name,
+                str(st["episodes"]),
+                ", ".join(f"{k}: {v}" for k, v in p["count"].items()),
+                f"{p['mean_count']}",
+                f"{p['occupied_episodes']}",
+                f"{p['occupied_steps']}",
+            )
     Console(width=160).print(table)
     if protocols.row_count:
         Console(width=160).print(protocols)
+    if busy.row_count:
+        Console(width=160).print(busy)
 
 
 @dataset_app.command("show")

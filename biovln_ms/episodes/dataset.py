@@ -43,8 +43,9 @@ from biovln_ms.scene.spec import MAX_COORDINATE, MAX_JSON_DEPTH, SceneSpec, Scen
 from biovln_ms.scene.spec import MAX_FILE_BYTES as MAX_SCENE_FILE_BYTES
 
 #: 2: the lsat_target split and marker goals; 3: the Hard track (any instance); 4: protocol splits (ordered
-#: multi-goal episodes with an instruction; a reader taking their goals for any-instance goals would be wrong)
-DATASET_FORMAT_VERSION = 4
+#: multi-goal episodes with an instruction; a reader taking their goals for any-instance goals would be
+#: wrong); 5: busy splits (episodes carrying their own crowd; a reader ignoring it runs an empty lab)
+DATASET_FORMAT_VERSION = 5
 EPISODE_GENERATOR_VERSION = 2  # 2: no trivial episodes (generator.MIN_START_GEODESIC_MARGIN)
 
 # Limits (docs/guides/datasets.md), checked before parsing. The paper's datasets: a 29 kB
@@ -477,7 +478,21 @@ class EpisodeDataset:
             "difficulty": {k: round(100 * diff.get(k, 0) / n, 1) for k in ("easy", "medium", "hard")},
             "start_fallback": sum(e["info"]["start_clearance_fallback"] for e in eps),
             **({"protocol": _protocol_stats(eps)} if eps and "protocol" in eps[0] else {}),
+            **({"people": _people_stats(eps)} if any("people" in e for e in eps) else {}),
         }
+
+
+def _people_stats(eps: list[Episode]) -> dict:
+    """People per episode and how often the goal's face is occupied, of a busy split's episodes: the share of
+    episodes whose goal's face is occupied for part of the episode and the mean share of the step limit."""
+    ps = [e["people"] for e in eps if "people" in e]
+    occupied = [p["occupied_steps"] / p["steps"] for p in ps]
+    return {
+        "count": dict(sorted(Counter(p["count"] for p in ps).items())),
+        "mean_count": round(sum(p["count"] for p in ps) / len(ps), 2),
+        "occupied_episodes": round(100 * sum(o > 0 for o in occupied) / len(ps), 1),
+        "occupied_steps": round(100 * sum(occupied) / len(ps), 1),
+    }
 
 
 def _protocol_stats(eps: list[Episode]) -> dict:

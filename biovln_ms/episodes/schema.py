@@ -22,9 +22,11 @@ from typing_extensions import NotRequired, TypedDict
 
 from biovln_ms.constants import MAX_VISITS, MIN_VISITS
 from biovln_ms.limits import MAX_ID_LENGTH, Identifier
+from biovln_ms.people.crowd import MAX_PEOPLE
 from biovln_ms.scene.spec import MAX_COORDINATE
 
 MAX_GOALS = 64  # per episode
+MAX_STEP_LIMIT = 1_000_000  # an episode's step limit (``max_episode_steps``' bound)
 MAX_VIEW_POINTS = 1024  # per goal
 
 #: the validation of every dataset file's schema: strict types, finite numbers
@@ -106,6 +108,18 @@ class ProtocolInfo(TypedDict):
 
 
 @with_config(STRICT)
+class PeopleInfo(TypedDict):
+    """A busy split's episode (``biovln_ms.people.episodes``): its own crowd, ``count`` people reset from
+    crowd ``seed``, and the ``steps`` of its step limit after which a person overlapped the goal's Zone 3
+    (``occupied_steps``, the robot standing at its start)."""
+
+    count: Annotated[int, Field(ge=1, le=MAX_PEOPLE)]
+    seed: Annotated[int, Field(ge=0, lt=2**32)]
+    occupied_steps: Count
+    steps: Annotated[int, Field(ge=1, le=MAX_STEP_LIMIT)]
+
+
+@with_config(STRICT)
 class Episode(TypedDict):
     """A Habitat-style episode: a start pose in a scene and its goals (one; every instance of the category
     where any counts; or a protocol's K in visit order), ``object_category`` / ``object_id`` the first."""
@@ -119,6 +133,7 @@ class Episode(TypedDict):
     goals: Annotated[list[Goal], Field(min_length=1, max_length=MAX_GOALS)]
     info: SamplerInfo
     protocol: NotRequired[ProtocolInfo]  # a protocol split's episode: K ordered goals
+    people: NotRequired[PeopleInfo]  # a busy split's episode: its crowd
 
 
 #: validates the episode list of an episode file

@@ -46,6 +46,9 @@ PATIENCE = 8.0
 SIDESTEP_DEG = 60.0
 #: ``people=`` ranges over 0 to this
 MAX_PEOPLE = 8
+#: m: where a person absent from an episode is kept (a crowd holds ``people=`` slots; an episode carrying its
+#: own count uses the first of them), far from any scene so no measure or cut sees them
+ABSENT_XY = (1.0e4, 1.0e4)
 #: waypoints a route keeps (a longer one is planned again from its last kept point)
 ROUTE_POINTS = 48
 #: the people's draws: default_rng([episode seed, PEOPLE_STREAM, person + 1, visit, purpose])
@@ -119,6 +122,7 @@ class Crowd:
 
     #: the arrays of a crowd's state, each with a leading person dimension
     STATE = (
+        "present",
         "pos",
         "yaw",
         "mode",
@@ -134,6 +138,7 @@ class Crowd:
 
     def __init__(self, n: int) -> None:
         self.n = n
+        self.present = np.ones(n, dtype=bool)  # in this episode (the first ``count`` of the slots)
         self.pos, self.yaw = np.zeros((n, 2)), np.zeros(n)
         self.mode, self.target = np.zeros(n, np.int64), np.zeros(n, np.int64)
         self.timer, self.waited, self.speed = np.zeros(n), np.zeros(n), np.zeros(n)
@@ -145,10 +150,25 @@ class Crowd:
 
     # --- an episode -------------------------------------------------------------------------------
     def reset(
-        self, nav: NavGeometry, st: Stations, robot_xy, robot_radius: float, seed: int, scene=""
+        self,
+        nav: NavGeometry,
+        st: Stations,
+        robot_xy,
+        robot_radius: float,
+        seed: int,
+        scene="",
+        count: int | None = None,
     ) -> None:
-        """People standing at faces apart from each other and from the robot's start, each for a part of a
-        dwell time, drawn from ``seed``; a one-line CrowdError when the scene has too few such faces."""
+        """``count`` people (default: every slot; the others absent, at :data:`ABSENT_XY`) standing at faces
+        apart from each other and from the robot's start, each for a part of a dwell time, drawn from
+        ``seed``; a one-line CrowdError when the scene has too few such faces."""
+        count = self.n if count is None else int(count)
+        if not 0 <= count <= self.n:
+            raise CrowdError(
+                f"an episode with {count} people in a crowd of {self.n}",
+                field="people",
+                fix=f"pass people={count} or more",
+            )
         if robot_radius < PERSON_RADIUS:
             raise CrowdError(
                 f"people walk the robot's free space, and this robot's {robot_radius} m footprint is "
@@ -158,27 +178,32 @@ class Crowd:
             )
         self.nav, self.st, self.robot_radius, self.seed = nav, st, float(robot_radius), int(seed)
         rng = np.random.default_rng([self.seed, PEOPLE_STREAM])
-        self.speed[:] = rng.uniform(*SPEED_RANGE, self.n)
+        self.speed[:] = 0.0  # the draws are the episode's people's only: any number of slots gives one crowd
+        self.speed[:count] = rng.uniform(*SPEED_RANGE, count)
         robot = np.asarray(robot_xy, float)[:2]
         chosen: list[int] = []
         for s in rng.permutation(len(st.ids)).tolist():
-            if len(chosen) == self.n:
+            if len(chosen) == count:
                 break
             far = np.hypot(*(st.stand[s] - robot)) >= PERSON_RADIUS + robot_radius + START_CLEARANCE
             if far and all(self._apart(s, c) for c in chosen):
                 chosen.append(s)
-        if len(chosen) < self.n:
+        if len(chosen) < count:
             raise CrowdError(
                 f"scene '{scene}' has {len(chosen)} instrument faces where people can stand apart from each "
-                f"other and from the robot's start; people={self.n} needs {self.n}",
+                f"other and from the robot's start; people={count} needs {count}",
                 field="people",
                 fix=f"pass people={len(chosen)} or fewer, or use a scene with more instruments",
             )
-        self.pos[:] = st.stand[chosen]
-        self.yaw[:] = st.yaw[chosen]
-        self.target[:] = chosen
+        self.present[:] = np.arange(self.n) < count
+        self.pos[:], self.yaw[:] = ABSENT_XY, 0.0
+        self.pos[:count] = st.stand[chosen]
+        self.yaw[:count] = st.yaw[chosen]
+        self.target[:] = -1
+        self.target[:count] = chosen
         self.mode[:] = STAND
-        self.timer[:] = rng.uniform(0.0, DWELL_RANGE[1], self.n)
+        self.timer[:] = 0.0
+        self.timer[:count] = rng.uniform(0.0, DWELL_RANGE[1], count)
         self.waited[:] = 0.0
         self.visits[:] = 0
         self.route_len[:] = 0
@@ -223,8 +248,9 @@ class Crowd:
         robot = np.asarray(robot_xy, float)[:2]
         ticks = max(1, round(seconds / TICK))
         dt, waited_for_robot = seconds / ticks, 0.0
+        people = np.flatnonzero(self.present).tolist()
         for _ in range(ticks):
-            for p in range(self.n):
+            for p in people:
                 waited_for_robot += self._tick(p, dt, robot)
         return waited_for_robot
 
@@ -315,7 +341,7 @@ class Crowd:
         one was found."""
         self.visits[p] += 1
         rng = np.random.default_rng([self.seed, PEOPLE_STREAM, p + 1, int(self.visits[p])])
-        others = [int(self.target[q]) for q in range(self.n) if q != p]
+        others = [int(self.target[q]) for q in range(self.n) if q != p and self.present[q]]
         for s in rng.permutation(len(self.st.ids)).tolist():
             if s != self.target[p] and all(self._apart(s, o) for o in others) and self._plan(p, s):
                 self.target[p], self.mode[p], self.waited[p] = s, WALK, 0.0

@@ -1,0 +1,131 @@
+"""The busy splits and variants (people in the lab, part 2): episodes carrying their own crowd (count, crowd
+seed, occupied steps), their share of busy goals, held-out seeds, a small busy dataset's stats, the env
+taking an episode's crowd (and its figures count from the split), and the variants' registration."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import biovln_ms  # noqa: F401
+from biovln_ms.episodes.dataset import EpisodeDataset
+from biovln_ms.episodes.samplers import SceneSamplers, SingleGoalEpisodes
+from biovln_ms.episodes.schema import EPISODES
+from biovln_ms.episodes.writer import SplitPlan, write_dataset
+from biovln_ms.errors import BioVLNError
+from biovln_ms.people.crowd import Crowd, stations, step_seconds
+from biovln_ms.people.episodes import BusyEpisodes, occupied_steps
+from biovln_ms.scene.generator import generate_scene
+from biovln_ms.splits import BUSY_SPLITS, FOUR_CATEGORIES, HARD_SPLITS, MOLBIO_SPLITS, PROTOCOL_SPLITS
+from biovln_ms.splits import held_out_seeds
+from biovln_ms.variants import BUSY_ENV, BUSY_STRICT_ENV, VARIANTS
+
+CPU = dict(sim_backend="physx_cpu", render_backend="cpu", obs_mode="none")
+STEPS = 80  # a short step limit keeps the model runs quick
+SAMPLER = BusyEpisodes(SingleGoalEpisodes(), 4, STEPS, step_seconds(0.25, 30.0))
+
+
+@pytest.fixture(scope="module")
+def room():
+    return generate_scene("single_room", 1000, required_categories=FOUR_CATEGORIES)
+
+
+@pytest.fixture(scope="module")
+def drawn(room):
+    return SAMPLER.draw(SceneSamplers(), room, 9, seed=3)
+
+
+def test_busy_episodes_carry_a_crowd_and_are_deterministic(room, drawn):
+    EPISODES.validate_python(drawn)  # the schema takes them
+    again = SAMPLER.draw(SceneSamplers(), room, 9, seed=3)
+    assert drawn == again
+    counts = [e["people"]["count"] for e in drawn]
+    assert all(1 <= c <= 4 for c in counts) and len(set(counts)) > 1
+    for e in drawn:
+        p = e["people"]
+        assert p["steps"] == STEPS and 0 <= p["occupied_steps"] < STEPS  # the face is free for a while
+    busy = [e["people"]["occupied_steps"] > 0 for e in drawn]
+    assert all(busy[::3]) and sum(busy) >= len(busy) / 3  # every third, at least: a busy goal
+
+
+def test_occupied_steps_replay_from_the_episode(room, drawn):
+    nav = SceneSamplers().get(room).nav
+    for e in drawn[:3]:
+        p = e["people"]
+        again = occupied_steps(room, nav, e, p["count"], p["seed"], STEPS, SAMPLER.seconds)
+        assert again == p["occupied_steps"]
+
+
+def test_a_crowd_of_fewer_people_than_slots_is_the_same_crowd(room, drawn):
+    """An episode's crowd does not depend on how many figures the env has."""
+    nav = SceneSamplers().get(room).nav
+    e = next(e for e in drawn if e["people"]["count"] < 4)
+    start, p = np.asarray(e["start_position"][:2]), e["people"]
+    st = stations(room, nav, start)
+    exact, padded = Crowd(p["count"]), Crowd(6)
+    exact.reset(nav, st, start, nav.radius, p["seed"], room.name)
+    padded.reset(nav, st, start, nav.radius, p["seed"], room.name, p["count"])
+    assert padded.present.sum() == p["count"]
+    for _ in range(40):
+        exact.advance(0.5, start)
+        padded.advance(0.5, start)
+        assert np.array_equal(exact.pos, padded.pos[: p["count"]])
+    assert (padded.pos[p["count"] :] > 1e3).all()  # the absent ones, far from every scene
+
+
+def test_busy_seeds_are_held_out_and_used_by_no_other_split():
+    held = held_out_seeds()
+    others = {(t, s) for rows in HARD_SPLITS.values() for t, s, _ in rows}
+    others |= {("molecular_biology", f + i) for f, n in MOLBIO_SPLITS.values() for i in range(n)}
+    busy = [(t, s) for rows in BUSY_SPLITS.values() for t, s in rows]
+    assert len(set(busy)) == len(busy) and len({t for t, _ in busy}) >= 3  # several templates
+    for t, s in busy:
+        assert s in held[t] and (t, s) not in others
+        assert not any(f <= s < f + 50 for f, _ in PROTOCOL_SPLITS.values())
+        assert not 0 <= s < 300  # the paper's full / train seeds and the two-room scenes
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory, room):
+    out = tmp_path_factory.mktemp("busy") / "ds"
+    write_dataset(out, [SplitPlan("busy_val", [(room, 6, False)], sampler=SAMPLER)], progress=False)
+    return out
+
+
+def test_a_busy_dataset_loads_and_its_stats_count_people(dataset):
+    ds = EpisodeDataset(dataset)
+    st = ds.stats("busy_val")["people"]
+    eps = list(ds.episodes("busy_val"))
+    assert sum(st["count"].values()) == 6 and st["mean_count"] == round(
+        sum(e["people"]["count"] for e in eps) / 6, 2
+    )
+    assert st["occupied_episodes"] >= 100 / 3
+
+
+def test_the_env_takes_the_episodes_crowd_and_its_figures_from_the_split(dataset):
+    eps = list(EpisodeDataset(dataset).episodes("busy_val"))
+    most = max(e["people"]["count"] for e in eps)
+    e = gym.make("BioVLN-OpFace-v0", split="busy_val", dataset=str(dataset), **CPU)
+    try:
+        u = e.unwrapped
+        assert u.cfg.people == most  # figures for the split's largest crowd
+        for k in (0, 1):
+            e.reset(options={"episode_index": k})
+            p = u.current_episode["people"]
+            crowd = u._people.crowds[0]
+            assert int(crowd.present.sum()) == p["count"] and crowd.seed == p["seed"]
+            info = e.step(0)[4]
+            assert float(info["person_distance"][0]) < 100.0  # the absent ones are not the nearest
+    finally:
+        e.close()
+    with pytest.raises(BioVLNError, match="field 'people'.*crowds of up to") as err:
+        gym.make("BioVLN-OpFace-v0", split="busy_val", dataset=str(dataset), people=most - 1, **CPU)
+    assert "\n" not in str(err.value)
+
+
+def test_the_busy_variants_are_registered():
+    for uid in (BUSY_ENV, BUSY_STRICT_ENV):
+        assert uid in gym.registry and VARIANTS[uid].people == 4
+        assert VARIANTS[uid].default_split == "busy_val"
+    assert VARIANTS[BUSY_STRICT_ENV].success_measure == "strict_success"
