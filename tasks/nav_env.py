@@ -33,19 +33,14 @@ from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.sim.reach import FetchArm, ReachResult, reach_goals
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
-from biovln_ms.tasks.config_checks import (
-    SIM_FREQUENCIES,
-    EnvConfigError,
-    check_episode_kind,
-    check_state,
-    state_rows,
-)
+from biovln_ms.tasks.config_checks import SIM_FREQUENCIES, EnvConfigError, check_episode_kind
 from biovln_ms.tasks.config_checks import REWARD_MODES, reset_arguments, task_config
 from biovln_ms.tasks.episodes import choose_episodes, episode_context
 from biovln_ms.tasks.observations import HeadCameraNoise, segmentation_lookup
 from biovln_ms.tasks.people import EnvPeople
 from biovln_ms.tasks.privileged import PrivilegedView
 from biovln_ms.tasks.sensors import SENSORS, SensorInputs, semantic_category
+from biovln_ms.tasks.task_state import check_state, load_task_state, task_state
 from biovln_ms.variants import BENCHMARK_ENV, VARIANTS
 
 #: the follow camera of ``render()``: behind and above the robot, looking at a point ahead of it
@@ -282,54 +277,18 @@ class BioVLNNavEnv(BaseEnv):
 
     # --- state: the simulator's and the task's -------------------------------------------------
     def get_state_dict(self):
-        """ManiSkill's simulation and controller state plus the task's: each sub-env's episode, start pose,
-        elapsed steps and every measure's state, so a replay from it gives the same rewards and infos.
-
-        The task's integers (episode, seed, counters) are given as float64, exact below 2**53: a recorded
-        step's one-number integer is a NumPy integer scalar, which ManiSkill's trajectory tools cannot
-        batch (``replay_trajectory --use-env-states --save-traj``), while floats and flags they can.
-        ``set_state_dict`` takes either."""
+        """ManiSkill's simulation and controller state plus the task's (:mod:`~.task_state`), so a replay
+        from it gives the same rewards and infos."""
         state = super().get_state_dict()
-        task = dict(
-            episode=self._episode_indices(),
-            start=torch.tensor(self._start, device=self.device),
-            elapsed_steps=torch.as_tensor(self._elapsed_steps).clone(),
-            done=torch.tensor(self._done, device=self.device),
-            episode_seed=torch.tensor(self._episode_seed, device=self.device),  # seeds the actuation noise
-            actuation_error=torch.tensor(self.agent.controller.actuation_error, device=self.device),
-            measures=self._measures.state_dict(),
-        )
-        if self._people:  # the crowds' (their figures' poses are ManiSkill's actor state)
-            task["people"] = self._people.state_dict()
-        state["task"] = _integers_as_float(task)
+        state["task"] = task_state(self)
         return state
 
     def set_state_dict(self, state: dict, env_idx: torch.Tensor | None = None):
         reference = self.get_state_dict()
         check_state(state, reference, self.num_envs)  # of this env's keys and shapes
         super().set_state_dict(state, env_idx)
-        if state.get("task") is None:
-            return
-        task = state_rows(state["task"], reference["task"], self.num_envs)
-        idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx.to(self.device)
-        saved = task["episode"].to(self.device, torch.int64)
-        if not torch.equal(saved[idx], self._episode_indices()[idx]):
-            raise EnvConfigError(
-                "the state belongs to another episode",
-                field="state['task']['episode']",
-                fix="reset to that episode first: env.reset(options={'episode_index': k})",
-            )
-        rows = idx.cpu().numpy()
-        self._start[rows] = torch.as_tensor(task["start"]).cpu().numpy()[rows]
-        steps = torch.as_tensor(task["elapsed_steps"], device=self.device)[idx]
-        self._elapsed_steps[idx] = steps.to(self._elapsed_steps.dtype)
-        self._done[rows] = torch.as_tensor(task["done"]).cpu().numpy()[rows]
-        self._episode_seed[rows] = torch.as_tensor(task["episode_seed"]).cpu().numpy()[rows]
-        error = torch.as_tensor(task["actuation_error"]).cpu().numpy()[rows]
-        self.agent.controller.actuation_error[rows] = error
-        self._measures.load_state_dict(task["measures"], idx)
-        if self._people:
-            self._people.load_state_dict(task["people"], rows)
+        if state.get("task") is not None:
+            load_task_state(self, state["task"], reference["task"], env_idx)
 
     # --- rendering -----------------------------------------------------------------------------
     def render_rgb_array(self, camera_name: str | None = None):
@@ -421,11 +380,3 @@ class BioVLNNavEnv(BaseEnv):
 
     def _episode_indices(self) -> torch.Tensor:
         return torch.tensor(self._episode_index, device=self.device)
-
-
-def _integers_as_float(tree):
-    """``tree`` with its integer tensors as float64 (see ``BioVLNNavEnv.get_state_dict``)."""
-    if isinstance(tree, dict):
-        return {k: _integers_as_float(v) for k, v in tree.items()}
-    floating = tree.is_floating_point() or tree.dtype == torch.bool
-    return tree if floating else tree.to(torch.float64)

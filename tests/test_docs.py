@@ -220,3 +220,16 @@ def test_pictures_are_drawn_by_the_code(tmp_path: Path) -> None:
     )
     assert r.returncode == 0, r.stderr[-3000:]
     assert (tmp_path / "lab_s150_v0_episode.png").stat().st_size > 10_000
+
+
+#: README: the pitch, the two commands, one snippet and links; a guide: short enough to scan
+MAX_README_BYTES = 6_000
+MAX_GUIDE_BYTES = 15_000
+
+
+def test_readme_and_guides_stay_short():
+    sizes = {"README.md": (ROOT / "README.md").stat().st_size}
+    assert sizes["README.md"] <= MAX_README_BYTES, sizes
+    guides = sorted((ROOT / "docs").rglob("*.md"))
+    long = {str(p.relative_to(ROOT)): n for p in guides if (n := p.stat().st_size) > MAX_GUIDE_BYTES}
+    assert not long, f"pages over {MAX_GUIDE_BYTES:,} bytes: {long}"

@@ -71,3 +71,26 @@ def test_an_env_made_with_an_episode_source_runs_it():
         assert bool(info["stopped"]) and u.agent.controller.command.stop.all()
     finally:
         e.close()
+
+
+#: ManiSkill's largest task file is 580 lines, its median 259; ours hold hooks and stay under this
+MAX_TASK_FILE_LINES = 400
+#: no module grows past this: a larger one holds more than one idea
+MAX_MODULE_LINES = 800
+
+
+def test_task_files_hold_hooks_and_stay_short():
+    envs = [f for f in (ROOT / "tasks").glob("*_env.py")]
+    assert envs, "no task files found"
+    long = {f.name: n for f in envs if (n := len(f.read_text().splitlines())) > MAX_TASK_FILE_LINES}
+    assert not long, f"task files over {MAX_TASK_FILE_LINES} lines: {long}"
+
+
+def test_no_module_is_over_the_size_limit():
+    files = [f for d in ("biovln_ms", "tasks", "agents") for f in (ROOT / d).rglob("*.py")]
+    long = {
+        str(f.relative_to(ROOT)): n
+        for f in files
+        if "__pycache__" not in f.parts and (n := len(f.read_text().splitlines())) >= MAX_MODULE_LINES
+    }
+    assert not long, f"modules of {MAX_MODULE_LINES} lines or more: {long}"

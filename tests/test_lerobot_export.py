@@ -25,7 +25,9 @@ pq = pytest.importorskip("pyarrow.parquet")
 from biovln_ms.bridges import lerobot as lr  # noqa: E402
 from biovln_ms.bridges.lerobot import LeRobotExportError, export_lerobot  # noqa: E402
 from biovln_ms.cli import app, user_error_line  # noqa: E402
+from biovln_ms.learning import recordings  # noqa: E402
 from biovln_ms.learning.recorder import TrajectoryRecorder, read_recordings  # noqa: E402
+from biovln_ms.learning.recordings import RecordingReadError  # noqa: E402
 
 FPS = 5
 STATS = {"min", "max", "mean", "std", "count", "q01", "q10", "q50", "q90", "q99"}
@@ -232,7 +234,7 @@ def test_same_recording_same_bytes(recording: Path, tmp_path: Path) -> None:
 def test_recording_read_in_small_steps(recording: Path, tmp_path: Path, monkeypatch) -> None:
     """Members read a few bytes at a time (and decompressed a few bytes at a time) give the same dataset."""
     export_lerobot(recording, tmp_path / "a")
-    monkeypatch.setattr(lr, "_READ_CHUNK", 7)
+    monkeypatch.setattr(recordings, "_READ_CHUNK", 7)
     export_lerobot(recording, tmp_path / "b")
     for f in (p for p in (tmp_path / "a").rglob("*") if p.is_file()):
         assert f.read_bytes() == (tmp_path / "b" / f.relative_to(tmp_path / "a")).read_bytes(), f
@@ -306,7 +308,7 @@ def _set(field, value):
         ("corrupt_member", ["is corrupt"]),
         ("too_big", ["entry 0 decompresses to more than"]),
         ("not_json", ["not JSON"]),
-        ("bad_action", ["entry 1: steps[2].action", "less than 4"]),
+        ("bad_action", ["entry 1: steps[2].action", "less than or equal to 3"]),
         ("bad_step_idx", ["steps[1].step_idx", "expected 1"]),
         ("bad_depth", ["steps[0].obs.depth", "not float16 12 x 16"]),
         ("frame_missing", ["steps[0].obs.rgb_path", "is missing"]),
@@ -332,7 +334,7 @@ def test_bad_input_is_one_line(recording: Path, tmp_path: Path, damage: str, wor
         raw[40:60] = bytes(20)  # inside the first member's deflate stream
         path.write_bytes(bytes(raw))
     elif damage == "too_big":
-        lr.MAX_ENTRY_BYTES = 1000  # restored below
+        recordings.MAX_ENTRY_BYTES = 1000  # restored below
     elif damage == "not_json":
         path.write_bytes(gzip.compress(b"{oops\n"))
     elif damage == "bad_action":
@@ -353,10 +355,10 @@ def test_bad_input_is_one_line(recording: Path, tmp_path: Path, damage: str, wor
         out.mkdir()
     limit = 256 * 2**20
     try:
-        with pytest.raises(LeRobotExportError) as exc:
+        with pytest.raises((RecordingReadError, LeRobotExportError)) as exc:
             export_lerobot(src, out)
     finally:
-        lr.MAX_ENTRY_BYTES = limit
+        recordings.MAX_ENTRY_BYTES = limit
     line = user_error_line(exc.value)
     assert "\n" not in line and all(w in line for w in words), line
     assert not any(p.name.startswith(".lr.partial") for p in tmp_path.iterdir())  # nothing half-written

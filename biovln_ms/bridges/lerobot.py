@@ -26,26 +26,20 @@ count (quantiles count-weighted, as LeRobot aggregates them).
 
 from __future__ import annotations
 
-import base64
-import binascii
 import json
 import math
 import os
 import re
 import shutil
 import subprocess
-import zlib
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterator, Literal
+from typing import Iterator
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from biovln_ms.errors import BioVLNError, describe_validation_error
-from biovln_ms.io_utils import atomic_write_text, inside, regular_size
-from biovln_ms.learning.recorder import RECORDER_VERSION
-from biovln_ms.limits import Identifier
+from biovln_ms.errors import BioVLNError
+from biovln_ms.io_utils import atomic_write_text
+from biovln_ms.learning.recordings import Episode, depth_frame, read_episodes, rgb_frame
 
 CODEBASE_VERSION = "v3.0"
 CAMERA_KEY = "observation.images.head"
@@ -57,275 +51,15 @@ CHUNKS_SIZE = 1_000
 #: bytes of episode rows (mostly their statistics) per meta/episodes file, LeRobot's 100 MB default
 EPISODE_META_BYTES = 100 * 2**20
 QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)
-ACTIONS = ("STOP", "FORWARD", "LEFT", "RIGHT")
 #: the H.264 settings; LeRobot's own recorder uses g=2 too (fast random access when decoding one frame)
 VIDEO_CODEC = ["-c:v", "libx264", "-preset", "medium", "-crf", "23", "-g", "2", "-pix_fmt", "yuv420p"]
 MAX_FPS = 1_000
-#: a recording file (one per eval worker); it is mapped and read one episode at a time
-MAX_RECORDING_BYTES = 64 * 2**30
-#: one episode's entry, decompressed (a full-mode step's 80 x 60 float16 depth is 12.8 kB of base64)
-MAX_ENTRY_BYTES = 256 * 2**20
 #: a frame's side in pixels (the env's largest camera)
 MAX_FRAME_SIDE = 4_096
-_READ_CHUNK = 2**20
-_FIX_FOLDER = "give the folder of `biovln-ms eval --record DIR`"
 
 
 class LeRobotExportError(BioVLNError):
-    """A recording that cannot be exported (missing, corrupt, mixed modes) or an output that is in the way."""
-
-
-class _Obs(BaseModel):
-    model_config = ConfigDict(extra="ignore")
-    position: list[float] = Field(min_length=3, max_length=3)
-    heading: list[float] = Field(min_length=2, max_length=2)
-    goal_position: list[float] = Field(min_length=2, max_length=2)
-    rgb_path: str | None = None
-    depth: str | None = None
-    depth_shape: list[int] | None = Field(None, min_length=2, max_length=2)
-
-
-class _Step(BaseModel):
-    model_config = ConfigDict(extra="ignore")
-    step_idx: int
-    action: int = Field(ge=0, lt=len(ACTIONS))
-    obs: _Obs
-    dist_to_goal: float
-
-
-class _Entry(BaseModel):
-    model_config = ConfigDict(extra="ignore")
-    recorder_version: Literal[RECORDER_VERSION]
-    mode: Literal["full", "trace"]
-    frame: Literal["z_up"]
-    scene_id: Identifier
-    episode_id: Identifier
-    object_category: Identifier
-    object_id: Identifier
-    difficulty: str
-    success: bool
-    steps: list[_Step] = Field(min_length=1)
-
-
-@dataclass
-class Episode:
-    """One recorded episode, checked: where it came from and its steps."""
-
-    entry: _Entry
-    source: Path
-    root: Path = field(repr=False)
-
-    @property
-    def name(self) -> str:
-        return f"{self.entry.scene_id}/{self.entry.episode_id}"
-
-    @property
-    def task(self) -> str:
-        return f"navigate to the {self.entry.object_category.replace('_', ' ')}"
-
-
-def _natural(text: str) -> tuple:
-    """Sort key that orders ``ep2`` before ``ep10``."""
-    return tuple((0, int(p), "") if p.isdigit() else (1, 0, p) for p in re.split(r"(\d+)", text) if p)
-
-
-def read_episodes(folder: str | Path) -> list[Episode]:
-    """Every episode of a recording folder, checked and in a fixed order (scene, then episode id): the
-    same recording gives the same dataset whichever worker wrote which file. One error names the file,
-    the episode and the field of anything that would not export."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise LeRobotExportError("the recording folder is missing", source=str(folder), fix=_FIX_FOLDER)
-    files = sorted(folder.glob("trajectories-*.jsonl.gz"))
-    if not files:
-        raise LeRobotExportError(
-            "no trajectories-*.jsonl.gz in the recording folder", source=str(folder), fix=_FIX_FOLDER
-        )
-    episodes, seen = [], {}
-    for path in files:
-        for k, raw in enumerate(_entries(path)):
-            try:
-                entry = _Entry.model_validate(raw)
-            except ValidationError as e:
-                loc, msg = describe_validation_error(e)
-                raise LeRobotExportError(
-                    msg,
-                    source=str(path),
-                    field=f"entry {k}: {loc}",
-                    fix="export recordings as eval writes them",
-                ) from None
-            ep = Episode(entry, path, folder)
-            _check_steps(ep, k)
-            if ep.name in seen:
-                raise LeRobotExportError(
-                    f"episode {ep.name} is recorded twice (also in {seen[ep.name].name})",
-                    source=str(path),
-                    field=f"entry {k}",
-                    fix="export the recording folder of one eval run",
-                )
-            seen[ep.name] = path
-            episodes.append(ep)
-    if not episodes:
-        raise LeRobotExportError(
-            "the recording holds no complete episode", source=str(folder), fix=_FIX_FOLDER
-        )
-    modes = {ep.entry.mode for ep in episodes}
-    if len(modes) > 1:
-        raise LeRobotExportError(
-            "the recording mixes full and trace episodes",
-            source=str(folder),
-            field="mode",
-            fix="export full and trace recordings separately",
-        )
-    return sorted(episodes, key=lambda ep: (_natural(ep.entry.scene_id), _natural(ep.entry.episode_id)))
-
-
-def _entries(path: Path) -> Iterator[dict]:
-    """The entries of one recording file, one gzip member (one episode) at a time, each decompressed to
-    at most ``MAX_ENTRY_BYTES``; the file is mapped, never read whole. A truncated last member (a run
-    killed while writing) is skipped, as the trainers skip it; a corrupt one is an error."""
-    import mmap
-
-    regular_size(path, MAX_RECORDING_BYTES, "recording", error=LeRobotExportError, fix=_FIX_FOLDER)
-    if path.stat().st_size == 0:
-        return
-    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
-        pos, k = 0, 0
-        while pos < len(mm):
-            data, pos = _member(mm, pos, path, k)
-            if data is None:
-                return  # truncated last member
-            try:
-                text = data.decode("utf-8")
-            except UnicodeDecodeError:
-                raise LeRobotExportError(
-                    f"entry {k} is not UTF-8 text", source=str(path), fix=_FIX_FOLDER
-                ) from None
-            for line in text.splitlines():
-                if line.strip():
-                    yield _entry_json(line, path, k)
-                    k += 1
-
-
-def _member(mm, pos: int, path: Path, k: int) -> tuple[bytes | None, int]:
-    """The gzip member starting at ``pos``, decompressed in bounded steps, and where the next begins;
-    (None, end) for a member cut short."""
-    d = zlib.decompressobj(zlib.MAX_WBITS | 16)
-    parts, size, start = [], 0, pos
-    while not d.eof:
-        if d.unconsumed_tail:
-            buf = d.unconsumed_tail
-        elif pos < len(mm):
-            buf = mm[pos : pos + _READ_CHUNK]  # a copy: no pointer into the map outlives this call
-            pos += len(buf)
-        else:
-            return None, pos
-        try:
-            part = d.decompress(buf, MAX_ENTRY_BYTES + 1 - size)
-        except zlib.error as e:
-            raise LeRobotExportError(
-                f"not a recording: the gzip member at byte {start} is corrupt ({e})",
-                source=str(path),
-                fix=_FIX_FOLDER,
-            ) from None
-        size += len(part)
-        parts.append(part)
-        if size > MAX_ENTRY_BYTES:
-            raise LeRobotExportError(
-                f"entry {k} decompresses to more than {MAX_ENTRY_BYTES // 2**20} MiB",
-                source=str(path),
-                fix="export recordings as eval writes them",
-            )
-    return b"".join(parts), pos - len(d.unused_data)
-
-
-def _entry_json(line: str, path: Path, k: int) -> dict:
-    try:
-        entry = json.loads(line)
-    except ValueError as e:  # json.JSONDecodeError
-        raise LeRobotExportError(
-            f"not a recording: entry {k} is not JSON ({str(e)[:80]})", source=str(path), fix=_FIX_FOLDER
-        ) from None
-    except RecursionError:
-        raise LeRobotExportError(f"entry {k} is nested too deeply", source=str(path)) from None
-    if not isinstance(entry, dict):
-        raise LeRobotExportError("an entry is not a JSON object", source=str(path), field=f"entry {k}")
-    return entry
-
-
-def _check_steps(ep: Episode, k: int) -> None:
-    full = ep.entry.mode == "full"
-    for i, s in enumerate(ep.entry.steps):
-        where = f"entry {k} ({ep.name}): steps[{i}]"
-        if s.step_idx != i:
-            raise LeRobotExportError(
-                f"step_idx is {s.step_idx}, expected {i}", source=str(ep.source), field=f"{where}.step_idx"
-            )
-        if full and s.obs.rgb_path is None:
-            raise LeRobotExportError(
-                "a full-mode step without rgb_path",
-                source=str(ep.source),
-                field=f"{where}.obs.rgb_path",
-                fix="export recordings as eval writes them",
-            )
-        if (s.obs.depth is None) != (s.obs.depth_shape is None):
-            raise LeRobotExportError(
-                "depth and depth_shape come together",
-                source=str(ep.source),
-                field=f"{where}.obs",
-                fix="export recordings as eval writes them",
-            )
-        values = [*s.obs.position, *s.obs.heading, *s.obs.goal_position, s.dist_to_goal]
-        if not all(math.isfinite(v) for v in values):
-            raise LeRobotExportError("a pose or goal value is not finite", source=str(ep.source), field=where)
-
-
-def _rgb(ep: Episode, i: int) -> np.ndarray:
-    from PIL import Image, UnidentifiedImageError
-
-    rel = ep.entry.steps[i].obs.rgb_path
-    field_ = f"{ep.name}: steps[{i}].obs.rgb_path"
-    path = inside(
-        ep.root,
-        rel,
-        what="frame",
-        error=LeRobotExportError,
-        source=str(ep.source),
-        field=field_,
-        nested=True,
-        fix="export the recording folder as eval wrote it",
-    )
-    try:
-        with Image.open(path) as img:
-            return np.asarray(img.convert("RGB"))
-    except FileNotFoundError:
-        raise LeRobotExportError(
-            f"frame {rel} is missing",
-            source=str(ep.source),
-            field=field_,
-            fix="copy the recording folder with its images/",
-        ) from None
-    except (UnidentifiedImageError, Image.DecompressionBombError, OSError, ValueError) as e:
-        raise LeRobotExportError(
-            f"frame {rel} is not a readable image ({e})", source=str(ep.source), field=field_
-        ) from None
-
-
-def _depth(ep: Episode, i: int) -> np.ndarray:
-    obs = ep.entry.steps[i].obs
-    h, w = obs.depth_shape
-    field_ = f"{ep.name}: steps[{i}].obs.depth"
-    try:
-        raw = base64.b64decode(obs.depth, validate=True)
-    except (binascii.Error, ValueError):
-        raise LeRobotExportError("depth is not base64", source=str(ep.source), field=field_) from None
-    if h <= 0 or w <= 0 or len(raw) != 2 * h * w:
-        raise LeRobotExportError(
-            f"depth holds {len(raw)} bytes, not float16 {h} x {w} (depth_shape)",
-            source=str(ep.source),
-            field=field_,
-        )
-    return np.frombuffer(raw, np.float16).reshape(h, w).astype(np.float32)
+    """An output that is in the way, frames too large, or an encoder that fails."""
 
 
 # --- statistics (LeRobot's keys and shapes) ---------------------------------------------------------
@@ -580,7 +314,7 @@ def _write(episodes: list[Episode], root: Path, fps: int) -> dict:
     full = episodes[0].entry.mode == "full"
     image_hw = depth_hw = None
     if full:
-        image_hw = _rgb(episodes[0], 0).shape[:2]
+        image_hw = rgb_frame(episodes[0], 0).shape[:2]
         if max(image_hw) > MAX_FRAME_SIDE:
             raise LeRobotExportError(
                 f"frames are {image_hw[1]} x {image_hw[0]}, more than {MAX_FRAME_SIDE} pixels a side",
@@ -723,7 +457,7 @@ def _episode_columns(ep: Episode, k: int, index: int, task_index: int, fps: int,
         frames = np.empty((n, *image_hw, 3), np.uint8)
         depth = None if depth_hw is None else np.empty((n, *depth_hw), np.float32)
         for i in range(n):
-            img = _rgb(ep, i)
+            img = rgb_frame(ep, i)
             if img.shape[:2] != tuple(image_hw):
                 raise LeRobotExportError(
                     f"frame is {img.shape[1]} x {img.shape[0]}, the recording's first is "
@@ -742,7 +476,7 @@ def _episode_columns(ep: Episode, k: int, index: int, task_index: int, fps: int,
                     field=f"{ep.name}: steps[{i}].obs.depth",
                     fix="export recordings made with one camera",
                 )
-            d = _depth(ep, i)
+            d = depth_frame(ep, i)
             if d.shape != tuple(depth_hw):
                 raise LeRobotExportError(
                     f"depth is {d.shape[1]} x {d.shape[0]}, the recording's first is "
