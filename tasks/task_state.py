@@ -10,19 +10,15 @@ integer scalar, which ManiSkill's trajectory tools cannot batch (``replay_trajec
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING
-
 import numpy as np
 import torch
+from mani_skill.envs.sapien_env import BaseEnv
 
 from biovln_ms.tasks.config_checks import EnvConfigError, _show
 
-if TYPE_CHECKING:
-    from biovln_ms.tasks.nav_env import BioVLNNavEnv
 
-
-def task_state(env: BioVLNNavEnv) -> dict:
-    """The task's part of ``env.get_state_dict()``."""
+def task_state(env: BaseEnv) -> dict:
+    """The task's part of ``env.get_state_dict()`` (``env``: a ``BioVLNNavEnv``)."""
     task = dict(
         episode=env._episode_indices(),
         start=torch.tensor(env._start, device=env.device),
@@ -37,7 +33,7 @@ def task_state(env: BioVLNNavEnv) -> dict:
     return _integers_as_float(task)
 
 
-def load_task_state(env: BioVLNNavEnv, given: dict, reference: dict, env_idx: torch.Tensor | None) -> None:
+def load_task_state(env: BaseEnv, given: dict, reference: dict, env_idx: torch.Tensor | None) -> None:
     """Put a checked (:func:`check_state`) task state into sub-envs ``env_idx`` (all when None), which must
     be at the state's episodes."""
     task = state_rows(given, reference, env.num_envs)
