@@ -1,4 +1,5 @@
-"""Run one episode with a policy and write an MP4: egocentric RGB beside the top-down map."""
+"""Run one episode with a policy and write an MP4: egocentric RGB beside the top-down map (with people, they
+are drawn on it as they walk)."""
 
 from __future__ import annotations
 
@@ -38,7 +39,7 @@ def record_episode(
     )
     try:
         spec = method_spec(policy)
-        frames, trail, canvas = [], [], None
+        frames, trail, people, canvas = [], [], [], None
         for st in rollout(env, spec.factory(), episode, spec.privileged):
             pose = st.info["agent_pose"][0].cpu().numpy()
             if canvas is None:
@@ -46,8 +47,11 @@ def record_episode(
                     env.unwrapped.scene_spec, size[1], goal=st.info["goal_position"][0].cpu().numpy()
                 )
             trail.append(pose[:2].copy())
+            crowd = env.unwrapped.get_state_dict()["task"].get("people")  # an env with people: theirs
+            if crowd is not None:
+                people.append(crowd["pos"][0].cpu().numpy()[crowd["present"][0].cpu().numpy() > 0.5])
             ego = st.obs["sensor_data"]["head"]["rgb"][0].cpu().numpy()
-            frames.append(side_by_side(ego, canvas.frame(trail, pose)))
+            frames.append(side_by_side(ego, canvas.frame(trail, pose, people)))
             info = st.info
         write_mp4(frames, out, fps=fps)
         return {

@@ -285,16 +285,18 @@ def molbio_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
     return out
 
 
+def busy_step_seconds() -> float:
+    """The time of an action step the busy splits' crowds walk in: the benchmark variant's."""
+    cfg = VARIANTS[BENCHMARK_ENV]
+    return step_seconds(cfg.forward_step, cfg.turn_deg)
+
+
 def busy_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
     """The busy splits (``BUSY_SPLITS``): the benchmark variant's step limit and step time give each
     episode's occupied steps."""
     r, cfg = robot_spec(robot, "robot").footprint_radius, VARIANTS[BENCHMARK_ENV]
     sampler = BusyEpisodes(
-        SingleGoalEpisodes(),
-        BUSY_MAX_PEOPLE,
-        cfg.max_episode_steps,
-        step_seconds(cfg.forward_step, cfg.turn_deg),
-        BUSY_OCCUPIED_EVERY,
+        SingleGoalEpisodes(), BUSY_MAX_PEOPLE, cfg.max_episode_steps, busy_step_seconds(), BUSY_OCCUPIED_EVERY
     )
     out = []
     for name, scenes in BUSY_SPLITS.items():

@@ -239,16 +239,20 @@ def dataset_show(
 ) -> None:
     """Draw the map of one episode.
 
-    Navigable islands, start and heading, goal, view points, shortest path."""
-    from biovln_ms.splits import dataset_root
+    Navigable islands, start and heading, goal, view points, shortest path; a busy split's episode also
+    its people and the paths they walk over its step limit (the robot standing at its start)."""
+    from biovln_ms.splits import busy_step_seconds, dataset_root
     from biovln_ms.episodes.dataset import EpisodeDataset
+    from biovln_ms.people.episodes import crowd_paths
     from biovln_ms.scene.rules import scene_navigation
     from biovln_ms.scene.topdown import save_map
 
     root = dataset_root(root)
     ep, radius = _find_episode(root, split, episode, scene)
     spec = EpisodeDataset(root, verify=False, robot=None).spec(ep["scene_id"])
-    typer.echo(f"wrote {save_map(spec, out, episode=ep, nav=scene_navigation(spec, radius))}")
+    nav = scene_navigation(spec, radius)
+    people = crowd_paths(spec, nav, ep, busy_step_seconds()) if "people" in ep else None
+    typer.echo(f"wrote {save_map(spec, out, episode=ep, nav=nav, people=people)}")
 
 
 DATASET_EXPORT_FORMATS = ("habitat",)

@@ -27,15 +27,21 @@ from biovln_ms.scene.spec import SceneSpec
 OCCUPIED_ATTEMPTS = 8
 
 
+def _crowd(spec: SceneSpec, nav: NavGeometry, ep: Episode, count: int, seed: int) -> tuple[Crowd, np.ndarray]:
+    """``count`` people reset from ``seed`` for episode ``ep``, and the robot's start."""
+    start = np.asarray(ep["start_position"][:2], float)
+    crowd = Crowd(count)
+    crowd.reset(nav, stations(spec, nav, start), start, nav.radius, seed, spec.name, count)
+    return crowd, start
+
+
 def occupied_steps(
     spec: SceneSpec, nav: NavGeometry, ep: Episode, count: int, seed: int, steps: int, seconds: float
 ) -> int:
     """Of ``steps`` action steps of ``seconds`` each, how many end with a person's body overlapping the Zone 3
     of the episode's goal, ``count`` people reset from ``seed`` and the robot standing at its start (a
     one-line CrowdError when the scene cannot hold them)."""
-    start = np.asarray(ep["start_position"][:2], float)
-    crowd = Crowd(count)
-    crowd.reset(nav, stations(spec, nav, start), start, nav.radius, seed, spec.name, count)
+    crowd, start = _crowd(spec, nav, ep, count, seed)
     zone = spec.get(ep["object_id"]).placed().zone3()
     shapely.prepare(zone)
     n = 0
@@ -43,6 +49,18 @@ def occupied_steps(
         crowd.advance(seconds, start)
         n += bool((shapely.distance(zone, shapely.points(crowd.pos)) < PERSON_RADIUS).any())
     return n
+
+
+def crowd_paths(spec: SceneSpec, nav: NavGeometry, ep: Episode, seconds: float) -> np.ndarray:
+    """(count, steps + 1, 2): where each person of a busy episode is at its start and after each step of its
+    step limit, the robot standing at its start (what the maps draw)."""
+    p = ep["people"]
+    crowd, start = _crowd(spec, nav, ep, p["count"], p["seed"])
+    out = [crowd.pos.copy()]
+    for _ in range(p["steps"]):
+        crowd.advance(seconds, start)
+        out.append(crowd.pos.copy())
+    return np.stack(out, axis=1)
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,5 @@
-"""Episode videos: the egocentric camera beside a top-down map with the trajectory, zones and goal."""
+"""Episode videos: the egocentric camera beside a top-down map with the trajectory, zones and goal, and with
+people, where they are and the way they came."""
 
 from __future__ import annotations
 
@@ -13,7 +14,11 @@ import numpy as np  # noqa: E402
 from PIL import Image, ImageDraw  # noqa: E402
 
 from biovln_ms.scene.spec import SceneSpec  # noqa: E402
-from biovln_ms.scene.topdown import draw_map  # noqa: E402
+from biovln_ms.people.body import PERSON_RADIUS  # noqa: E402
+from biovln_ms.scene.topdown import PERSON_COLOR, draw_map  # noqa: E402
+
+#: poses of a person's way drawn behind them (at 0.5 s a step, the last 10 s)
+PERSON_TRAIL = 20
 
 
 class MapCanvas:
@@ -39,16 +44,31 @@ class MapCanvas:
         x, y = self._tf.transform(np.asarray(xy, float)[:2])
         return x * self.scale, (self._h - y) * self.scale
 
-    def frame(self, trail: list, pose) -> np.ndarray:
+    def frame(self, trail: list, pose, people: list | None = None) -> np.ndarray:
+        """The map with the robot's ``trail`` and ``pose``; ``people``: each step's people's positions so far
+        ((P, 2) arrays, the last now): each person's body now and their last :data:`PERSON_TRAIL` poses."""
         img = self.base.copy()
         draw = ImageDraw.Draw(img)
         if len(trail) > 1:
             draw.line([self.to_px(p) for p in trail], fill=(31, 119, 180), width=3)
+        if people:
+            self._people(draw, np.stack(people[-PERSON_TRAIL:]))
         cx, cy = self.to_px(pose[:2])
         hx, hy = self.to_px(np.asarray(pose[:2]) + 0.4 * np.array([np.cos(pose[2]), np.sin(pose[2])]))
         draw.line([(cx, cy), (hx, hy)], fill=(0, 0, 0), width=3)
         draw.ellipse([cx - 6, cy - 6, cx + 6, cy + 6], fill=(31, 119, 180), outline=(255, 255, 255))
         return np.asarray(img)
+
+    def _people(self, draw, recent: np.ndarray) -> None:
+        """People's bodies (discs) and their recent ways, ``recent`` (poses, people, 2)."""
+        colour = tuple(int(PERSON_COLOR[k : k + 2], 16) for k in (1, 3, 5))
+        r = abs(self.to_px((PERSON_RADIUS, 0.0))[0] - self.to_px((0.0, 0.0))[0])
+        for k in range(recent.shape[1]):
+            way = [self.to_px(p) for p in recent[:, k]]
+            if len(way) > 1:
+                draw.line(way, fill=colour, width=2)
+            x, y = way[-1]
+            draw.ellipse([x - r, y - r, x + r, y + r], fill=colour, outline=(0, 0, 0))
 
 
 def side_by_side(ego: np.ndarray, map_img: np.ndarray) -> np.ndarray:

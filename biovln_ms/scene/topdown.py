@@ -1,5 +1,6 @@
 """Top-down map of a scene spec (PNG): walls, furniture, Zones 1/2/3, face arrows, goals with their
-success radii, and the robot's navigable area. Episodes can be overlaid (start, goal, path).
+success radii, and the robot's navigable area. Episodes can be overlaid (start, goal, path), and a busy
+episode's people: where they stand at its start and the paths they walk.
 
 Figures are laid out once (matplotlib's constrained layout where there are panels, then frozen), text
 labels are placed where they overlap no other label (:func:`place_labels`), and the figure is then fitted
@@ -21,10 +22,12 @@ from matplotlib.text import Text  # noqa: E402
 from matplotlib.transforms import Bbox  # noqa: E402
 
 from biovln_ms.catalog import load_catalog  # noqa: E402
+from biovln_ms.people.body import PERSON_RADIUS  # noqa: E402
 from biovln_ms.scene.rules import scene_free_space  # noqa: E402
 from biovln_ms.scene.spec import SceneSpec  # noqa: E402
 
 DRESSING_COLOR = "#c8b89a"  # lab dressing: bodies in the way, no zones
+PERSON_COLOR = "#ff7f0e"  # people: bodies and the paths they walk
 UNKNOWN_COLOR = "#999999"  # a category the catalog lacks
 LABEL_GID = "label"  # the gid of every label place_labels adds
 LABEL_RINGS = (4.0, 9.0, 15.0, 23.0, 33.0, 46.0, 62.0)  # points from the anchor, nearest first
@@ -357,6 +360,32 @@ def draw_episode(ax, episode: dict, path=None) -> None:
     )
 
 
+def draw_people(ax, paths: np.ndarray) -> None:
+    """People on the map: ``paths`` (people, poses, 2), each person's path as a thin line and their body (a
+    disc of the person's radius) where it starts, solid, and where it ends, outlined."""
+    for path in np.asarray(paths, float):
+        ax.plot(path[:, 0], path[:, 1], "-", color=PERSON_COLOR, lw=1.0, alpha=0.8, zorder=8)
+        ax.add_patch(
+            Circle(path[0], PERSON_RADIUS, facecolor=PERSON_COLOR, edgecolor="black", lw=0.7, zorder=12)
+        )
+        ax.add_patch(
+            Circle(path[-1], PERSON_RADIUS, facecolor="none", edgecolor=PERSON_COLOR, lw=1.2, zorder=12)
+        )
+
+
+def people_handles() -> list:
+    """Legend entries of :func:`draw_people`."""
+    from matplotlib.lines import Line2D
+
+    return [
+        Line2D([], [], marker="o", color="none", markerfacecolor=PERSON_COLOR, markeredgecolor="black", ms=9,
+               label="person at the start"),
+        Line2D([], [], marker="o", color="none", markerfacecolor="none", markeredgecolor=PERSON_COLOR, ms=9,
+               label="... at the end"),
+        Line2D([], [], color=PERSON_COLOR, lw=1.0, label="a person's path"),
+    ]  # fmt: skip
+
+
 def episode_handles(with_path: bool) -> list:
     """Legend entries of an episode overlay (:func:`draw_episode`)."""
     from matplotlib.lines import Line2D
@@ -389,10 +418,11 @@ def map_axes(spec: SceneSpec, width: float = MAP_WIDTH, max_height: float = MAP_
     return fig, fig.add_axes((0.0, 0.0, 1.0, 1.0))
 
 
-def map_figure(spec: SceneSpec, episode: dict | None = None, nav=None):
+def map_figure(spec: SceneSpec, episode: dict | None = None, nav=None, people=None):
     """The map as a figure: the scene, its legend outside the axes on the right, with ``episode`` (and its
-    scene's ``nav``) the islands, start, goal, view points and shortest path; goal labels placed last and
-    the figure fitted to its content."""
+    scene's ``nav``) the islands, start, goal, view points and shortest path, with ``people`` (paths, as
+    :func:`draw_people` takes them) the people; goal labels placed last and the figure fitted to its
+    content."""
     fig, ax = map_axes(spec)
     draw_map(spec, ax, goal_labels=False)
     if nav is not None:
@@ -402,17 +432,22 @@ def map_figure(spec: SceneSpec, episode: dict | None = None, nav=None):
         if nav is not None:
             path = nav.shortest_path(episode["start_position"][:2], episode["goals"][0]["position"][:2])
         draw_episode(ax, episode, path)
+    if people is not None:
+        draw_people(ax, people)
     handles = legend_handles(bool(spec.dressing))
     handles += episode_handles(path is not None) if episode is not None else []
+    handles += people_handles() if people is not None else []
     legend_outside(ax, handles)
     label_goals(ax, spec)
     fit_figure(fig)
     return fig
 
 
-def save_map(spec: SceneSpec, out: str | Path, episode: dict | None = None, nav=None, dpi: int = 130) -> Path:
+def save_map(
+    spec: SceneSpec, out: str | Path, episode: dict | None = None, nav=None, dpi: int = 130, people=None
+) -> Path:
     """Write the map PNG (:func:`map_figure`)."""
-    fig = map_figure(spec, episode, nav)
+    fig = map_figure(spec, episode, nav, people)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=dpi)
