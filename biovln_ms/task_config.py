@@ -143,6 +143,7 @@ class NavTaskConfig:
             robot_radius,
             self.noise,
             self.position_scale,
+            self.people,
         )
 
     @property
@@ -188,6 +189,7 @@ class TaskSpec:
     robot_radius: float  # m, the robot's body
     noise: NoiseConfig = field(default_factory=NoiseConfig)  # what is noisy and what the robot senses
     position_scale: float = NavTaskConfig.position_scale  # m: the RL state vector's positions are over this
+    people: int = 0  # technicians may walk the lab (NavTaskConfig.people): a policy's map must forget them
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,9 @@ scores against, its success radius, the target's and all instruments' zones, exa
 scene's navigation geometry, and the robot's true planar pose. Every accessor returns a copy or an
 immutable object, so an oracle can read the episode but cannot change it. In a protocol episode
 (``BioVLN-Protocol-v0``) the goal, success radius and target are the current sub-goal's, following
-``info["subgoal_index"]``; in every other episode they are its first goal's.
+``info["subgoal_index"]``; in every other episode they are its first goal's. In an env with people
+(``people=N``) it also reads where they are now (:meth:`PrivilegedView.people`), so an oracle can wait for
+a free face.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from biovln_ms.metrics.measures import EpisodeContext
 class PrivilegedView:
     """One sub-env's episode as an oracle may see it."""
 
-    __slots__ = ("_ctx", "_nav", "_pose", "_goal_mode", "_current")
+    __slots__ = ("_ctx", "_nav", "_pose", "_goal_mode", "_current", "_people")
 
     def __init__(
         self,
@@ -31,10 +33,16 @@ class PrivilegedView:
         pose: Callable[[], np.ndarray],
         goal_mode: str,
         current: Callable[[], int] | None = None,
+        people: Callable[[], np.ndarray] | None = None,
     ) -> None:
-        """``current``: the index, into ``ctx.goals``, of the goal asked for now (None: the first goal)."""
+        """``current``: the index, into ``ctx.goals``, of the goal asked for now (None: the first goal);
+        ``people``: the (P, 2) centres of the people in the episode now (None: an env without people)."""
         self._ctx, self._nav, self._pose, self._goal_mode = ctx, nav, pose, goal_mode
-        self._current = current
+        self._current, self._people = current, people
+
+    def with_people(self, people: Callable[[], np.ndarray]) -> "PrivilegedView":
+        """This view that also reads the people (``people`` gives their centres now)."""
+        return PrivilegedView(self._ctx, self._nav, self._pose, self._goal_mode, self._current, people)
 
     def _now(self) -> tuple[np.ndarray, float, PlacedInstrument]:
         """(goal, success radius, target) of the goal asked for now."""
@@ -83,3 +91,8 @@ class PrivilegedView:
     def pose(self) -> np.ndarray:
         """The robot's true planar pose (x, y, yaw) in the world frame, now."""
         return np.array(self._pose(), float)
+
+    def people(self) -> np.ndarray:
+        """The (P, 2) centres of the people in the episode now (bodies of ``PERSON_RADIUS``); (0, 2) in
+        an env without people."""
+        return np.zeros((0, 2)) if self._people is None else np.array(self._people(), float).reshape(-1, 2)

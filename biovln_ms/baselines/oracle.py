@@ -5,6 +5,11 @@ it is an empirical upper bound, not 100 %. Rule: STOP when the goal is nearer th
 once the goal is in sight (the rest of the path is one straight segment), when a forward step would
 not bring it closer; otherwise turn toward the next path vertex when the heading error exceeds half a
 turn, else move forward. A blocked forward move turns it aside once.
+
+With people (the privileged view's :meth:`people`), both oracles wait rather than bump into anyone or STOP
+at an occupied face (:class:`PeopleGuard`): a FORWARD that would bring the robot's body within
+:data:`PERSON_GAP` of a person's, or a STOP while a person's body is in the goal's Zone 3, becomes a
+wait (a turn one way, then back). People step aside or walk on; the oracle goes on when they have.
 """
 
 from __future__ import annotations
@@ -12,8 +17,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import shapely
 
 from biovln_ms.baselines.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EpisodeInfo, Policy
+from biovln_ms.people.body import PERSON_RADIUS
+
+#: m kept between the robot's body and a person's by a FORWARD of the oracles
+PERSON_GAP = 0.15
 
 
 class PointFollower:
@@ -53,6 +63,52 @@ class PointFollower:
         self._last = (p.copy(), action)
         return action
 
+    def sent(self, action: int) -> None:
+        """The action sent instead of the one :meth:`step` returned (a wait is no blocked move)."""
+        if self._last is not None:
+            self._last = (self._last[0], action)
+
+
+class PeopleGuard:
+    """Turns a follower's action into a wait where people are in the way: a FORWARD toward a person's
+    body, or a STOP with a person in the goal's Zone 3 (``zone``: that polygon, None: no face to keep
+    free). Waiting alternates TURN_LEFT and TURN_RIGHT, so every second step the heading is back."""
+
+    def __init__(self, view, task, zone=None) -> None:
+        self.view, self.step_len = view, task.forward_step
+        self.people = getattr(view, "people", lambda: np.zeros((0, 2)))  # a view without people: none
+        self.contact = PERSON_RADIUS + task.robot_radius + PERSON_GAP
+        self.zone, self.waits = zone, 0
+        self._turned = False  # the last wait turned left: the next turns back
+
+    def occupied(self) -> bool:
+        """A person's body overlaps the goal's Zone 3."""
+        if self.zone is None:
+            return False
+        people = self.people()
+        return bool(len(people)) and bool(
+            (shapely.distance(self.zone, shapely.points(people)) < PERSON_RADIUS).any()
+        )
+
+    def blocked(self) -> bool:
+        """A FORWARD from the pose now would come within the gap of a person's body (and closer)."""
+        people = self.people()
+        if not len(people):
+            return False
+        pose = self.view.pose()
+        ahead = pose[:2] + self.step_len * np.array([math.cos(pose[2]), math.sin(pose[2])])
+        near, now = (np.linalg.norm(people - q, axis=1) for q in (ahead, pose[:2]))
+        return bool(((near < self.contact) & (near < now)).any())
+
+    def check(self, action: int) -> int:
+        """``action``, or a wait."""
+        wait = (action == FORWARD and self.blocked()) or (action == STOP and self.occupied())
+        if not wait and not self._turned:
+            return action
+        self.waits += wait
+        self._turned = not self._turned  # a wait, or the turn back after one
+        return TURN_LEFT if self._turned else TURN_RIGHT
+
 
 class OraclePolicy(Policy):
     """Privileged: reads the goal, geodesics and its pose from ``EpisodeInfo.privileged``."""
@@ -64,6 +120,10 @@ class OraclePolicy(Policy):
         view = episode_info.privileged
         goal = view.goal if view.goal_mode == "opface" else view.snap(view.goal)
         self.follower = PointFollower(view, episode_info.task, goal)
+        zone = view.target.zone3() if view.target.model_face is not None else None
+        self.guard = PeopleGuard(view, episode_info.task, zone)
 
     def act(self, obs, info: dict) -> int:
-        return self.follower.step()
+        a = self.guard.check(self.follower.step())
+        self.follower.sent(a)
+        return a

@@ -2,7 +2,9 @@
 distance to the operational-face goal, until one succeeds; the centroid projection is the fallback.
 
 "Succeeds" is checked with the privileged goal and success radius, as an oracle may: at each
-reached candidate it STOPs if that is a success, else it moves on to the next candidate.
+reached candidate it STOPs if that is a success, else it moves on to the next candidate. With people it
+waits as the oracle does (:class:`~biovln_ms.baselines.oracle.PeopleGuard`): for a person in its way, and
+before a STOP for the target's Zone 3 to be free.
 """
 
 from __future__ import annotations
@@ -10,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from biovln_ms.baselines.oracle import PointFollower
+from biovln_ms.baselines.oracle import PeopleGuard, PointFollower
 from biovln_ms.baselines.policy import STOP, EpisodeInfo, Policy
 
 SPACING = 0.15
@@ -32,6 +34,8 @@ class Zone3OraclePolicy(Policy):
             self.candidates = [view.snap(view.target.centroid_goal())]
         self._k = 0
         self.follower = PointFollower(view, self.task, self.candidates[0])
+        zone = view.target.zone3() if view.target.model_face is not None else None
+        self.guard = PeopleGuard(view, self.task, zone)
 
     @staticmethod
     def zone3_candidates(view) -> list[np.ndarray]:
@@ -49,6 +53,12 @@ class Zone3OraclePolicy(Policy):
         return [pts[i] for i in order[:CANDIDATES]]
 
     def act(self, obs, info: dict) -> int:
+        a = self.guard.check(self._next())
+        self.follower.sent(a)
+        return a
+
+    def _next(self) -> int:
+        """The follower's action toward the current candidate, moving on from a reached one that fails."""
         while True:
             a = self.follower.step()
             if a != STOP:

@@ -14,6 +14,8 @@ the summaries of runs without people have none of them. Conventions:
   ``people_wait_time``: person-seconds people stood waiting because the robot was in their way;
 * ``mcr_people`` / ``vrt_people``: MCR and VRT with people counted as obstacles (the robot's centre to the
   nearest instrument's or person's body, the 0.5 m threshold), beside the unchanged ``mcr`` / ``vrt``;
+* ``occupied_stop``: the episode's STOP came with a person's body in the goal's Zone 3 (any goal's): the
+  face could not be operated (what fails ``strict_success`` with people);
 * ``people_fail``: a STOP that is not the variant's success, or, with ``person_collision_ends``, a person
   collision (the fail measure of the single-goal variants with people).
 """
@@ -23,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from biovln_ms.geometry.zones import SAFETY_THRESHOLD
-from biovln_ms.metrics.measures import Aggregate, Measure, Metric, register_measure
+from biovln_ms.metrics.measures import Aggregate, Measure, Metric, _zone3_occupied, rate, register_measure
 
 #: m between the robot's body and a person's below which a pose is in their personal space
 PERSONAL_SPACE = 0.5
@@ -195,6 +197,27 @@ class ViolationRatePeople(_PoseShare):
 
     def _violates(self, s, m, idx):
         return m["clearance_people"][idx] < SAFETY_THRESHOLD
+
+
+@register_measure
+class OccupiedStop(Measure):
+    """A STOP with a person's body in the goal's Zone 3 (any goal's), over the episode."""
+
+    uuid = "occupied_stop"
+    dtype = bool
+    metric = Metric(
+        "occupied_stop",
+        required=False,
+        when_recorded=True,
+        aggregates=(rate("occupied_stop", "STOP at an occupied face"),),
+    )
+    dependencies = ("stopped",)
+
+    def reset(self, ctx, s, m, idx):
+        self.value[idx] = False
+
+    def update(self, ctx, s, m, idx):
+        self.value[idx] |= m["stopped"][idx] & _zone3_occupied(ctx, s, idx).any(axis=1)
 
 
 @register_measure

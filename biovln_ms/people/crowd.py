@@ -68,6 +68,7 @@ PEOPLE_MEASURES = (
     "people_wait_time",
     "mcr_people",
     "vrt_people",
+    "occupied_stop",
 )
 #: the single-goal variants' fail measures, which ``people_fail`` extends with a person collision
 STOP_FAIL_MEASURES = ("failed_stop", "strict_failed_stop")

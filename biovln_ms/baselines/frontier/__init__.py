@@ -19,6 +19,10 @@ the observed ones), and reads the goal once from ``pointgoal`` (the start frame)
 estimate moved less than half a step was blocked. ``episode_stats`` reports the pose it acted on at every step
 (``pose_estimates``, in ``pose_frame``), from which the harness measures the drift.
 
+In a lab with people (``TaskSpec.people``) the map forgets what moves (``OccupancyMap(forget=True)``): a
+person seen once is no wall for ever, and the re-plan every few steps finds the way they freed; obstacles are
+grown by ``people_margin`` more, as depth sees a person's figure inside the body the robot must not touch.
+
 Goal rule (the paper leaves it implicit): the goal position is used only to decide when to go there
 and stop: as soon as the goal cell is known free and reachable on the robot's map it navigates to it
 and STOPs within half a step (or when a step would not bring it closer). With no frontier left and
@@ -119,6 +123,11 @@ def head_depth(obs: dict) -> tuple[np.ndarray, np.ndarray]:
     return depth, to_numpy(obs["sensor_param"]["head"]["intrinsic_cv"][0])
 
 
+def forgets(params: FrontierParams, task: TaskSpec) -> bool:
+    """Whether the map forgets what moves: ``params.forget``, else when people walk the lab."""
+    return bool(task.people) if params.forget is None else params.forget
+
+
 class FrontierPolicy(Policy):
     """Nearest-frontier exploration to the goal; the target rules (:class:`TargetRules`) are its methods."""
 
@@ -193,8 +202,13 @@ class FrontierPolicy(Policy):
 
     def _build(self, pose: np.ndarray) -> None:
         p = self.params
+        forget = forgets(p, self.task)
         # a noisy depth sensor (the robot knows its own): cells weigh evidence over frames
-        self.map = OccupancyMap(pose[:2], p.resolution, p.extent, evidence=self.task.noise.depth)
+        self.map = OccupancyMap(
+            pose[:2], p.resolution, p.extent, evidence=self.task.noise.depth, forget=forget
+        )
+        if forget:  # what moves is people: keep clear of their bodies, not only of the figures depth sees
+            p = replace(p, margin=p.margin + p.people_margin)
         if not self.task.noise.sliding:  # a move that grazes an obstacle is lost: step clear when boxed in
             p = replace(p, step_clear=True)
         self.planner = FrontierPlanner(p, self)

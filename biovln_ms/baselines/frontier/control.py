@@ -6,6 +6,10 @@ heading error exceeds half a turn and otherwise moves forward. A FORWARD that di
 obstacle just ahead (contact the depth map missed, e.g. a low object). With no path it turns left
 to look around, banning an unreachable frontier, and gives up with STOP after ``stuck_turns`` steps.
 
+On a map that forgets what moves (people in the lab), a FORWARD whose end would put the robot's body on an
+obstacle cell (someone who stepped into the path since the plan) re-plans at once, and waits (a turn) when
+the new plan's step does too.
+
 STOP rule (towards a target to stop at, mode "goal"): STOP within half a step of it, or, with the
 target in sight (at most two waypoints left), when a forward step would not bring it closer.
 """
@@ -16,7 +20,7 @@ import math
 
 import numpy as np
 
-from biovln_ms.baselines.frontier.occupancy import OccupancyMap
+from biovln_ms.baselines.frontier.occupancy import OCCUPIED, OccupancyMap
 from biovln_ms.baselines.frontier.params import FrontierParams
 from biovln_ms.baselines.frontier.planner import FrontierPlanner, Plan
 from biovln_ms.baselines.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT
@@ -75,7 +79,21 @@ class FrontierController:
             self._stuck += 1
             return self.record(p, TURN_LEFT if self._stuck < self.params.stuck_turns else STOP)
         self._stuck = 0
-        return self.record(p, self._follow(p, yaw))
+        action = self._follow(p, yaw)
+        if action == FORWARD and self.occ_map.forget and self._step_hits(p, yaw):
+            self.plan = self.planner.plan(self.occ_map, pose)  # something moved into the way: re-plan
+            self._since_plan = 1
+            action = self._follow(p, yaw) if self.plan.path else TURN_LEFT
+            if action == FORWARD and self._step_hits(p, yaw):
+                action = TURN_LEFT  # still in the way: wait for it to move on
+        return self.record(p, action)
+
+    def _step_hits(self, p: np.ndarray, yaw: float) -> bool:
+        """A FORWARD's end puts the robot's body on an obstacle cell (a person's figure: their body reaches
+        ``people_margin`` beyond it)."""
+        reach = self.params.robot_radius + self.params.people_margin
+        cells = self.occ_map.disc_cells(p + self.step_len * heading(yaw), reach)
+        return bool((self.occ_map.grid[cells[:, 0], cells[:, 1]] == OCCUPIED).any())
 
     def record(self, p: np.ndarray, action: int) -> int:
         """Remember the step's position and action (to detect a blocked move next step); returns it."""

@@ -1,4 +1,10 @@
-"""The frontier baseline's occupancy grid, built from head-camera depth like a laser scan (paper §4.3)."""
+"""The frontier baseline's occupancy grid, built from head-camera depth like a laser scan (paper §4.3).
+
+In a lab with people (``TaskSpec.people``) the map forgets what moves: an obstacle cell that a later ray
+passes through, with :data:`FORGET_MARGIN` of free ray beyond it, is free again (a person who walked on);
+without people an obstacle cell stays one, as the paper's map keeps it. With evidence (noisy depth) the
+rays' misses already lower an obstacle's log-odds until it is free.
+"""
 
 from __future__ import annotations
 
@@ -16,6 +22,9 @@ RAY_STEP = 0.7  # cells between the samples that mark a ray's cells free
 # rays that later pass through the cell), free below FREE_BELOW
 HIT, MISS, LOG_ODDS_LIMIT = 0.85, -0.4, 3.5
 OCCUPIED_ABOVE, FREE_BELOW = 2.0, -0.2
+#: cells of free ray that must lie beyond an obstacle cell for the ray to clear it (a ray grazing a wall's
+#: cell where it ends clears nothing)
+FORGET_MARGIN = 2
 
 
 class Scan(NamedTuple):
@@ -46,9 +55,11 @@ class OccupancyMap:
         resolution: float = FrontierParams.resolution,
         extent: float = FrontierParams.extent,
         evidence: bool = False,
+        forget: bool = False,
     ) -> None:
         """``evidence``: cells accumulate log-odds over frames (for noisy depth) instead of keeping the first
-        obstacle they see."""
+        obstacle they see; ``forget``: rays clear the obstacle cells they pass (things that move)."""
+        self.forget = forget
         self.res = resolution
         self.n = round(extent / resolution)
         self.origin = np.asarray(centre_xy, float) - extent / 2
@@ -111,7 +122,8 @@ class OccupancyMap:
         direction = pw[-1, :, :2] - cam[:2]
         direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-9)
         scan = Scan(cam[:2], direction, free_len)
-        rc, _ = self.ray_cells(scan)
+        rc, owner = self.ray_cells(scan)
+        clear = self._passed(scan, rc, owner) if self.forget and self.log_odds is None else None
         orc = self.cell(pw[obstacle][:, :2])
         orc = orc[self._in_bounds(orc)]
         if base_xy is not None:
@@ -123,6 +135,8 @@ class OccupancyMap:
             rc = np.concatenate([rc, self.disc_cells(base_xy, blind)])
         if self.log_odds is None:
             keep = self.grid[rc[:, 0], rc[:, 1]] != OCCUPIED
+            if clear is not None:  # a ray passed them with free ray to spare: what stood there moved
+                keep[: len(clear)] |= clear
             self.grid[rc[keep, 0], rc[keep, 1]] = FREE
             self.grid[orc[:, 0], orc[:, 1]] = OCCUPIED
         else:
@@ -155,6 +169,12 @@ class OccupancyMap:
         rc = self.cell(pts)
         ok = self._in_bounds(rc)
         return rc[ok], owner[ok]
+
+    def _passed(self, scan: Scan, rc: np.ndarray, owner: np.ndarray) -> np.ndarray:
+        """Which ray cells ``rc`` (of columns ``owner``) lie at least :data:`FORGET_MARGIN` cells before
+        their ray's end."""
+        along = np.linalg.norm(self.centre(rc) - scan.cam, axis=1)
+        return along <= scan.free_len[owner] - FORGET_MARGIN * self.res
 
     def disc_cells(self, centre: np.ndarray, radius: float) -> np.ndarray:
         """Grid cells (row, col) whose centres lie within ``radius`` of world point ``centre``."""

@@ -17,6 +17,7 @@ class FrontierParams:
     pixel_stride: int = 8  # image rows sampled every this many pixels (Table 15)
     floor_z: float = 0.05  # m: depth points higher than this ...
     top_z: float = 1.0  # m: ... and lower than this are obstacles (the robot is 0.95 m tall)
+    forget: bool | None = None  # rays clear obstacle cells (what moves); None: with people (TaskSpec.people)
     # planner
     cluster_radius: float = 1.0  # m: frontier groups are split into tiles of this diameter (Table 15)
     min_frontier_cells: int = 10  # a smaller frontier tile is no candidate (Table 15)
@@ -24,6 +25,9 @@ class FrontierParams:
         None  # m: obstacles are grown by robot_radius + margin; None: the robot's (TaskSpec)
     )
     margin: float = 0.05  # m (Table 15)
+    # m added to the margin on a map that forgets (people): depth sees a person's figure, which lies up to
+    # this much inside the body the robot must not touch (biovln_ms.people.body.PERSON_RADIUS)
+    people_margin: float = 0.1
     # controller
     replan_every: int = 4  # steps between re-plans (Table 15)
     waypoint_reach: float = 0.3  # m: a nearer waypoint is passed, a nearer exploration target re-planned
