@@ -20,8 +20,10 @@ def record_episode(
     size: tuple[int, int] = (640, 480),
     fps: int = 5,
     lighting: str = "fast",
+    gaps: bool = False,
 ) -> dict:
-    """Record one episode; returns its final metrics."""
+    """Record one episode; returns its final metrics, and with ``gaps`` (an env with people) each frame's
+    ``person_distance`` under ``"gaps"`` (which frame shows people nearest)."""
     import gymnasium as gym
 
     from biovln_ms.render.video import MapCanvas, side_by_side, write_mp4
@@ -39,7 +41,7 @@ def record_episode(
     )
     try:
         spec = method_spec(policy)
-        frames, trail, people, canvas = [], [], [], None
+        frames, trail, people, canvas, distances = [], [], [], None, []
         for st in rollout(env, spec.factory(), episode, spec.privileged):
             pose = st.info["agent_pose"][0].cpu().numpy()
             if canvas is None:
@@ -50,14 +52,16 @@ def record_episode(
             crowd = env.unwrapped.get_state_dict()["task"].get("people")  # an env with people: theirs
             if crowd is not None:
                 people.append(crowd["pos"][0].cpu().numpy()[crowd["present"][0].cpu().numpy() > 0.5])
+                distances.append(float(st.info["person_distance"][0]))
             ego = st.obs["sensor_data"]["head"]["rgb"][0].cpu().numpy()
             frames.append(side_by_side(ego, canvas.frame(trail, pose, people)))
             info = st.info
         write_mp4(frames, out, fps=fps)
-        return {
+        final = {
             k: (v.item() if hasattr(v, "item") else v)
             for k, v in info.items()
             if k != "reconfigure" and getattr(v, "numel", lambda: 1)() == 1
         }
+        return {**final, "gaps": distances} if gaps else final
     finally:
         env.close()

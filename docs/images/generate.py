@@ -12,6 +12,9 @@
   molecular-biology lab with its dressing) under ``quality``, from the robot's head camera at its first
   episode's start, facing its target or the way its path sets off, and straight down from above
   (``biovln_ms.render.scene_view.render_robot_and_top_views``);
+- ``busy_episode.png``: one episode of the ``busy_val`` split (people in the lab) recorded with the oracle
+  by ``biovln-ms record``: the head camera beside the map, with the people and their ways, at the step where
+  a person comes nearest the robot (``biovln_ms.episode_video``);
 - ``asset_sheet.png``: the contact sheet of every asset under ``quality`` (``biovln-ms assets preview``).
 
 The view, the map and the sheet are what ``biovln-ms demo`` writes, at a size fit for a web page.
@@ -48,7 +51,7 @@ def _shrink(path: Path) -> Path:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parts = ("view", "map", "dressed", "templates", "sheet")
+    parts = ("view", "map", "dressed", "templates", "sheet", "busy")
     ap.add_argument("--only", nargs="*", choices=parts, default=parts)
     ap.add_argument("--out", type=Path, default=HERE)
     args = ap.parse_args()
@@ -81,6 +84,30 @@ def main() -> None:
         sheet = args.out / "asset_sheet.png"
         contact_sheet(sheet, lighting="quality")
         print(_shrink(sheet))
+    if "busy" in args.only:
+        print(_shrink(_busy_still(args.out / "busy_episode.png")))
+
+
+#: the busy episode of the docs figure: its position in busy_val
+BUSY_EPISODE = 28
+
+
+def _busy_still(out: Path) -> Path:
+    """A still of the oracle's busy episode: the frame where a person is nearest the robot."""
+    import tempfile
+
+    import imageio.v2 as imageio
+
+    from biovln_ms.episode_video import record_episode
+    from biovln_ms.variants import BUSY_ENV
+
+    with tempfile.TemporaryDirectory() as tmp:
+        video = Path(tmp) / "busy.mp4"
+        gaps = record_episode(video, "busy_val", BUSY_EPISODE, "oracle", env_id=BUSY_ENV, gaps=True)["gaps"]
+        with imageio.get_reader(video) as r:
+            frame = r.get_data(min(range(len(gaps)), key=gaps.__getitem__))
+    Image.fromarray(frame).save(out)
+    return out
 
 
 if __name__ == "__main__":
