@@ -330,7 +330,8 @@ def check_episode_kind(cfg: NavTaskConfig, source: EpisodeSource, footprint: flo
     """Protocol (multi-goal) episodes run only in the protocol env, and single-goal ones only elsewhere: a
     protocol episode's goals read as any-instance goals would be a silently wrong task. The episodes' scenes
     are made for this robot's footprint (free space, geodesics and starts are the footprint's). Episodes
-    carrying their own crowd (the busy splits) need as many of the env's ``people`` figures."""
+    carrying their own crowd (the busy splits) need as many of the env's ``people`` figures, or none
+    (``people=0`` runs them in an empty lab)."""
     if not isinstance(source, EpisodeSource) or not getattr(source, "episodes", None):
         raise EnvConfigError(
             f"episodes must be a non-empty EpisodeSource, got {type(source).__name__}",
@@ -356,14 +357,15 @@ def check_episode_kind(cfg: NavTaskConfig, source: EpisodeSource, footprint: flo
             fix="use the protocol_* splits with BioVLN-Protocol-v0, the others with the single-goal variants",
         )
     crowd = max((ep["people"]["count"] for ep in source.episodes if "people" in ep), default=0)
-    if crowd > cfg.people:
+    if 0 < cfg.people < crowd:  # people=0: the same episodes in an empty lab
         split = getattr(source, "split", None)
         where = f"the episodes of split {split!r}" if split else "the episodes"
         raise EnvConfigError(
             f"{where} bring crowds of up to {crowd} people, and "
             f"people={cfg.people} gives the env {cfg.people} figures",
             field="people",
-            fix=f"pass people={crowd} or more, or leave people out (gym.make takes the split's)",
+            fix=f"pass people={crowd} or more, leave people out (gym.make takes the split's), or pass "
+            "people=0 for an empty lab",
         )
 
 

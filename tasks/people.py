@@ -10,7 +10,6 @@ locomotion controller), so the contact is exact and replayable and people are mo
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -19,7 +18,7 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from biovln_ms.people.body import PERSON_HEIGHT, PeopleStep
-from biovln_ms.people.crowd import Crowd, stations, step_seconds
+from biovln_ms.people.crowd import Crowd, CrowdError, stations, step_seconds
 
 #: m: an absent person's figure is kept this far below the floor, out of every camera's sight
 ABSENT_Z = -10.0
@@ -58,6 +57,7 @@ class EnvPeople:
         self.env, n, p = env, env.num_envs, env.cfg.people
         self.crowds = [Crowd(p) for _ in range(n)]
         self.hit = np.zeros(n, dtype=bool)
+        self._placed = np.full((n, p, 3), np.nan)  # each figure's last placed (x, y, yaw) per sub-env
         self.seconds = step_seconds(env.cfg.forward_step, env.cfg.turn_deg)
         self.actors = [self._figure(k) for k in range(p)]  # one actor per person, batched over sub-envs
         self.label = len(env.category_names) + 1  # a person's semantic category: after the goal categories
@@ -91,8 +91,19 @@ class EnvPeople:
             st = stations(spec, nav, pose[i, :2])
             own = e._episodes[i].get("people")
             count, seed = (own["count"], own["seed"]) if own else (None, int(e._episode_seed[i]))
-            self.crowds[i].reset(nav, st, pose[i, :2], e._footprint, seed, spec.name, count)
+            try:
+                self.crowds[i].reset(nav, st, pose[i, :2], e._footprint, seed, spec.name, count)
+            except CrowdError as err:
+                if not own:
+                    raise
+                raise CrowdError(  # the count is the episode's: it is the dataset that is wrong
+                    f"episode {e._episodes[i]['episode_id']} of scene '{spec.name}' brings {count} "
+                    f"people: {err.message}",
+                    field="people.count",
+                    fix="rebuild the dataset (biovln-ms dataset build), or pass people=0 for an empty lab",
+                ) from None
         self.hit[rows] = False
+        self._placed[rows] = np.nan  # a new episode's figures are placed whatever they were
         self._place(sorted(rows))
         return self._view(np.zeros(e.num_envs))
 
@@ -118,16 +129,26 @@ class EnvPeople:
 
     def _place(self, rows: list[int]) -> None:
         """The figures of sub-envs ``rows`` where their people are (on the GPU, rows are the sub-envs being
-        reset, or all of them)."""
+        reset, or all of them); a figure none of whose rows moved since it was last placed is left as is."""
+        now = np.stack([np.column_stack([self.crowds[i].pos, self.crowds[i].yaw]) for i in rows])  # (r, P, 3)
+        if np.array_equal(now, self._placed[rows]):  # nobody moved (standing people, an ended episode)
+            return
+        present = np.stack([self.crowds[i].present for i in rows])
         for k, actor in enumerate(self.actors):
-            p = torch.zeros(len(rows), 3)
-            q = torch.zeros(len(rows), 4)
-            for j, i in enumerate(rows):
-                c = self.crowds[i]
-                p[j, :2] = torch.from_numpy(c.pos[k])
-                p[j, 2] = 0.0 if c.present[k] else ABSENT_Z
-                q[j, 0], q[j, 3] = math.cos(c.yaw[k] / 2), math.sin(c.yaw[k] / 2)
-            actor.pose = Pose.create_from_pq(p.to(self.env.device), q.to(self.env.device))
+            if np.array_equal(now[:, k], self._placed[rows, k]):  # NaN (never placed) is never equal
+                continue
+            p = np.column_stack([now[:, k, :2], np.where(present[:, k], 0.0, ABSENT_Z)])
+            half = now[:, k, 2] / 2
+            q = np.column_stack([np.cos(half), np.zeros((len(rows), 2)), np.sin(half)])
+            if self.env.gpu_sim_enabled:
+                dev = self.env.device
+                actor.pose = Pose.create_from_pq(
+                    torch.from_numpy(p).float().to(dev), torch.from_numpy(q).float().to(dev)
+                )
+            else:  # each sub-scene's entity directly (ManiSkill's batched setter costs more than the people)
+                for j, i in enumerate(rows):
+                    actor._objs[i].pose = sapien.Pose(p[j].astype(np.float32), q[j].astype(np.float32))
+            self._placed[rows, k] = now[:, k]
         if self.env.gpu_sim_enabled:
             self.env.scene.px.gpu_apply_rigid_dynamic_data()
 
@@ -147,5 +168,6 @@ class EnvPeople:
         }
 
     def load_state_dict(self, state: dict, rows: np.ndarray) -> None:
+        self._placed[rows] = np.nan  # the figures' poses come back with ManiSkill's actor state
         for i in rows.tolist():
             self.crowds[i].load({k: torch.as_tensor(state[k]).cpu().numpy()[i] for k in Crowd.STATE})

@@ -129,3 +129,39 @@ def test_the_busy_variants_are_registered():
         assert uid in gym.registry and VARIANTS[uid].people == 4
         assert VARIANTS[uid].default_split == "busy_val"
     assert VARIANTS[BUSY_STRICT_ENV].success_measure == "strict_success"
+
+
+def test_people_zero_runs_the_busy_episodes_in_an_empty_lab(dataset):
+    e = gym.make("BioVLN-OpFace-v0", split="busy_val", dataset=str(dataset), people=0, **CPU)
+    try:
+        e.reset(options={"episode_index": 0})
+        info = e.step(0)[4]
+        assert e.unwrapped._people is None and "person_distance" not in info
+    finally:
+        e.close()
+
+
+def test_an_episode_crowd_the_scene_cannot_hold_is_one_line(dataset):
+    from biovln_ms.episodes.source import DatasetEpisodes
+
+    source = DatasetEpisodes("busy_val", dataset)
+    source.episodes[0]["people"]["count"] = 8  # more than the scene's faces: an edited dataset
+    with pytest.raises(BioVLNError, match="field 'people.count'.*episode 0 of scene .* brings 8") as err:
+        gym.make("BioVLN-OpFace-v0", episodes=source, people=8, **CPU)  # ManiSkill resets on making it
+    assert "\n" not in str(err.value) and "rebuild the dataset" in str(err.value)
+
+
+def test_a_face_without_a_free_path_is_never_a_persons_walk(room):
+    """The resample: a face no route reaches (here one outside the lab) is skipped for another."""
+    from biovln_ms.people.crowd import Stations
+
+    nav = SceneSamplers().get(room).nav
+    start = np.array(next(iter(SAMPLER.draw(SceneSamplers(), room, 1, seed=0)))["start_position"][:2])
+    st = stations(room, nav, start)
+    far = Stations((*st.ids, "nowhere"), np.vstack([st.stand, [[100.0, 100.0]]]), np.append(st.yaw, 0.0))
+    crowd = Crowd(1)
+    crowd.reset(nav, st, start, nav.radius, 5, room.name)
+    crowd.st = far  # the same people, one face more that no path reaches
+    for _ in range(30):
+        assert crowd._retarget(0) and int(crowd.target[0]) != len(st.ids)
+        crowd.pos[0] = st.stand[int(crowd.target[0])]

@@ -465,7 +465,7 @@ class StrictSuccess(Measure):
     def compute(self, ctx, s, m, idx):
         within = _goal_distances(ctx, s, idx) <= ctx.radii[idx]
         at = within & _in_zone3(ctx, s, idx) & _facing_face(ctx, s, idx, self.cfg)
-        if s.people is not None:
+        if s.people is not None and at.any():  # the people's test only where the rest holds
             at &= ~_zone3_occupied(ctx, s, idx)
         return m["stopped"][idx] & _any_goal(at)
 

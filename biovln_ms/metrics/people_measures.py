@@ -217,7 +217,9 @@ class OccupiedStop(Measure):
         self.value[idx] = False
 
     def update(self, ctx, s, m, idx):
-        self.value[idx] |= m["stopped"][idx] & _zone3_occupied(ctx, s, idx).any(axis=1)
+        stopped = m["stopped"][idx]
+        if stopped.any():  # the Zone 3 test only at a STOP
+            self.value[idx] |= stopped & _zone3_occupied(ctx, s, idx).any(axis=1)
 
 
 @register_measure

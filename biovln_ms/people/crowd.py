@@ -252,7 +252,10 @@ class Crowd:
         people = np.flatnonzero(self.present).tolist()
         for _ in range(ticks):
             for p in people:
-                waited_for_robot += self._tick(p, dt, robot)
+                if self.mode[p] == STAND and self.timer[p] > dt:  # standing on: _tick's work, faster
+                    self.timer[p] -= dt
+                else:
+                    waited_for_robot += self._tick(p, dt, robot)
         return waited_for_robot
 
     def _tick(self, p: int, dt: float, robot: np.ndarray) -> float:
@@ -297,9 +300,9 @@ class Crowd:
         r = math.hypot(*(cand - robot))
         if r < PERSON_RADIUS + self.robot_radius + GAP and r <= math.hypot(*(old - robot)):
             return _ROBOT
-        others = np.delete(self.pos, p, axis=0)
-        near = np.hypot(*(others - cand).T)
-        closer = near <= np.hypot(*(others - old).T)
+        near = np.hypot(*(self.pos - cand).T)
+        near[p] = np.inf  # not themselves
+        closer = near <= np.hypot(*(self.pos - old).T)
         return _PERSON if bool(((near < 2 * PERSON_RADIUS + GAP) & closer).any()) else 0
 
     def _sidestep(self, p: int, cand: np.ndarray, step: float, robot: np.ndarray) -> np.ndarray | None:
