@@ -103,3 +103,16 @@ def test_the_privileged_view_reads_people_as_copies():
     seen = view.with_people(lambda: crowd).people()
     seen[0, 0] = 99.0
     assert crowd[0, 0] == 1.0 and view.with_people(lambda: crowd).people().tolist() == crowd.tolist()
+
+
+def test_a_robot_that_drifted_against_someone_steps_away():
+    """Actuation noise moves a turning robot: within RETREAT_GAP of a person it steps away, not turns on."""
+    from biovln_ms.baselines.oracle import RETREAT_GAP
+
+    touching = PERSON_RADIUS + TASK.robot_radius + RETREAT_GAP / 2
+    away = _View((0.0, 0.0, 0.0), [(-touching, 0.0)])  # the person behind: FORWARD leads away
+    assert PeopleGuard(away, TASK, ZONE).check(TURN_RIGHT) == FORWARD
+    toward = _View((0.0, 0.0, math.pi), [(-touching, 0.0)])  # facing them: turn until it faces away
+    guard = PeopleGuard(toward, TASK, ZONE)
+    assert guard.check(FORWARD) == TURN_LEFT and guard.check(TURN_RIGHT) == TURN_LEFT
+    assert guard.check(STOP) == STOP  # a STOP at a free face is never held

@@ -9,7 +9,9 @@ turn, else move forward. A blocked forward move turns it aside once.
 With people (the privileged view's :meth:`people`), both oracles wait rather than bump into anyone or STOP
 at an occupied face (:class:`PeopleGuard`): a FORWARD that would bring the robot's body within
 :data:`PERSON_GAP` of a person's, or a STOP while a person's body is in the goal's Zone 3, becomes a
-wait (a turn one way, then back). People step aside or walk on; the oracle goes on when they have.
+wait (a turn one way, then back). People step aside or walk on; the oracle goes on when they have. A
+waiting robot that drifted within :data:`RETREAT_GAP` of someone (actuation noise moves it as it turns)
+steps away: FORWARD when that leads away from everyone near and stays in the free space, else a turn.
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ from biovln_ms.people.body import PERSON_RADIUS
 
 #: m kept between the robot's body and a person's by a FORWARD of the oracles
 PERSON_GAP = 0.15
+#: m: a waiting robot nearer a person's body than this (actuation noise moves it as it turns) steps away
+RETREAT_GAP = 0.05
 
 
 class PointFollower:
@@ -90,6 +94,24 @@ class PeopleGuard:
             (shapely.distance(self.zone, shapely.points(people)) < PERSON_RADIUS).any()
         )
 
+    def _gaps(self, xy: np.ndarray) -> np.ndarray:
+        """m from a robot body centred at ``xy`` to each person's body."""
+        return np.linalg.norm(self.people() - xy, axis=1) - (self.contact - PERSON_GAP)
+
+    def _too_close(self) -> bool:
+        people = self.people()
+        return bool(len(people)) and bool(self._gaps(self.view.pose()[:2]).min() < RETREAT_GAP)
+
+    def _away(self) -> bool:
+        """A FORWARD now leads away from everyone within a metre and ends in the free space."""
+        pose = self.view.pose()
+        ahead = pose[:2] + self.step_len * np.array([math.cos(pose[2]), math.sin(pose[2])])
+        now, then = self._gaps(pose[:2]), self._gaps(ahead)
+        near = now < 1.0
+        free = getattr(self.view, "contains_free", None)
+        inside = free is None or bool(free(ahead[:1], ahead[1:])[0])
+        return inside and bool((then[near] > now[near]).all())
+
     def blocked(self) -> bool:
         """A FORWARD from the pose now would come within the gap of a person's body (and closer)."""
         people = self.people()
@@ -102,6 +124,10 @@ class PeopleGuard:
 
     def check(self, action: int) -> int:
         """``action``, or a wait."""
+        if action != STOP and self._too_close():  # drifted into someone's way: step away first
+            self.waits += 1
+            self._turned = False
+            return FORWARD if self._away() else TURN_LEFT
         wait = (action == FORWARD and self.blocked()) or (action == STOP and self.occupied())
         if not wait and not self._turned:
             return action
