@@ -17,12 +17,12 @@ import time
 from pathlib import Path
 
 import gymnasium as gym
-import mani_skill.envs  # noqa: F401  (registers PickCube-v1)
 import numpy as np
 import torch
 
 import biovln_ms  # noqa: F401
 from biovln_ms.measured import docs_data_dir, timed, write_table
+from biovln_ms.sim.maniskill_compat import maniskill_task_id
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
 
@@ -67,7 +67,8 @@ def main() -> None:
     torch.set_num_threads(1)
 
     nav = gym.make("BioVLN-OpFace-v0", split="ms_val", obs_mode="state", **CPU)
-    cube = gym.make("PickCube-v1", obs_mode="state", **CPU)
+    cube_id = maniskill_task_id("PickCube")  # PickCube-v1 on ManiSkill 3 (ManiSkill 4 announces -v4)
+    cube = gym.make(cube_id, obs_mode="state", **CPU)
     nav.reset(seed=0, options={"episode_index": 0})
     cube.reset(seed=0)
     _run(nav, 50), _run(cube, 50)  # warm-up
@@ -89,7 +90,7 @@ def main() -> None:
     rows.append(["whole step", f"{step_ms:.3f}", "100 %"])
     notes = [
         f"State-only steps/s, best of {args.repeats} interleaved blocks of {args.steps}: BioVLN-OpFace-v0 "
-        f"{nav_rate:.0f}, ManiSkill PickCube-v1 {cube_rate:.0f} ({nav_rate / cube_rate:.2f}x).",
+        f"{nav_rate:.0f}, ManiSkill {cube_id} {cube_rate:.0f} ({nav_rate / cube_rate:.2f}x).",
         f"A control step is {u.sim_freq // u.control_freq} physics substeps (sim {u.sim_freq} Hz, control "
         f"{u.control_freq} Hz); the parts are timed in a block of their own, with the wrappers in place.",
     ]

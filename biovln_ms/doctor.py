@@ -12,6 +12,7 @@ from biovln_ms.assetgen.generate import verify_assets
 from biovln_ms.errors import RenderError
 from biovln_ms.paths import ASSET_DIR
 from biovln_ms.render.sapien_utils import BACKPORTS_FIX, device_kind, look_at_pose, new_scene, take_rgb
+from biovln_ms.sim.maniskill_compat import maniskill_distribution
 
 PACKAGES = ("sapien", "mani-skill", "torch", "gymnasium", "stable-baselines3", "trimesh", "coacd", "numpy")
 
@@ -19,6 +20,10 @@ PACKAGES = ("sapien", "mani-skill", "torch", "gymnasium", "stable-baselines3", "
 def versions() -> dict[str, str]:
     out = {"python": platform.python_version()}
     for name in PACKAGES:
+        if name == "mani-skill":  # or the nightly, which installs the same package under another name
+            dist, version = maniskill_distribution()
+            out[name] = version if dist == name or version == "NOT INSTALLED" else f"{version} ({dist})"
+            continue
         try:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:

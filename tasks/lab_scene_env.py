@@ -14,6 +14,7 @@ import torch
 from mani_skill.envs.sapien_env import BaseEnv
 from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
+from mani_skill.utils.structs.types import SimConfig
 
 from biovln_ms.variants import LAB_SCENE_ENV
 from biovln_ms.registration import register_biovln_env
@@ -21,7 +22,12 @@ from biovln_ms.render.lighting import lighting_preset
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.scene.spec import SceneSpec
-from biovln_ms.tasks.config_checks import SCENE_RESET_OPTIONS, check_scene_env_arguments, reset_arguments
+from biovln_ms.tasks.config_checks import (
+    SCENE_RESET_OPTIONS,
+    SIM_FREQUENCIES,
+    check_scene_env_arguments,
+    reset_arguments,
+)
 
 
 def overview_pose(spec: SceneSpec):
@@ -75,6 +81,10 @@ class LabSceneEnv(BaseEnv):
         """ManiSkill's, after checking the seed and options (``env_idx`` as the base env's index tensor)."""
         seed, options, _ = reset_arguments(seed, options, self.num_envs, self.device, SCENE_RESET_OPTIONS)
         return super().reset(seed=seed, options=options)
+
+    @property
+    def _default_sim_config(self):
+        return SimConfig(**SIM_FREQUENCIES)  # the task's rates, not ManiSkill's default (which may change)
 
     @property
     def _default_sensor_configs(self):

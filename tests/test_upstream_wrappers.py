@@ -8,6 +8,7 @@ import gymnasium as gym
 import pytest
 
 import biovln_ms  # noqa: F401
+from biovln_ms.sim.maniskill_compat import maniskill_task_id
 from biovln_ms.wrappers import GymnasiumEnv, make_gym_env
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
@@ -65,8 +66,6 @@ def test_cpu_gym_wrapper_fails_check_env_and_gymnasium_env_passes(held_out_datas
 def test_default_make_vec_fails_on_maniskills_registration():
     """ManiSkill registers a vector entry point beside an additional wrapper, which gymnasium refuses;
     a BioVLN id's ``gym.make_vec`` works (``tests/test_no_hang.py``)."""
-    import mani_skill.envs  # noqa: F401  (registers ManiSkill's own tasks)
-
     with pytest.raises(gym.error.Error, match="additional_wrappers"):
-        gym.make_vec("PickCube-v1", num_envs=2)
+        gym.make_vec(maniskill_task_id("PickCube"), num_envs=2)  # registers ManiSkill's own tasks
     assert gym.spec("BioVLN-OpFace-v0").vector_entry_point is None  # so gymnasium's default is sync
