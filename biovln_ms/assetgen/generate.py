@@ -166,6 +166,8 @@ def generate_assets(
             manifest["collision"].setdefault(k, v)
     manifest["files"] = dict(sorted(manifest["files"].items()))
     manifest["collision"] = dict(sorted(manifest["collision"].items()))
+    if old.get("weights"):  # trained files (the detector's weights) are not generated here: kept
+        manifest["weights"] = old["weights"]
     atomic_write_bytes(manifest_path, (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode())
     return manifest
 
@@ -186,6 +188,7 @@ def verify_assets(asset_dir: Path, catalog: Catalog | None = None) -> list[str]:
         problems.append(f"{mpath}: generated from another catalog (run `biovln-ms assets generate`)")
     entries = dict(manifest.get("files", {}))
     entries.update({v["file"]: v["sha256"] for v in manifest.get("collision", {}).values()})
+    entries.update(manifest.get("weights", {}))  # relative path -> SHA-256 (perception train --install)
     for plan in plans(catalog):
         if f"{plan.name}.glb" not in entries:
             problems.append(

@@ -1,4 +1,4 @@
-"""`biovln-ms perception`: the object detector's labelled frames."""
+"""`biovln-ms perception`: the object detector's labelled frames, its training and its evaluation."""
 
 from __future__ import annotations
 
@@ -61,3 +61,102 @@ def perception_dataset(
             f"{seen}/{len(row['instances'])} categories, {len(row['scenes'])} scenes"
         )
     typer.echo(f"wrote {target}")
+
+
+@perception_app.command("train")
+def perception_train(
+    out: Path = typer.Option(
+        ..., "-o", "--out", help="Folder for detector.safetensors, train.json, train.png."
+    ),
+    frames: Path = typer.Option(..., "--frames", help="Frame dataset (biovln-ms perception dataset)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the weights' start, data order and augmentation."),
+    epochs: int = typer.Option(6, "--epochs", help="Passes over the training frames."),
+    batch: int = typer.Option(16, "--batch", help="Frames per step."),
+    threads: int = typer.Option(2, "--threads", help="CPU threads of torch."),
+    max_minutes: Optional[float] = typer.Option(
+        None, "--max-minutes", help="Stop after this many minutes (the result then depends on the machine)."
+    ),
+    install: bool = typer.Option(
+        False, "--install", help="Also put the weights into the package and its assets manifest."
+    ),
+) -> None:
+    """Train the goal-category detector on a frame dataset's train part.
+
+    A segmentation net (EfficientNet-Lite0 encoder, small decoder) over background and the catalog's goal
+    categories; a tenth of the training groups validates each epoch. The held-out parts are not read."""
+    from biovln_ms.eval.harness import _commit
+    from biovln_ms.perception.train_detector import install_weights, train_detector
+
+    target = given_path(out)
+    data = train_detector(
+        given_path(frames),
+        target,
+        seed=seed,
+        epochs=epochs,
+        batch=batch,
+        threads=threads,
+        max_minutes=max_minutes,
+        progress=sys.stderr.isatty(),
+        commit=_commit(),
+    )
+    last = data["history"][-1]
+    typer.echo(
+        f"{data['epochs_run']} epochs in {data['seconds'] / 60:.1f} min, loss {last['loss']:.3f}, validation "
+        f"recall {last.get('mean_recall')}, precision {last.get('mean_precision')}"
+        + (f" ({data['stopped']})" if data["stopped"] else "")
+    )
+    if install:
+        typer.echo(f"installed {install_weights(target / 'detector.safetensors')}")
+    typer.echo(f"wrote {target}")
+
+
+@perception_app.command("evaluate")
+def perception_evaluate(
+    frames: Path = typer.Option(..., "--frames", help="Frame dataset whose held-out parts are measured."),
+    weights: Optional[Path] = typer.Option(
+        None, "--weights", help="Weights file (default: the shipped one)."
+    ),
+    lighting: Optional[str] = typer.Option(
+        None, "--lighting", help="Only frames of this lighting: fast|quality."
+    ),
+    noise: Optional[str] = typer.Option(None, "--noise", help="Only frames of this noise: ideal|realistic."),
+    as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
+    out: Optional[Path] = typer.Option(None, "-o", "--out", help="Also write the results JSON here."),
+    table: Optional[Path] = typer.Option(None, "--table", help="Also write the docs' measured table here."),
+    threads: int = typer.Option(2, "--threads", help="CPU threads of torch."),
+) -> None:
+    """Per-category precision, recall and mask IoU on held-out scenes and held-out looks.
+
+    Detections are matched to annotated instances at mask IoU >= 0.5; Wilson 95 % intervals; n is the
+    annotated instances."""
+    import json
+    import shlex
+
+    from biovln_ms.io_utils import atomic_write_text
+    from biovln_ms.perception.evaluate_detector import HELD_OUT, evaluate_detector, write_table
+
+    result = evaluate_detector(
+        given_path(frames),
+        given_path(weights) if weights is not None else None,
+        lighting=lighting,
+        noise=noise,
+        threads=threads,
+    )
+    text = json.dumps(result, indent=1) + "\n"
+    if out is not None:
+        atomic_write_text(given_path(out), text)
+    if table is not None:
+        write_table(given_path(table), result, "biovln-ms " + shlex.join(sys.argv[1:]))
+    if as_json:
+        typer.echo(text, nl=False)
+        return
+    for cond, parts in result["results"].items():
+        for part in HELD_OUT:
+            s = parts[part]
+            typer.echo(
+                f"{cond:18s} {part:12s} {s['frames']:4d} frames  mean precision {s['mean_precision']}  "
+                f"mean recall {s['mean_recall']}  pixel IoU {s['mean_pixel_iou']}"
+            )
+    ms = result["detect_ms_640x480"]
+    if ms:
+        typer.echo(f"detection at 640x480: median {ms['median']} ms, p90 {ms['p90']} ms")

@@ -4,6 +4,9 @@
   pixel, 1 + the goal category index of the object seen), a perfect detector. Results with it are
   labelled "VLFM (GT detector)": they bound what a perfect Grounding-DINO + SAM stage would give, not
   what the paper's VLM stack gives.
+- ``TrainedDetector``: the goal-category segmentation net trained on this project's rendered frames
+  (``biovln_ms.perception.segmenter``), its weights shipped in the package; the target's pixels are
+  its instances of the target's category.
 - ``OwlViTDetector``: an open-vocabulary detector (Hugging Face OWL-ViT / OWLv2) from a local directory;
   its boxes (score >= threshold) become masks over the depth pixels inside them.
 """
@@ -60,6 +63,31 @@ class GTSegmentationDetector:
         return mask if mask.sum() >= scaled else np.zeros_like(mask)
 
 
+class TrainedDetector:
+    """The target's pixels are the trained segmenter's instances of its category (each at least 150
+    pixels at 640x480, as the GT detector's); ``weights`` default: the shipped file."""
+
+    def __init__(self, weights: str | Path | None = None, threads: int | None = None) -> None:
+        from biovln_ms.perception.segmenter import Segmenter
+
+        self.segmenter = Segmenter(weights, threads=threads)
+        self.name = "trained" if weights is None else f"trained:{Path(weights).name}"
+
+    def reset(self, task: TaskSpec) -> None:
+        """The task's goal categories must be ones the weights know."""
+        unknown = sorted(set(task.goal_categories) - set(self.segmenter.categories))
+        if unknown:
+            raise PerceptionError(
+                f"the task's goal categories {', '.join(unknown)} are not the detector's",
+                source=str(self.segmenter.path),
+                field="categories",
+                fix="train weights for this catalog: biovln-ms perception train -o DIR",
+            )
+
+    def detect(self, obs: dict, target: str) -> np.ndarray:
+        return self.segmenter.target_mask(_numpy(head_camera(obs)["rgb"][0]), target)
+
+
 class OwlViTDetector:
     """Open-vocabulary boxes from a local OWL-ViT; the mask is the box (VLFM refines it with SAM)."""
 
@@ -97,11 +125,18 @@ def _numpy(x) -> np.ndarray:
 
 
 def make_detector(spec: str) -> Detector:
-    """``"gt"`` (the simulator's semantic sensor) or ``"owlvit:<directory>"``."""
+    """``"gt"`` (the simulator's semantic sensor), ``"trained"`` (the shipped weights),
+    ``"trained:<weights file>"`` or ``"owlvit:<directory>"``."""
     if spec == "gt":
         return GTSegmentationDetector()
+    if spec == "trained":
+        return TrainedDetector()
+    if spec.startswith("trained:"):
+        return TrainedDetector(spec.removeprefix("trained:"))
     if spec.startswith("owlvit:"):
         return OwlViTDetector(spec.removeprefix("owlvit:"))
     raise PerceptionError(
-        f"unknown detector '{spec}'", field="detector", fix="use 'gt' or 'owlvit:/path/to/saved/owlvit'"
+        f"unknown detector '{spec}'",
+        field="detector",
+        fix="use 'gt', 'trained', 'trained:/path/to/detector.safetensors' or 'owlvit:/path/to/saved/owlvit'",
     )

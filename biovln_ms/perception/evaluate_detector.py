@@ -1,0 +1,289 @@
+"""Measure the detector on a frame dataset's held-out parts (``biovln-ms perception evaluate``).
+
+Per frame, the detector's instances (connected regions of a category, at least
+:func:`~biovln_ms.perception.segmenter.min_pixels`) are matched to the annotated instances of the same
+category, highest score first, each to the unmatched annotation it overlaps most if their mask IoU is at
+least :data:`IOU_MATCH` (COCO's AP50 rule). Annotated instances smaller than the same minimum are
+*ignored*, as COCO ignores crowd regions: not counted as misses, and a detection matching one is not a
+false positive (VLFM's GT detector drops them too). Per category:
+
+| figure | what |
+|---|---|
+| precision | matched detections / detections, Wilson 95 % interval |
+| recall | matched instances / annotated instances, Wilson 95 % interval |
+| mask IoU | mean IoU of the matched pairs |
+| pixel IoU | the category's pixels, detected vs annotated, over all frames |
+
+The means are over categories: recall over those with annotated instances, precision over those with
+detections. Frames are filtered by their lighting and noise presets.
+"""
+
+from __future__ import annotations
+
+import datetime
+import hashlib
+import time
+from pathlib import Path
+
+import numpy as np
+
+from biovln_ms.perception import segmenter as S
+from biovln_ms.perception.frames import FramesError, decode_mask
+
+IOU_MATCH = 0.5
+CONFIDENCE = 0.95
+HELD_OUT = ("test_scenes", "test_looks")
+LIGHTINGS = ("fast", "quality")
+NOISES = ("ideal", "realistic")
+
+
+def wilson(k: int, n: int, confidence: float = CONFIDENCE) -> list[float] | None:
+    """Wilson score interval of k successes in n trials (scipy's), None for n = 0."""
+    if n == 0:
+        return None
+    from scipy.stats import binomtest
+
+    ci = binomtest(k, n).proportion_ci(confidence_level=confidence, method="wilson")
+    return [round(float(ci.low), 4), round(float(ci.high), 4)]
+
+
+class Tally:
+    """Per-category counts of one evaluation."""
+
+    def __init__(self, categories: list[str]) -> None:
+        self.categories = list(categories)
+        z = dict.fromkeys(categories, 0)
+        self.gt, self.pred, self.tp = dict(z), dict(z), dict(z)
+        self.iou_sum = dict.fromkeys(categories, 0.0)
+        self.inter, self.union = dict(z), dict(z)
+        self.frames = 0
+
+    def summary(self) -> dict:
+        rows = {}
+        for c in self.categories:
+            gt, pred, tp = self.gt[c], self.pred[c], self.tp[c]
+            rows[c] = {
+                "instances": gt,
+                "detections": pred,
+                "matched": tp,
+                "precision": round(tp / pred, 4) if pred else None,
+                "precision_ci": wilson(tp, pred),
+                "recall": round(tp / gt, 4) if gt else None,
+                "recall_ci": wilson(tp, gt),
+                "mask_iou": round(self.iou_sum[c] / tp, 4) if tp else None,
+                "pixel_iou": round(self.inter[c] / self.union[c], 4) if self.union[c] else None,
+            }
+
+        def mean(key: str) -> float | None:
+            vals = [r[key] for r in rows.values() if r[key] is not None]
+            return round(float(np.mean(vals)), 4) if vals else None
+
+        tp, gt, pred = sum(self.tp.values()), sum(self.gt.values()), sum(self.pred.values())
+        return {
+            "frames": self.frames,
+            "mean_precision": mean("precision"),
+            "mean_recall": mean("recall"),
+            "mean_pixel_iou": mean("pixel_iou"),
+            "pooled_precision": round(tp / pred, 4) if pred else None,
+            "pooled_recall": round(tp / gt, 4) if gt else None,
+            "categories": rows,
+        }
+
+
+def match_frame(
+    tally: Tally, preds: list[S.Instance], anns: list[dict], categories: list[str], labels: np.ndarray
+) -> None:
+    """Add one frame: detections ``preds``, its COCO annotations ``anns`` and semantic ``labels`` (0:
+    background, 1 + category index)."""
+    tally.frames += 1
+    smallest = S.min_pixels(*labels.shape)
+    gts = [
+        (categories[a["category_id"] - 1], decode_mask(a["segmentation"]), a["area"] >= smallest)
+        for a in anns
+    ]
+    for c, _, counted in gts:
+        tally.gt[c] += counted
+    used = [False] * len(gts)
+    for p in sorted(preds, key=lambda p: -p.score):
+        best, best_iou = None, IOU_MATCH
+        for j, (c, m, _) in enumerate(gts):
+            if c != p.category or used[j]:
+                continue
+            inter = np.logical_and(m, p.mask).sum()
+            iou = inter / (m.sum() + p.mask.sum() - inter)
+            if iou >= best_iou:
+                best, best_iou = j, iou
+        if best is not None:
+            used[best] = True
+            if gts[best][2]:
+                tally.pred[p.category] += 1
+                tally.tp[p.category] += 1
+                tally.iou_sum[p.category] += float(best_iou)
+        else:
+            tally.pred[p.category] += 1
+    for k, c in enumerate(categories):
+        mine = np.zeros(labels.shape, bool)
+        for p in preds:
+            if p.category == c:
+                mine |= p.mask
+        truth = labels == k + 1
+        tally.inter[c] += int(np.logical_and(mine, truth).sum())
+        tally.union[c] += int(np.logical_or(mine, truth).sum())
+
+
+def file_sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def evaluate_detector(
+    frames: str | Path,
+    weights: str | Path | None = None,
+    lighting: str | None = None,
+    noise: str | None = None,
+    threads: int = 2,
+    limit: int | None = None,
+    timing_frames: int = 20,
+) -> dict:
+    """Per held-out part and per (lighting, noise) condition (``lighting``/``noise`` None: every preset and
+    all together), the :class:`Tally` summary; the detection time at 640x480."""
+    from biovln_ms.perception.train_detector import read_frame, read_manifest, read_part
+
+    for name, v, allowed in (("lighting", lighting, LIGHTINGS), ("noise", noise, NOISES)):
+        if v is not None and v not in allowed:
+            raise FramesError(f"unknown {name} '{v}'", field=name, fix=f"use one of: {', '.join(allowed)}")
+    frames = Path(frames)
+    manifest = read_manifest(frames)
+    seg = S.Segmenter(weights, threads=threads)
+    cats = seg.categories
+    lights = [lighting] if lighting else [*LIGHTINGS, "all"]
+    noises = [noise] if noise else [*NOISES, "all"]
+    tallies = {(p, li, no): Tally(cats) for p in HELD_OUT for li in lights for no in noises}
+    sample = None
+    for part in HELD_OUT:
+        images, anns = read_part(frames, part, limit)
+        for im in images:
+            keys = [
+                (part, li, no)
+                for li in lights
+                for no in noises
+                if li in (im["lighting"], "all") and no in (im["noise"], "all")
+            ]
+            if not keys:
+                continue
+            rgb, lab = read_frame(frames, im, anns[im["id"]])
+            sample = rgb if sample is None else sample
+            preds = seg.instances(rgb)
+            for key in keys:
+                match_frame(tallies[key], preds, anns[im["id"]], cats, lab)
+    results = {
+        f"{li}/{no}": {part: tallies[(part, li, no)].summary() for part in HELD_OUT}
+        for li in lights
+        for no in noises
+    }
+    return {
+        "weights": str(seg.path.name),
+        "weights_sha256": file_sha256(seg.path),
+        "frames": {
+            "source": manifest.get("source", ""),
+            "seed": manifest.get("seed"),
+            "size": [manifest.get("width"), manifest.get("height")],
+            "annotations_sha256": {k: v for k, v in manifest.get("files", {}).items() if "test" in k},
+        },
+        "iou_match": IOU_MATCH,
+        "min_pixels_at_640x480": S.MIN_PIXELS,
+        "threads": threads,
+        "detect_ms_640x480": detect_time(seg, sample, timing_frames) if sample is not None else None,
+        "results": results,
+    }
+
+
+def detect_time(seg: S.Segmenter, rgb: np.ndarray, n: int) -> dict:
+    """Median and 90th percentile milliseconds of one target mask on ``rgb`` resized to 640x480."""
+    from PIL import Image
+
+    big = np.asarray(Image.fromarray(rgb).resize((640, 480), Image.BILINEAR))
+    seg.target_mask(big, seg.categories[0])  # warm-up
+    times = []
+    for k in range(max(1, n)):
+        t = time.perf_counter()
+        seg.target_mask(big, seg.categories[k % len(seg.categories)])
+        times.append(1000 * (time.perf_counter() - t))
+    return {
+        "median": round(float(np.median(times)), 1),
+        "p90": round(float(np.percentile(times, 90)), 1),
+        "n": len(times),
+    }
+
+
+def summary_table(result: dict, condition: str = "fast/ideal") -> tuple[list[str], list[list]]:
+    """Columns and rows for the docs: per category, precision and recall with intervals on each held-out
+    part under ``condition``, then the means."""
+    cols = ["category"]
+    for part in HELD_OUT:
+        cols += [f"{part}: n", "precision", "recall", "mask IoU"]
+    res = result["results"][condition]
+
+    def fmt(v, ci=None):
+        if v is None:
+            return None
+        return f"{v:.2f}" + (f" [{ci[0]:.2f}, {ci[1]:.2f}]" if ci else "")
+
+    rows = []
+    for c in res[HELD_OUT[0]]["categories"]:
+        row = [c]
+        for part in HELD_OUT:
+            r = res[part]["categories"][c]
+            row += [
+                r["instances"],
+                fmt(r["precision"], r["precision_ci"]),
+                fmt(r["recall"], r["recall_ci"]),
+                fmt(r["mask_iou"]),
+            ]
+        rows.append(row)
+    mean = ["mean over categories"]
+    for part in HELD_OUT:
+        s = res[part]
+        mean += [
+            sum(r["instances"] for r in s["categories"].values()),
+            fmt(s["mean_precision"]),
+            fmt(s["mean_recall"]),
+            None,
+        ]
+    return cols, [*rows, mean]
+
+
+def write_table(path: str | Path, result: dict, command: str, condition: str = "fast/ideal") -> Path:
+    """The docs' measured table (:mod:`biovln_ms.measured`'s format) of ``result`` under ``condition``."""
+    from biovln_ms.io_utils import atomic_write_text
+    from biovln_ms.measured import check_table, dumps, machine
+
+    cols, rows = summary_table(result, condition)
+    lighting, noise = condition.split("/")
+    ms = result.get("detect_ms_640x480") or {}
+    others = {
+        cond: {p: (r[p]["mean_precision"], r[p]["mean_recall"]) for p in HELD_OUT}
+        for cond, r in result["results"].items()
+        if cond != condition
+    }
+    notes = [
+        f"Lighting `{lighting}`, noise `{noise}`; n: annotated instances of at least {S.MIN_PIXELS} "
+        f"pixels at 640x480 (smaller ones are ignored); precision and recall at mask IoU >= {IOU_MATCH}, "
+        "Wilson 95 % intervals; mask IoU: mean over matched pairs; – : no instance or no detection.",
+        *(
+            f"`{cond}`: " + "; ".join(f"{p} precision {v[0]}, recall {v[1]}" for p, v in parts.items())
+            for cond, parts in others.items()
+        ),
+        f"Detection time at 640x480 ({result['threads']} threads): median {ms.get('median')} ms, "
+        f"90th percentile {ms.get('p90')} ms.",
+    ]
+    data = {
+        "title": "Trained detector on held-out frames",
+        "command": command,
+        "machine": machine(),
+        "written": datetime.date.today().isoformat(),
+        "columns": cols,
+        "rows": rows,
+        "notes": notes,
+    }
+    check_table(data, str(path))
+    return atomic_write_text(path, dumps(data))

@@ -1,0 +1,276 @@
+"""The trained detector (biovln_ms.perception.segmenter / train_detector / evaluate_detector, `biovln-ms
+perception train|evaluate`): instance matching and intervals, a tiny training run on synthetic frames in
+the frame dataset's format (deterministic, evaluated), the shipped weights, and one-line errors for a
+missing, corrupt or foreign weights file and a frame of the wrong shape."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+from typer.testing import CliRunner
+
+from biovln_ms.cli import app
+from biovln_ms.perception import frames as F
+from biovln_ms.perception import segmenter as S
+from biovln_ms.perception.detectors import TrainedDetector, make_detector
+from biovln_ms.perception.evaluate_detector import Tally, match_frame, wilson
+from biovln_ms.perception.scorers import PerceptionError
+
+runner = CliRunner()
+CATS = S.goal_categories()
+
+
+def _inst(category: str, mask: np.ndarray, score: float = 0.9) -> S.Instance:
+    return S.Instance(category, mask, score)
+
+
+def _ann(instances: np.ndarray, cats: dict[int, str]) -> list[dict]:
+    return F.instance_annotations(instances, {k: CATS.index(c) + 1 for k, c in cats.items()})
+
+
+def test_matching_counts_hits_misses_false_alarms_and_ignores_small_instances():
+    inst = np.zeros((240, 320), np.uint16)
+    inst[20:80, 20:100] = 1  # big, category 0
+    inst[150:200, 200:300] = 2  # big, category 1
+    inst[5:9, 300:305] = 3  # 20 pixels < min_pixels (37.5 at 320x240): ignored
+    anns = _ann(inst, {1: CATS[0], 2: CATS[1], 3: CATS[2]})
+    labels = np.zeros_like(inst, np.uint8)
+    for k, c in ((1, 0), (2, 1), (3, 2)):
+        labels[inst == k] = c + 1
+    hit = np.zeros(inst.shape, bool)
+    hit[22:80, 20:100] = True  # IoU 0.97 with instance 1
+    wrong_place = np.zeros(inst.shape, bool)
+    wrong_place[100:140, 0:60] = True  # overlaps nothing of category 1
+    on_small = np.zeros(inst.shape, bool)
+    on_small[5:9, 300:305] = True  # matches the ignored instance: neither a hit nor a false alarm
+    tally = Tally(CATS)
+    match_frame(
+        tally,
+        [_inst(CATS[0], hit), _inst(CATS[1], wrong_place), _inst(CATS[2], on_small)],
+        anns,
+        CATS,
+        labels,
+    )
+    s = tally.summary()["categories"]
+    assert (s[CATS[0]]["instances"], s[CATS[0]]["matched"], s[CATS[0]]["precision"]) == (1, 1, 1.0)
+    assert s[CATS[0]]["mask_iou"] == pytest.approx(58 / 60, abs=1e-3)
+    assert (s[CATS[1]]["recall"], s[CATS[1]]["precision"], s[CATS[1]]["detections"]) == (0.0, 0.0, 1)
+    assert (s[CATS[2]]["instances"], s[CATS[2]]["detections"]) == (0, 0)
+    assert s[CATS[0]]["pixel_iou"] == pytest.approx(58 * 80 / (60 * 80), abs=1e-3)
+    # a detection under the IoU threshold is a false alarm and the instance a miss
+    tally = Tally(CATS)
+    half = np.zeros(inst.shape, bool)
+    half[20:80, 20:50] = True  # IoU 0.375
+    match_frame(tally, [_inst(CATS[0], half)], anns, CATS, labels)
+    row = tally.summary()["categories"][CATS[0]]
+    assert (row["matched"], row["detections"], row["recall"]) == (0, 1, 0.0)
+
+
+def test_wilson_interval():
+    lo, hi = wilson(8, 10)
+    assert lo == pytest.approx(0.4902, abs=1e-3) and hi == pytest.approx(0.9433, abs=1e-3)
+    assert wilson(0, 0) is None
+
+
+# --- a tiny frame dataset in the part-1 format, drawn without the simulator -------------------------
+def _synthetic_frames(root: Path, n: int = 12, size=(160, 120)) -> Path:
+    """Frames of a coloured box per category (category k: a fixed colour) on a grey floor."""
+    rng = np.random.default_rng(0)
+    colours = rng.integers(0, 256, (len(CATS), 3))
+    (root / "frames").mkdir(parents=True)
+    (root / "annotations").mkdir()
+    parts = {p: {"images": [], "annotations": [], "categories": F.coco_categories()} for p in F.PARTS}
+    ann_id = 0
+    for i in range(n):
+        part = F.PARTS[i % 3] if i >= 6 else "train"
+        rgb = np.full((size[1], size[0], 3), 120, np.uint8) + rng.integers(
+            0, 10, (size[1], size[0], 3)
+        ).astype(np.uint8)
+        inst = np.zeros((size[1], size[0]), np.uint16)
+        cats = {}
+        for k in (1, 2):
+            c = int(rng.integers(3))  # three categories only: learnable in a few steps
+            x0, y0 = int(rng.integers(0, size[0] - 50)), int(rng.integers(0, size[1] - 40))
+            rgb[y0 : y0 + 40, x0 : x0 + 50] = colours[c]
+            inst[y0 : y0 + 40, x0 : x0 + 50] = k
+            cats[k] = CATS[c]
+        cats = {k: c for k, c in cats.items() if (inst == k).any()}
+        names = {kind: f"frames/{i:06d}.{kind}.png" for kind in ("rgb", "instances")}
+        Image.fromarray(rgb).save(root / names["rgb"])
+        Image.fromarray(inst).save(root / names["instances"])
+        image = {"id": i, "file_name": names["rgb"], "instances_file": names["instances"], "part": part}
+        image.update(
+            {"group": i // 2, "lighting": "fast", "noise": "ideal", "width": size[0], "height": size[1]}
+        )
+        parts[part]["images"].append(image)
+        for a in _ann(inst, cats):
+            ann_id += 1
+            parts[part]["annotations"].append({"id": ann_id, "image_id": i, **a})
+    for p, coco in parts.items():
+        (root / "annotations" / f"{p}.json").write_text(json.dumps(coco))
+    manifest = {
+        "format_version": F.FORMAT_VERSION,
+        "seed": 0,
+        "categories": CATS,
+        "files": {},
+        "source": "synthetic",
+    }
+    (root / "manifest.json").write_text(json.dumps(manifest))
+    return root
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory) -> tuple[Path, Path]:
+    root = tmp_path_factory.mktemp("detector")
+    frames = _synthetic_frames(root / "frames")
+    r = runner.invoke(
+        app,
+        [
+            "perception",
+            "train",
+            "-o",
+            str(root / "run"),
+            "--frames",
+            str(frames),
+            "--epochs",
+            "2",
+            "--batch",
+            "3",
+            "--threads",
+            "1",
+        ],
+    )
+    assert r.exit_code == 0, r.output
+    return frames, root / "run"
+
+
+@pytest.mark.slow
+def test_training_writes_weights_plot_and_log_reproducibly(trained, tmp_path):
+    from biovln_ms.perception.train_detector import train_detector
+
+    frames, run = trained
+    data = json.loads((run / "train.json").read_text())
+    assert data["epochs_run"] == 2 and len(data["loss"]) == 2 * -(-data["train_frames"] // 3)
+    assert all(np.isfinite(data["loss"])) and (run / "train.png").stat().st_size > 10_000
+    header, net = S.load_net(run / "detector.safetensors")
+    assert header["categories"] == CATS and header["seed"] == 0 and header["input_size"] == list(S.INPUT_SIZE)
+    assert header["classes"][0] == "background" and header["epochs"] == 2
+    again = train_detector(
+        frames, tmp_path / "again", seed=0, epochs=2, batch=3, threads=1, commit=header["git_commit"]
+    )
+    assert again["loss"] == data["loss"]
+    assert (tmp_path / "again" / "detector.safetensors").read_bytes() == (
+        run / "detector.safetensors"
+    ).read_bytes()
+
+
+@pytest.mark.slow
+def test_evaluate_reports_each_held_out_part(trained, tmp_path):
+    frames, run = trained
+    out, table = tmp_path / "eval.json", tmp_path / "table.json"
+    r = runner.invoke(
+        app,
+        [
+            "perception",
+            "evaluate",
+            "--frames",
+            str(frames),
+            "--weights",
+            str(run / "detector.safetensors"),
+            "--lighting",
+            "fast",
+            "--noise",
+            "ideal",
+            "-o",
+            str(out),
+            "--table",
+            str(table),
+            "--threads",
+            "1",
+        ],
+    )
+    assert r.exit_code == 0, r.output
+    result = json.loads(out.read_text())
+    parts = result["results"]["fast/ideal"]
+    assert set(parts) == {"test_scenes", "test_looks"} and parts["test_scenes"]["frames"] == 2
+    assert sum(row["instances"] for row in parts["test_scenes"]["categories"].values()) > 0
+    assert result["detect_ms_640x480"]["median"] > 0
+    rows = json.loads(table.read_text())["rows"]
+    assert [r[0] for r in rows] == [*CATS, "mean over categories"]
+    r = runner.invoke(
+        app,
+        [
+            "perception",
+            "evaluate",
+            "--frames",
+            str(frames),
+            "--lighting",
+            "dusk",
+            "--weights",
+            str(run / "detector.safetensors"),
+        ],
+    )
+    assert r.exit_code != 0 and "unknown lighting 'dusk'" in str(r.exception or r.output)
+
+
+def test_bad_weights_and_frames_are_one_line_errors(tmp_path):
+    import torch
+
+    path = tmp_path / "fresh.safetensors"  # an untrained net: the checks are the same for any weights
+    S.save_weights(path, S.build_net(len(CATS) + 1, pretrained=False), S.header_of(CATS, 0, None))
+    with pytest.raises(PerceptionError, match="weights file missing.*perception train") as e:
+        S.Segmenter(tmp_path / "absent.safetensors")
+    assert "\n" not in str(e.value)
+    bad = tmp_path / "bad.safetensors"
+    bad.write_bytes(path.read_bytes()[:5000])  # truncated
+    with pytest.raises(PerceptionError, match="corrupt|not a safetensors"):
+        S.Segmenter(bad)
+    bad.write_bytes(b"garbage that is no weights file")
+    with pytest.raises(PerceptionError, match="not a safetensors"):
+        S.Segmenter(bad)
+    pickled = tmp_path / "pickled.pt"  # a pickle (torch.save) is refused, never unpickled
+    torch.save({"w": torch.zeros(2)}, pickled)
+    with pytest.raises(PerceptionError, match="not a safetensors|no detector header"):
+        S.Segmenter(pickled)
+    header, net = S.load_net(path)
+    foreign = tmp_path / "foreign.safetensors"
+    other = [*CATS[:-1], "flux_capacitor"]
+    foreign.write_bytes(
+        S.weights_bytes(net, {**header, "categories": other, "categories_sha256": S.categories_sha256(other)})
+    )
+    with pytest.raises(PerceptionError, match="another catalog.*flux_capacitor.*perception train"):
+        S.Segmenter(foreign)
+    det = TrainedDetector(path)
+    assert (
+        det.name == "trained:fresh.safetensors"
+        and make_detector(f"trained:{path}").segmenter.categories == CATS
+    )
+    obs = {"sensor_data": {"head": {"rgb": np.full((1, 480, 640, 3), 90, np.uint8)}}}
+    mask = det.detect(obs, CATS[0])
+    assert mask.shape == (480, 640) and mask.dtype == bool
+    for frame in (
+        np.zeros((480, 480, 3), np.uint8),
+        np.zeros((480, 640), np.uint8),
+        np.zeros((480, 640, 3), np.float32),
+    ):
+        with pytest.raises(PerceptionError, match="field 'rgb'.*4:3") as e:
+            det.segmenter.target_mask(frame, CATS[0])
+        assert "\n" not in str(e.value)
+    with pytest.raises(PerceptionError, match="not one of the detector's"):
+        det.segmenter.target_mask(np.zeros((120, 160, 3), np.uint8), "flux_capacitor")
+
+
+def test_frames_of_another_catalog_are_refused(tmp_path):
+    from biovln_ms.perception.train_detector import read_manifest
+
+    (tmp_path / "manifest.json").write_text(
+        json.dumps({"format_version": F.FORMAT_VERSION, "categories": ["x"]})
+    )
+    with pytest.raises(F.FramesError, match="another catalog's goal categories"):
+        read_manifest(tmp_path)
+    with pytest.raises(F.FramesError, match="no manifest.json"):
+        read_manifest(tmp_path / "nowhere")
