@@ -274,3 +274,23 @@ def test_frames_of_another_catalog_are_refused(tmp_path):
         read_manifest(tmp_path)
     with pytest.raises(F.FramesError, match="no manifest.json"):
         read_manifest(tmp_path / "nowhere")
+
+
+def test_shipped_weights_load_and_are_in_the_assets_manifest():
+    from biovln_ms.assetgen.generate import verify_assets
+    from biovln_ms.paths import ASSET_DIR
+
+    manifest = json.loads((ASSET_DIR / "manifest.json").read_text())
+    assert S.SHIPPED in manifest["weights"] and verify_assets(ASSET_DIR) == []
+    assert S.shipped_weights().stat().st_size <= 20 * 2**20
+    det = make_detector("trained")
+    assert det.segmenter.categories == CATS and det.name == "trained"
+    header = det.segmenter.header
+    assert header["frozen_blocks"] == S.FROZEN_BLOCKS and header["input_size"] == list(S.INPUT_SIZE)
+    # the docs' training log is the shipped weights' own
+    log = json.loads((Path(__file__).parents[1] / "docs/data/perception/detector_train.json").read_text())
+    assert log["header"] == header
+    frame = np.full((480, 640, 3), 90, np.uint8)
+    obs = {"sensor_data": {"head": {"rgb": frame[None]}}}
+    mask = det.detect(obs, CATS[0])
+    assert mask.shape == (480, 640) and mask.dtype == bool
