@@ -49,6 +49,7 @@ ALLOWED_TARGETS = {
     "biovln_ms.eval.figures": "report figures drawn with matplotlib",
     "biovln_ms.eval.learned": "learned-method checkpoints: Stable-Baselines3",
     "biovln_ms.sensor_noise_kernels": "Numba kernels, a third of a second to import",
+    "biovln_ms.perception.render_frames": "the detector's frames rendered with SAPIEN and torch",
 }
 #: importers that are light processes: each command imports its code when it runs
 LIGHT_IMPORTERS = {

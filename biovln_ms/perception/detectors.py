@@ -19,6 +19,7 @@ from typing import Protocol
 import numpy as np
 
 from biovln_ms.perception.scorers import PerceptionError, load_local_model
+from biovln_ms.perception.segmenter import Segmenter
 from biovln_ms.task_config import TaskSpec
 
 
@@ -68,7 +69,6 @@ class TrainedDetector:
     pixels at 640x480, as the GT detector's); ``weights`` default: the shipped file."""
 
     def __init__(self, weights: str | Path | None = None, threads: int | None = None) -> None:
-        from biovln_ms.perception.segmenter import Segmenter
 
         self.segmenter = Segmenter(weights, threads=threads)
         self.name = "trained" if weights is None else f"trained:{Path(weights).name}"

@@ -27,108 +27,16 @@ from pathlib import Path
 
 import numpy as np
 
+from biovln_ms.io_utils import atomic_write_text
+from biovln_ms.measured import check_table, dumps, machine
 from biovln_ms.perception import segmenter as S
-from biovln_ms.perception.frames import FramesError, decode_mask
+from biovln_ms.perception.frames import FramesError
+from biovln_ms.perception.matching import IOU_MATCH, Tally, match_frame, wilson  # noqa: F401  (the API)
+from biovln_ms.perception.train_detector import read_frame, read_manifest, read_part
 
-IOU_MATCH = 0.5
-CONFIDENCE = 0.95
 HELD_OUT = ("test_scenes", "test_looks")
 LIGHTINGS = ("fast", "quality")
 NOISES = ("ideal", "realistic")
-
-
-def wilson(k: int, n: int, confidence: float = CONFIDENCE) -> list[float] | None:
-    """Wilson score interval of k successes in n trials (scipy's), None for n = 0."""
-    if n == 0:
-        return None
-    from scipy.stats import binomtest
-
-    ci = binomtest(k, n).proportion_ci(confidence_level=confidence, method="wilson")
-    return [round(float(ci.low), 4), round(float(ci.high), 4)]
-
-
-class Tally:
-    """Per-category counts of one evaluation."""
-
-    def __init__(self, categories: list[str]) -> None:
-        self.categories = list(categories)
-        z = dict.fromkeys(categories, 0)
-        self.gt, self.pred, self.tp = dict(z), dict(z), dict(z)
-        self.iou_sum = dict.fromkeys(categories, 0.0)
-        self.inter, self.union = dict(z), dict(z)
-        self.frames = 0
-
-    def summary(self) -> dict:
-        rows = {}
-        for c in self.categories:
-            gt, pred, tp = self.gt[c], self.pred[c], self.tp[c]
-            rows[c] = {
-                "instances": gt,
-                "detections": pred,
-                "matched": tp,
-                "precision": round(tp / pred, 4) if pred else None,
-                "precision_ci": wilson(tp, pred),
-                "recall": round(tp / gt, 4) if gt else None,
-                "recall_ci": wilson(tp, gt),
-                "mask_iou": round(self.iou_sum[c] / tp, 4) if tp else None,
-                "pixel_iou": round(self.inter[c] / self.union[c], 4) if self.union[c] else None,
-            }
-
-        def mean(key: str) -> float | None:
-            vals = [r[key] for r in rows.values() if r[key] is not None]
-            return round(float(np.mean(vals)), 4) if vals else None
-
-        tp, gt, pred = sum(self.tp.values()), sum(self.gt.values()), sum(self.pred.values())
-        return {
-            "frames": self.frames,
-            "mean_precision": mean("precision"),
-            "mean_recall": mean("recall"),
-            "mean_pixel_iou": mean("pixel_iou"),
-            "pooled_precision": round(tp / pred, 4) if pred else None,
-            "pooled_recall": round(tp / gt, 4) if gt else None,
-            "categories": rows,
-        }
-
-
-def match_frame(
-    tally: Tally, preds: list[S.Instance], anns: list[dict], categories: list[str], labels: np.ndarray
-) -> None:
-    """Add one frame: detections ``preds``, its COCO annotations ``anns`` and semantic ``labels`` (0:
-    background, 1 + category index)."""
-    tally.frames += 1
-    smallest = S.min_pixels(*labels.shape)
-    gts = [
-        (categories[a["category_id"] - 1], decode_mask(a["segmentation"]), a["area"] >= smallest)
-        for a in anns
-    ]
-    for c, _, counted in gts:
-        tally.gt[c] += counted
-    used = [False] * len(gts)
-    for p in sorted(preds, key=lambda p: -p.score):
-        best, best_iou = None, IOU_MATCH
-        for j, (c, m, _) in enumerate(gts):
-            if c != p.category or used[j]:
-                continue
-            inter = np.logical_and(m, p.mask).sum()
-            iou = inter / (m.sum() + p.mask.sum() - inter)
-            if iou >= best_iou:
-                best, best_iou = j, iou
-        if best is not None:
-            used[best] = True
-            if gts[best][2]:
-                tally.pred[p.category] += 1
-                tally.tp[p.category] += 1
-                tally.iou_sum[p.category] += float(best_iou)
-        else:
-            tally.pred[p.category] += 1
-    for k, c in enumerate(categories):
-        mine = np.zeros(labels.shape, bool)
-        for p in preds:
-            if p.category == c:
-                mine |= p.mask
-        truth = labels == k + 1
-        tally.inter[c] += int(np.logical_and(mine, truth).sum())
-        tally.union[c] += int(np.logical_or(mine, truth).sum())
 
 
 def file_sha256(path: Path) -> str:
@@ -146,8 +54,6 @@ def evaluate_detector(
 ) -> dict:
     """Per held-out part and per (lighting, noise) condition (``lighting``/``noise`` None: every preset and
     all together), the :class:`Tally` summary; the detection time at 640x480."""
-    from biovln_ms.perception.train_detector import read_frame, read_manifest, read_part
-
     for name, v, allowed in (("lighting", lighting, LIGHTINGS), ("noise", noise, NOISES)):
         if v is not None and v not in allowed:
             raise FramesError(f"unknown {name} '{v}'", field=name, fix=f"use one of: {', '.join(allowed)}")
@@ -254,8 +160,6 @@ def summary_table(result: dict, condition: str = "fast/ideal") -> tuple[list[str
 
 def write_table(path: str | Path, result: dict, command: str, condition: str = "fast/ideal") -> Path:
     """The docs' measured table (:mod:`biovln_ms.measured`'s format) of ``result`` under ``condition``."""
-    from biovln_ms.io_utils import atomic_write_text
-    from biovln_ms.measured import check_table, dumps, machine
 
     cols, rows = summary_table(result, condition)
     lighting, noise = condition.split("/")

@@ -24,6 +24,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from biovln_ms.episodes.bulk import usable_seeds
+from biovln_ms.episodes.samplers import SceneSamplers, SingleGoalEpisodes
+from biovln_ms.scene.generator import GenerationError, generate_scene
+from biovln_ms.scene.templates import get_template, template_names
 from biovln_ms.assetgen.variation import PAINTS, Variant, paint_look
 from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import BioVLNError
@@ -154,10 +158,6 @@ def split_sources(dataset, split: str, held_out_seeds: dict[str, frozenset[int]]
     :data:`COVERAGE_SCENES_PER_CATEGORY` scenes of the first template (by name) offering it, generated from
     seeds :data:`COVERAGE_FIRST_SEED` up without ``held_out_seeds`` (the benchmark scenes' seeds: no
     evaluation scene enters the frames), with :data:`COVERAGE_EPISODES` episodes each."""
-    from biovln_ms.episodes.bulk import usable_seeds
-    from biovln_ms.episodes.samplers import SceneSamplers, SingleGoalEpisodes
-    from biovln_ms.scene.generator import GenerationError, generate_scene
-    from biovln_ms.scene.templates import get_template, template_names
 
     if split not in dataset.split_names():
         raise FramesError(

@@ -23,6 +23,7 @@ from biovln_ms.catalog import load_catalog
 from biovln_ms.errors import RenderError
 from biovln_ms.noise import PRESETS
 from biovln_ms.paths import ASSET_DIR
+from biovln_ms.render.lighting import apply_lighting
 from biovln_ms.perception.frames import FrameDraw, GroupDraw, SceneSource, dressed_spec, look_variant
 from biovln_ms.render.sapien_utils import BACKPORTS_FIX, look_at_pose
 from biovln_ms.sensor_noise import DepthNoise, RGBNoise
@@ -69,7 +70,6 @@ class FrameRenderer:
     def _build(self, group: GroupDraw, source: SceneSource) -> None:
         import sapien
 
-        from biovln_ms.render.lighting import apply_lighting
         from biovln_ms.sim.instance_looks import apply_variant
         from biovln_ms.sim.sapien_builder import add_spec_to_scene
 

@@ -23,9 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
-from biovln_ms.io_utils import atomic_write_text, parse_json
+from biovln_ms.io_utils import atomic_write_bytes, atomic_write_text, parse_json, save_figure
+from biovln_ms.paths import ASSET_DIR
 from biovln_ms.perception import segmenter as S
 from biovln_ms.perception.frames import FORMAT_VERSION, FramesError, stable_hash
+from biovln_ms.perception.matching import Tally, match_frame
 
 #: share of the training groups kept aside for validation
 VAL_SHARE = 0.1
@@ -168,8 +170,6 @@ def train_detector(
     import torch
     from tqdm import tqdm
 
-    from biovln_ms.perception.evaluate_detector import Tally, match_frame
-
     for name, v, lo, hi in (
         ("epochs", epochs, 1, 1000),
         ("batch", batch, 1, 1024),
@@ -304,8 +304,6 @@ def plot_training(data: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from biovln_ms.io_utils import save_figure
-
     fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.8))
     loss = np.asarray(data["loss"], float)
     a.plot(loss, lw=0.6, alpha=0.5, label="step")
@@ -335,9 +333,6 @@ def install_weights(weights: str | Path) -> Path:
     """Put a weights file (checked first) into the package as the shipped detector and record its SHA-256
     in the assets manifest's ``weights`` (``biovln-ms assets verify`` checks it)."""
     import hashlib
-
-    from biovln_ms.io_utils import atomic_write_bytes
-    from biovln_ms.paths import ASSET_DIR
 
     S.read_weights(weights)
     data = Path(weights).read_bytes()
