@@ -134,7 +134,7 @@ def trained(tmp_path_factory) -> tuple[Path, Path]:
             "train",
             "-o",
             str(root / "run"),
-            "--frames",
+            "--frame-data",
             str(frames),
             "--epochs",
             "2",
@@ -177,7 +177,7 @@ def test_evaluate_reports_each_held_out_part(trained, tmp_path):
         [
             "perception",
             "evaluate",
-            "--frames",
+            "--frame-data",
             str(frames),
             "--weights",
             str(run / "detector.safetensors"),
@@ -206,7 +206,7 @@ def test_evaluate_reports_each_held_out_part(trained, tmp_path):
         [
             "perception",
             "evaluate",
-            "--frames",
+            "--frame-data",
             str(frames),
             "--lighting",
             "dusk",

@@ -68,7 +68,7 @@ def perception_train(
     out: Path = typer.Option(
         ..., "-o", "--out", help="Folder for detector.safetensors, train.json, train.png."
     ),
-    frames: Path = typer.Option(..., "--frames", help="Frame dataset (biovln-ms perception dataset)."),
+    frames: Path = typer.Option(..., "--frame-data", help="Frame dataset (biovln-ms perception dataset)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the weights' start, data order and augmentation."),
     epochs: int = typer.Option(6, "--epochs", help="Passes over the training frames."),
     batch: int = typer.Option(16, "--batch", help="Frames per step."),
@@ -80,9 +80,9 @@ def perception_train(
         False, "--install", help="Also put the weights into the package and its assets manifest."
     ),
 ) -> None:
-    """Train the goal-category detector on a frame dataset's train part.
+    """Train the goal-category detector.
 
-    A segmentation net (EfficientNet-Lite0 encoder, small decoder) over background and the catalog's goal
+    On a frame dataset's train part: a segmentation net (EfficientNet-Lite0 encoder, small decoder) over background and the catalog's goal
     categories; a tenth of the training groups validates each epoch. The held-out parts are not read."""
     from biovln_ms.eval.harness import _commit
     from biovln_ms.perception.train_detector import install_weights, train_detector
@@ -112,7 +112,7 @@ def perception_train(
 
 @perception_app.command("evaluate")
 def perception_evaluate(
-    frames: Path = typer.Option(..., "--frames", help="Frame dataset whose held-out parts are measured."),
+    frames: Path = typer.Option(..., "--frame-data", help="Frame dataset whose held-out parts are measured."),
     weights: Optional[Path] = typer.Option(
         None, "--weights", help="Weights file (default: the shipped one)."
     ),
@@ -125,9 +125,9 @@ def perception_evaluate(
     table: Optional[Path] = typer.Option(None, "--table", help="Also write the docs' measured table here."),
     threads: int = typer.Option(2, "--threads", help="CPU threads of torch."),
 ) -> None:
-    """Per-category precision, recall and mask IoU on held-out scenes and held-out looks.
+    """Measure the detector on held-out frames.
 
-    Detections are matched to annotated instances at mask IoU >= 0.5; Wilson 95 % intervals; n is the
+    Per category: precision, recall and mask IoU on held-out scenes and held-out looks. Detections are matched to annotated instances at mask IoU >= 0.5; Wilson 95 % intervals; n is the
     annotated instances."""
     import json
     import shlex
