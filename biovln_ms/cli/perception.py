@@ -82,8 +82,9 @@ def perception_train(
 ) -> None:
     """Train the goal-category detector.
 
-    On a frame dataset's train part: a segmentation net (EfficientNet-Lite0 encoder, small decoder) over background and the catalog's goal
-    categories; a tenth of the training groups validates each epoch. The held-out parts are not read."""
+    On a frame dataset's train part: a segmentation net (EfficientNet-Lite0 encoder, small decoder) over
+    background and the catalog's goal categories; a tenth of the training groups validates each epoch.
+    The held-out parts are not read."""
     from biovln_ms.eval.harness import _commit
     from biovln_ms.perception.train_detector import install_weights, train_detector
 
@@ -127,8 +128,9 @@ def perception_evaluate(
 ) -> None:
     """Measure the detector on held-out frames.
 
-    Per category: precision, recall and mask IoU on held-out scenes and held-out looks. Detections are matched to annotated instances at mask IoU >= 0.5; Wilson 95 % intervals; n is the
-    annotated instances."""
+    Per category: precision, recall and mask IoU on held-out scenes and held-out looks. Detections are
+    matched to annotated instances at mask IoU >= 0.5; Wilson 95 % intervals; n is the annotated
+    instances."""
     import json
     import shlex
 
