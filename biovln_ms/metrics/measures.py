@@ -585,10 +585,10 @@ class MinClearance(Measure):
     dependencies = ("clearance",)
 
     def reset(self, ctx, s, m, idx):
-        self.value[idx] = m["clearance"][idx]
+        self.value[idx] = m[self.dependencies[0]][idx]  # the clearance measure it minimises
 
     def update(self, ctx, s, m, idx):
-        self.value[idx] = np.minimum(self.value[idx], m["clearance"][idx])
+        self.value[idx] = np.minimum(self.value[idx], m[self.dependencies[0]][idx])
 
 
 @register_measure

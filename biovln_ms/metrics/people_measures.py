@@ -25,7 +25,15 @@ from __future__ import annotations
 import numpy as np
 
 from biovln_ms.geometry.zones import SAFETY_THRESHOLD
-from biovln_ms.metrics.measures import Aggregate, Measure, Metric, _zone3_occupied, rate, register_measure
+from biovln_ms.metrics.measures import (
+    Aggregate,
+    Measure,
+    Metric,
+    MinClearance,
+    _zone3_occupied,
+    rate,
+    register_measure,
+)
 
 #: m between the robot's body and a person's below which a pose is in their personal space
 PERSONAL_SPACE = 0.5
@@ -173,18 +181,12 @@ class ObstacleDistance(Measure):
 
 
 @register_measure
-class MinClearancePeople(Measure):
+class MinClearancePeople(MinClearance):
     """MCR with people counted as obstacles."""
 
     uuid = "mcr_people"
     metric = _metric("mcr_people", "MCR (people too)", "m")
     dependencies = ("clearance_people",)
-
-    def reset(self, ctx, s, m, idx):
-        self.value[idx] = m["clearance_people"][idx]
-
-    def update(self, ctx, s, m, idx):
-        self.value[idx] = np.minimum(self.value[idx], m["clearance_people"][idx])
 
 
 @register_measure
