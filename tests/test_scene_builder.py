@@ -146,3 +146,23 @@ def test_walls_stand_outside_the_floor_and_a_doorway_is_as_wide_as_the_free_spac
         assert boxes[-1].intersection(floor).area < 1e-9, w.id
     ring = floor.buffer(0.1, join_style="mitre").difference(floor)
     assert ring.difference(unary_union(boxes)).area < 1e-6  # closed: no gap at any corner
+
+
+def test_a_plain_sapien_view_then_an_env_share_one_render_device():
+    """SAPIEN keeps one render device per process: the plain scenes behind goal views and detector
+    frames name the device the envs use, so an env made after them still renders."""
+    import subprocess
+    import sys
+
+    code = (
+        "import gymnasium as gym, biovln_ms\n"
+        "from biovln_ms.render.sapien_utils import new_scene\n"
+        "new_scene()\n"
+        "env = gym.make('BioVLN-OpFace-v0', obs_mode='none', sim_backend='physx_cpu', render_backend='cpu')\n"
+        "env.reset(seed=0)\n"
+        "env.close()\n"
+        "print('both rendered')\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "both rendered" in out.stdout

@@ -20,12 +20,11 @@ import numpy as np
 import torch
 
 from biovln_ms.catalog import load_catalog
-from biovln_ms.errors import RenderError
 from biovln_ms.noise import PRESETS
 from biovln_ms.paths import ASSET_DIR
 from biovln_ms.render.lighting import apply_lighting
 from biovln_ms.perception.frames import FrameDraw, GroupDraw, SceneSource, dressed_spec, look_variant
-from biovln_ms.render.sapien_utils import BACKPORTS_FIX, look_at_pose
+from biovln_ms.render.sapien_utils import look_at_pose, plain_scene
 from biovln_ms.sensor_noise import DepthNoise, RGBNoise
 from biovln_ms.task_config import NavTaskConfig
 from biovln_ms.tasks.observations import IMAGE_NOISE_SEED
@@ -78,10 +77,7 @@ class FrameRenderer:
         sapien.render.set_picture_format("ColorRaw", "r8g8b8a8unorm")
         sapien.render.set_picture_format("PositionSegmentation", "r16g16b16a16sint")
         self._scene = self._camera = None  # the last group's scene goes first
-        try:
-            scene = sapien.Scene()
-        except RuntimeError as e:
-            raise RenderError(f"SAPIEN cannot create a render device ({e})", fix=BACKPORTS_FIX) from None
+        scene = plain_scene()
         spec = dressed_spec(source.spec, group.dressing)
         built = add_spec_to_scene(scene, spec, variants=False)
         uploads: dict = {}

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from biovln_ms.errors import BioVLNError, RenderError
+from biovln_ms.errors import BioVLNError
 from biovln_ms.paths import ASSET_DIR
-from biovln_ms.render.sapien_utils import BACKPORTS_FIX, look_at_pose
+from biovln_ms.render.sapien_utils import look_at_pose, plain_scene
 from biovln_ms.scene.generator import GenerationError, generate_scene
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 from biovln_ms.scene.templates import TemplateError, get_template
@@ -111,10 +111,7 @@ class GoalViewRenderer:
         sapien.render.set_picture_format("Color", "r8g8b8a8unorm")
         sapien.render.set_picture_format("ColorRaw", "r8g8b8a8unorm")
         sapien.render.set_picture_format("PositionSegmentation", "r16g16b16a16sint")
-        try:
-            self.scene = sapien.Scene()
-        except RuntimeError as e:
-            raise RenderError(f"SAPIEN cannot create a render device ({e})", fix=BACKPORTS_FIX) from None
+        self.scene = plain_scene()
         self.spec = spec
         self.built = add_spec_to_scene(
             self.scene, spec, asset_dir=asset_dir, variants=variants, ceiling=ceiling

@@ -14,6 +14,28 @@ BACKPORTS_FIX = (
 )
 
 
+def render_backend() -> str:
+    """ManiSkill's ``render_backend`` for this machine: "gpu" with a CUDA device, else "cpu" (lavapipe)."""
+    import torch
+
+    return "gpu" if torch.cuda.is_available() else "cpu"
+
+
+def plain_scene():
+    """A bare SAPIEN scene (CPU physics) rendering on the device ManiSkill's envs use here.
+
+    SAPIEN holds one render device per process: a scene made on its default device would make every
+    later env asking for "cpu" fail, so plain scenes name the device as the envs do.
+    """
+    import sapien
+
+    device = sapien.Device("cuda" if render_backend() == "gpu" else "cpu")
+    try:
+        return sapien.Scene([sapien.physx.PhysxCpuSystem(), sapien.render.RenderSystem(device)])
+    except RuntimeError as e:
+        raise RenderError(f"SAPIEN cannot create a render device ({e})", fix=BACKPORTS_FIX) from None
+
+
 def new_scene(ambient: float = 0.35):
     """A SAPIEN scene with ambient, key and fill lights; raises RenderError without a Vulkan device."""
     import sapien
@@ -23,10 +45,7 @@ def new_scene(ambient: float = 0.35):
     sapien.render.set_camera_shader_dir("default")
     for picture in ("Color", "ColorRaw", "PositionSegmentation"):
         sapien.render.set_picture_format(picture, "r32g32b32a32sfloat")
-    try:
-        scene = sapien.Scene()
-    except RuntimeError as e:
-        raise RenderError(f"SAPIEN cannot create a render device ({e})", fix=BACKPORTS_FIX) from None
+    scene = plain_scene()
     scene.set_ambient_light([ambient] * 3)
     scene.add_directional_light([0.4, 0.6, -1.0], [0.9, 0.9, 0.88])
     scene.add_directional_light([-0.5, -0.3, -0.6], [0.35, 0.35, 0.4])

@@ -10,6 +10,7 @@ from PIL import Image
 from biovln_ms.variants import LAB_SCENE_ENV
 from biovln_ms.episodes.generator import EpisodeSampler
 from biovln_ms.render.goal_views import HEAD_HEIGHT, GoalViewRenderer
+from biovln_ms.render.sapien_utils import render_backend
 from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.scene.spec import SceneSpec
 
@@ -32,7 +33,7 @@ def render_overview(
         render_mode="rgb_array",
         obs_mode="none",
         sim_backend="physx_cpu",
-        render_backend=_render_backend(),
+        render_backend=render_backend(),
     )
     try:
         env.reset(seed=0)
@@ -44,12 +45,6 @@ def render_overview(
     out.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(img).save(out)
     return out
-
-
-def _render_backend() -> str:
-    import torch
-
-    return "gpu" if torch.cuda.is_available() else "cpu"
 
 
 def robot_eye_pose(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray]:
