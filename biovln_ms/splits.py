@@ -322,6 +322,37 @@ def busy_splits(robot: str = DEFAULT_ROBOT) -> list[SplitPlan]:
     return out
 
 
+def paper_split_names() -> list[str]:
+    """The names of :func:`paper_splits`' splits, in order, without generating a scene."""
+    return [
+        "full",
+        "train",
+        *HELD_OUT,
+        "two_room",
+        *HARD_SPLITS,
+        *HARD_DRESSED,
+        "lsat_target",
+        *PROTOCOL_SPLITS,
+        *MOLBIO_SPLITS,
+        *BUSY_SPLITS,
+    ]
+
+
+def stale_paper_dataset(root: Path, robot: str = DEFAULT_ROBOT, same_splits: bool = True) -> str | None:
+    """Why ``root`` is not an up-to-date build of the paper's datasets for ``robot`` (absent, incomplete,
+    another format, generator version, catalog or robot; with ``same_splits``, another split set), or None
+    when it is. The build is deterministic, so an up-to-date folder holds what a rebuild would write."""
+    if not (root / "manifest.json").exists():
+        return "first use"
+    try:
+        ds = EpisodeDataset(root, verify=False, robot=robot)
+    except DatasetError:
+        return "stale"
+    if same_splits and sorted(ds.manifest["splits"]) != sorted(paper_split_names()):
+        return "other splits"
+    return None
+
+
 def default_dataset_dir(robot: str = DEFAULT_ROBOT) -> Path:
     """``$BIOVLN_DATA_DIR``, else ``~/.cache/biovln_ms/datasets/biovln``; another robot's is the sibling
     ``<that name>-<robot>`` (``biovln-fetch``)."""
@@ -355,15 +386,9 @@ def _ensure(root: Path, echo, robot: str, progress: bool | None) -> Path:
     import sys
     import time
 
-    stale = False
-    if (root / "manifest.json").exists():
-        try:
-            EpisodeDataset(root, verify=False, robot=robot)
-        except DatasetError:
-            stale = True
-    if stale or not (root / "manifest.json").exists():
+    why = stale_paper_dataset(root, robot, same_splits=False)  # a user's $BIOVLN_DATA_DIR may hold others
+    if why:
         t0 = time.perf_counter()
-        why = "stale" if stale else "first use"
         echo(
             f"[biovln-ms] building the {robot} benchmark dataset in {root} ({why}; minutes, once per "
             "machine; BIOVLN_DATA_DIR moves it): generating its scenes"

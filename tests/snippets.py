@@ -7,7 +7,9 @@ and the pages under docs/ (test_docs.py).
   lists (with every ``[...]`` part and without any, ``a|b`` expanded, ``PLACEHOLDERS`` filled).
 - ``parse_cli``: resolve an argument list against the real CLI and convert its options with click's
   ``make_context``, without running anything.
-- ``make_workspace``: a folder where the placeholder inputs are real files: ``DIR`` (a dataset),
+- ``make_workspace``: a folder where the placeholder inputs are real files: ``DIR`` (the paper's datasets,
+  a copy of the test session's default dataset, kept by ``dataset build --out DIR`` as up to date; so are
+  the pages' ``data/biovln`` and ``data/biovln-fetch``),
   ``SPEC.json`` (its MS VAL scene), ``scene.glb`` / ``my_lab.glb`` (that scene exported), ``lab.json`` /
   ``my_lab.json`` (spec copies), ``map.yaml`` (a designer-name map). The cheap commands (``EXECUTED``) run
   there.
@@ -230,6 +232,12 @@ def run_cli(argv: list[str], cwd: Path) -> subprocess.CompletedProcess:
 
 def make_workspace(ws: Path) -> Path:
     """Fill ``ws`` with the placeholder inputs (see the module docstring)."""
+    from biovln_ms.splits import ensure_default_dataset
+
+    quiet = lambda *_: None  # noqa: E731
+    shutil.copytree(ensure_default_dataset(echo=quiet), ws / "DIR")
+    shutil.copytree(ws / "DIR", ws / "data" / "biovln")
+    shutil.copytree(ensure_default_dataset(echo=quiet, robot="fetch"), ws / "data" / "biovln-fetch")
     for argv in (["dataset", "build", "--out", "DIR"], ["scene", "export", "SPEC.json", "-o", "scene.glb"]):
         if argv[0] == "scene":
             shutil.copy(ws / "DIR" / "scenes" / "lab_s154_v0.json", ws / "SPEC.json")

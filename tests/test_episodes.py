@@ -313,3 +313,53 @@ def test_a_goal_no_start_can_keep_the_rule_for_fails_in_one_line(spec150):
     with pytest.raises(EpisodeError, match=f"31.00 m .* from the goal of '{goal['object_id']}'") as e:
         EpisodeSampler(spec150).start_region(far)
     assert "\n" not in str(e.value)
+
+
+def test_dataset_build_keeps_an_up_to_date_folder_and_force_rebuilds_it(tmp_path, monkeypatch):
+    """The paper's build is deterministic: a folder holding an up-to-date build is kept (one line says so);
+    --force, a stale manifest or another split set rebuild it; --force with --template is one line."""
+    from typer.testing import CliRunner
+
+    from biovln_ms import splits
+    from biovln_ms.cli import app, user_error_line
+
+    builds: list[int] = []
+
+    def small(robot):
+        builds.append(1)
+        return _small_splits()
+
+    monkeypatch.setattr(splits, "paper_splits", small)
+    monkeypatch.setattr(splits, "paper_split_names", lambda: [p.name for p in _small_splits()])
+    out = tmp_path / "ds"
+
+    def build(*extra):
+        r = CliRunner().invoke(app, ["dataset", "build", "--out", str(out), *extra])
+        assert r.exit_code == 0, r.output
+        return r.output
+
+    build()
+    first = (out / "manifest.json").read_bytes()
+    assert "is up to date for biovln_base" in build() and builds == [1]
+    assert "up to date" not in build("--force") and builds == [1, 1]
+    assert (out / "manifest.json").read_bytes() == first  # the same bytes
+    m = json.loads(first)
+    m["episode_generator_version"] = 1
+    (out / "manifest.json").write_text(json.dumps(m))
+    assert "up to date" not in build() and builds == [1, 1, 1]
+    monkeypatch.setattr(splits, "paper_split_names", lambda: ["full", "train", "ms_dev", "ms_val"])
+    assert splits.stale_paper_dataset(out) == "other splits"
+    monkeypatch.setenv("BIOVLN_DATA_DIR", str(out))  # a user's own dataset as the default: never rebuilt
+    assert splits.ensure_default_dataset(echo=lambda *_: None) == out and builds == [1, 1, 1]
+    r = CliRunner().invoke(
+        app, ["dataset", "build", "--template", "single_room", "--scenes", "1", "--episodes-per-scene", "1"]
+        + ["-o", str(tmp_path / "t"), "--force"]
+    )
+    assert "field '--force'" in user_error_line(r.exception) and not (tmp_path / "t").exists()
+
+
+def test_the_split_names_known_without_generating_are_the_built_ones():
+    from biovln_ms.splits import ensure_default_dataset, paper_split_names
+
+    m = EpisodeDataset(ensure_default_dataset(echo=lambda *_: None)).manifest
+    assert sorted(m["splits"]) == sorted(paper_split_names())  # the manifest sorts its keys

@@ -51,11 +51,16 @@ def dataset_build(
     split: Optional[str] = typer.Option(
         None, "--split", help="With --template: the split's name (default: train)."
     ),
+    force: bool = typer.Option(
+        False, "--force", help="Rebuild the paper's datasets even where the folder holds an up-to-date build."
+    ),
 ) -> None:
     """Build the paper's datasets.
 
     Every scene and episode of the paper's datasets, deterministically and atomically, for one robot (its
-    footprint radius). With --template: one training split of --scenes generated scenes x
+    footprint radius); a folder that already holds an up-to-date build (same format, generator versions,
+    catalog, robot and splits) is kept, as a rebuild would write the same bytes (--force rebuilds it). With
+    --template: one training split of --scenes generated scenes x
     --episodes-per-scene episodes instead, in parallel; the same arguments give the same bytes, a killed
     build resumes where it stopped, and no scene of a benchmark split enters it."""
     from biovln_ms.robot_specs import robot_spec
@@ -77,8 +82,14 @@ def dataset_build(
                 field=extra,
                 fix="add --template NAME (biovln-ms list templates), or drop it for the paper's datasets",
             )
-        _build_paper(out or Path("data/biovln"), robot)
+        _build_paper(out or Path("data/biovln"), robot, force)
         return
+    if force:
+        raise BioVLNError(
+            "rebuilds the paper's datasets; a --template build resumes what it finds",
+            field="--force",
+            fix="drop --force, or remove the --out folder to start the split afresh",
+        )
     for name in ("--scenes", "--episodes-per-scene"):
         if given[name] is None:
             raise BioVLNError("needed with --template", field=name, fix=f"add {name} N")
@@ -89,10 +100,13 @@ def dataset_build(
     _build_training(out, robot, template, scenes, episodes_per_scene, seed, workers, ray_address, split)
 
 
-def _build_paper(out: Path, robot: str) -> None:
-    from biovln_ms.splits import paper_splits
+def _build_paper(out: Path, robot: str, force: bool) -> None:
+    from biovln_ms.splits import paper_splits, stale_paper_dataset
     from biovln_ms.episodes.writer import write_dataset
 
+    if not force and stale_paper_dataset(out, robot) is None:
+        typer.echo(f"{out} is up to date for {robot} (the same bytes a rebuild writes; --force rebuilds it)")
+        return
     m = write_dataset(out, paper_splits(robot), robot=robot)
     for name, s in m["splits"].items():
         note = f"  (missing: {s['missing']})" if s.get("missing") else ""
