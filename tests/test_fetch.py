@@ -290,9 +290,9 @@ def test_cli_builds_for_a_robot(tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
-def test_fetch_builds_every_paper_split(tmp_path):
-    """Every split of the paper's datasets builds for Fetch (its default dataset, the paper's build for Fetch),
-    with the cylinder's scene and episode counts."""
+def test_fetch_builds_every_paper_split():
+    """Every split of the paper's datasets builds for Fetch (its default dataset is that build), with the
+    cylinder's scene and episode counts."""
     from biovln_ms.splits import ensure_default_dataset
 
     def counts(robot):
