@@ -352,8 +352,9 @@ def test_dataset_build_keeps_an_up_to_date_folder_and_force_rebuilds_it(tmp_path
     monkeypatch.setenv("BIOVLN_DATA_DIR", str(out))  # a user's own dataset as the default: never rebuilt
     assert splits.ensure_default_dataset(echo=lambda *_: None) == out and builds == [1, 1, 1]
     r = CliRunner().invoke(
-        app, ["dataset", "build", "--template", "single_room", "--scenes", "1", "--episodes-per-scene", "1"]
-        + ["-o", str(tmp_path / "t"), "--force"]
+        app,
+        ["dataset", "build", "--template", "single_room", "--scenes", "1", "--episodes-per-scene", "1"]
+        + ["-o", str(tmp_path / "t"), "--force"],
     )
     assert "field '--force'" in user_error_line(r.exception) and not (tmp_path / "t").exists()
 
