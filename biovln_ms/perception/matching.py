@@ -5,8 +5,8 @@ mask IoU is at least :data:`IOU_MATCH`); :mod:`~.evaluate_detector` and training
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import binomtest
 
+from biovln_ms.metrics.intervals import wilson_interval
 from biovln_ms.perception import segmenter as S
 from biovln_ms.perception.frames import decode_mask
 
@@ -15,11 +15,10 @@ CONFIDENCE = 0.95
 
 
 def wilson(k: int, n: int, confidence: float = CONFIDENCE) -> list[float] | None:
-    """Wilson score interval of k successes in n trials (scipy's), None for n = 0."""
+    """:func:`~biovln_ms.metrics.intervals.wilson_interval` of k in n, to 4 decimals; None for n = 0."""
     if n == 0:
         return None
-    ci = binomtest(k, n).proportion_ci(confidence_level=confidence, method="wilson")
-    return [round(float(ci.low), 4), round(float(ci.high), 4)]
+    return [round(float(x), 4) for x in wilson_interval(k, n, confidence)]
 
 
 class Tally:
