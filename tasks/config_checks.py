@@ -41,6 +41,7 @@ from biovln_ms.metrics import people_measures  # noqa: F401  (registers the meas
 from biovln_ms.people.crowd import MAX_PEOPLE, people_config
 from biovln_ms.noise import NoiseConfig, resolve_noise
 from biovln_ms.render.lighting import LIGHTING
+from biovln_ms.render.sapien_utils import render_backend
 from biovln_ms.robot_specs import DEFAULT_ROBOT, robot_spec
 from biovln_ms.scene.spec import SceneSpec
 from biovln_ms.task_config import INSTRUCTION_SENSORS, NavTaskConfig, ProtocolTaskConfig
@@ -184,7 +185,7 @@ def task_config(
     noise = resolve_noise(cfg.noise)
     check_pose_state(cfg, noise, kwargs["obs_mode"])
     cfg = cfg.with_noise(noise)
-    if not torch.cuda.is_available():  # ManiSkill's default asks for "sapien_cuda" and warns each make
+    if render_backend() == "cpu":  # ManiSkill's default asks for "sapien_cuda" and warns each make
         kwargs.setdefault("render_backend", "cpu")
     check_arguments(cfg, control_mode, kwargs)
     return cfg

@@ -24,7 +24,7 @@ from biovln_ms.noise import PRESETS
 from biovln_ms.paths import ASSET_DIR
 from biovln_ms.render.lighting import apply_lighting
 from biovln_ms.perception.frames import FrameDraw, GroupDraw, SceneSource, dressed_spec, look_variant
-from biovln_ms.render.sapien_utils import look_at_pose, plain_scene
+from biovln_ms.render.sapien_utils import env_camera_scene, look_at_pose
 from biovln_ms.sensor_noise import DepthNoise, RGBNoise
 from biovln_ms.task_config import NavTaskConfig
 from biovln_ms.tasks.observations import IMAGE_NOISE_SEED
@@ -67,17 +67,12 @@ class FrameRenderer:
         self._depth_noise = DepthNoise(height, width, focal_px=focal, seed=IMAGE_NOISE_SEED)
 
     def _build(self, group: GroupDraw, source: SceneSource) -> None:
-        import sapien
 
         from biovln_ms.sim.instance_looks import apply_variant
         from biovln_ms.sim.sapien_builder import add_spec_to_scene
 
-        sapien.render.set_camera_shader_dir("minimal")
-        sapien.render.set_picture_format("Color", "r8g8b8a8unorm")
-        sapien.render.set_picture_format("ColorRaw", "r8g8b8a8unorm")
-        sapien.render.set_picture_format("PositionSegmentation", "r16g16b16a16sint")
         self._scene = self._camera = None  # the last group's scene goes first
-        scene = plain_scene()
+        scene = env_camera_scene()
         spec = dressed_spec(source.spec, group.dressing)
         built = add_spec_to_scene(scene, spec, variants=False)
         uploads: dict = {}

@@ -15,7 +15,7 @@ import numpy as np
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.paths import ASSET_DIR
-from biovln_ms.render.sapien_utils import look_at_pose, plain_scene
+from biovln_ms.render.sapien_utils import env_camera_scene, look_at_pose
 from biovln_ms.scene.generator import GenerationError, generate_scene
 from biovln_ms.scene.spec import ObjectSpec, SceneSpec
 from biovln_ms.scene.templates import TemplateError, get_template
@@ -102,16 +102,10 @@ class GoalViewRenderer:
         ceiling: bool = True,
         far: float = 20.0,
     ) -> None:
-        import sapien
 
         from biovln_ms.sim.sapien_builder import add_lights, add_spec_to_scene
 
-        # The env's head camera: ManiSkill's "minimal" shader pack and its 8-bit picture formats.
-        sapien.render.set_camera_shader_dir("minimal")
-        sapien.render.set_picture_format("Color", "r8g8b8a8unorm")
-        sapien.render.set_picture_format("ColorRaw", "r8g8b8a8unorm")
-        sapien.render.set_picture_format("PositionSegmentation", "r16g16b16a16sint")
-        self.scene = plain_scene()
+        self.scene = env_camera_scene()  # the env's head camera's shader pack and picture formats
         self.spec = spec
         self.built = add_spec_to_scene(
             self.scene, spec, asset_dir=asset_dir, variants=variants, ceiling=ceiling

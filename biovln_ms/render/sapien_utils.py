@@ -36,6 +36,18 @@ def plain_scene():
         raise RenderError(f"SAPIEN cannot create a render device ({e})", fix=BACKPORTS_FIX) from None
 
 
+def env_camera_scene():
+    """A :func:`plain_scene` whose cameras render as the env's head camera does: ManiSkill's "minimal"
+    shader pack and its 8-bit picture formats (SAPIEN's global settings)."""
+    import sapien
+
+    sapien.render.set_camera_shader_dir("minimal")
+    sapien.render.set_picture_format("Color", "r8g8b8a8unorm")
+    sapien.render.set_picture_format("ColorRaw", "r8g8b8a8unorm")
+    sapien.render.set_picture_format("PositionSegmentation", "r16g16b16a16sint")
+    return plain_scene()
+
+
 def new_scene(ambient: float = 0.35):
     """A SAPIEN scene with ambient, key and fill lights; raises RenderError without a Vulkan device."""
     import sapien
