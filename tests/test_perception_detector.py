@@ -17,7 +17,7 @@ from biovln_ms.cli import app
 from biovln_ms.perception import frames as F
 from biovln_ms.perception import segmenter as S
 from biovln_ms.perception.detectors import TrainedDetector, make_detector
-from biovln_ms.perception.evaluate_detector import Tally, match_frame, wilson
+from biovln_ms.perception.matching import Tally, match_frame, wilson
 from biovln_ms.perception.scorers import PerceptionError
 
 runner = CliRunner()
@@ -168,30 +168,18 @@ def test_training_writes_weights_plot_and_log_reproducibly(trained, tmp_path):
     ).read_bytes()
 
 
+def _evaluate(frames, run, *extra):
+    """``perception evaluate`` of ``run``'s weights on ``frames`` on one thread, with ``extra`` options."""
+    weights = ["--weights", str(run / "detector.safetensors"), "--threads", "1"]
+    return runner.invoke(app, ["perception", "evaluate", "--frame-data", str(frames), *weights, *extra])
+
+
 @pytest.mark.slow
 def test_evaluate_reports_each_held_out_part(trained, tmp_path):
     frames, run = trained
     out, table = tmp_path / "eval.json", tmp_path / "table.json"
-    r = runner.invoke(
-        app,
-        [
-            "perception",
-            "evaluate",
-            "--frame-data",
-            str(frames),
-            "--weights",
-            str(run / "detector.safetensors"),
-            "--lighting",
-            "fast",
-            "--noise",
-            "ideal",
-            "-o",
-            str(out),
-            "--table",
-            str(table),
-            "--threads",
-            "1",
-        ],
+    r = _evaluate(
+        frames, run, "--lighting", "fast", "--noise", "ideal", "-o", str(out), "--table", str(table)
     )
     assert r.exit_code == 0, r.output
     result = json.loads(out.read_text())
@@ -201,19 +189,7 @@ def test_evaluate_reports_each_held_out_part(trained, tmp_path):
     assert result["detect_ms_640x480"]["median"] > 0
     rows = json.loads(table.read_text())["rows"]
     assert [r[0] for r in rows] == [*CATS, "mean over categories"]
-    r = runner.invoke(
-        app,
-        [
-            "perception",
-            "evaluate",
-            "--frame-data",
-            str(frames),
-            "--lighting",
-            "dusk",
-            "--weights",
-            str(run / "detector.safetensors"),
-        ],
-    )
+    r = _evaluate(frames, run, "--lighting", "dusk")
     assert r.exit_code != 0 and "unknown lighting 'dusk'" in str(r.exception or r.output)
 
 

@@ -19,7 +19,7 @@ from typing import Protocol
 import numpy as np
 
 from biovln_ms.perception.scorers import PerceptionError, load_local_model
-from biovln_ms.perception.segmenter import Segmenter
+from biovln_ms.perception.segmenter import MIN_PIXELS, Segmenter
 from biovln_ms.task_config import TaskSpec
 
 
@@ -42,7 +42,7 @@ class GTSegmentationDetector:
 
     name = "gt-segmentation"
 
-    def __init__(self, min_pixels: int = 150) -> None:
+    def __init__(self, min_pixels: int = MIN_PIXELS) -> None:
         """``min_pixels`` at 640x480 (scaled with the image area) for a detection to count."""
         self.min_pixels = min_pixels
         self.goal_categories: tuple[str, ...] = ()
@@ -65,8 +65,9 @@ class GTSegmentationDetector:
 
 
 class TrainedDetector:
-    """The target's pixels are the trained segmenter's instances of its category (each at least 150
-    pixels at 640x480, as the GT detector's); ``weights`` default: the shipped file."""
+    """The target's pixels are the trained segmenter's instances of its category (each at least
+    :data:`~biovln_ms.perception.segmenter.MIN_PIXELS` at 640x480, as the GT detector's); ``weights``
+    default: the shipped file."""
 
     def __init__(self, weights: str | Path | None = None, threads: int | None = None) -> None:
 

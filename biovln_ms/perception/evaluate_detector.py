@@ -30,13 +30,13 @@ import numpy as np
 from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.measured import check_table, dumps, machine
 from biovln_ms.perception import segmenter as S
-from biovln_ms.perception.frames import FramesError
-from biovln_ms.perception.matching import IOU_MATCH, Tally, match_frame, wilson  # noqa: F401  (the API)
+from biovln_ms.perception.frames import LIGHTING_SHARES, NOISE_SHARES, FramesError
+from biovln_ms.perception.matching import IOU_MATCH, Tally, match_frame
 from biovln_ms.perception.train_detector import read_frame, read_manifest, read_part
 
 HELD_OUT = ("test_scenes", "test_looks")
-LIGHTINGS = ("fast", "quality")
-NOISES = ("ideal", "realistic")
+LIGHTINGS = tuple(LIGHTING_SHARES)
+NOISES = tuple(NOISE_SHARES)
 
 
 def file_sha256(path: Path) -> str:

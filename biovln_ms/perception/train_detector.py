@@ -65,9 +65,9 @@ def read_manifest(folder: Path) -> dict:
 
 
 def read_part(folder: str | Path, part: str, limit: int | None = None) -> tuple[list[dict], dict[int, list]]:
-    """The COCO images of ``part`` (at most ``limit``, in id order) and their annotations by image id."""
+    """The COCO images of ``part`` (at most ``limit``, in id order) and their annotations by image id, of a
+    frame dataset :func:`read_manifest` has checked."""
     folder = Path(folder)
-    read_manifest(folder)
     path = folder / "annotations" / f"{part}.json"
     if not path.is_file():
         raise FramesError("annotations missing", source=str(path), fix="render the frames again")
