@@ -155,7 +155,7 @@ class EnvPeople:
     def view(self, i: int):
         """What an oracle's privileged view reads of sub-env ``i``'s people: a function giving the centres
         of those in its episode now (copies)."""
-        return lambda: self.crowds[i].pos[self.crowds[i].present].copy()
+        return lambda: self.crowds[i].pos[self.crowds[i].present]  # boolean indexing copies
 
     # --- state ---------------------------------------------------------------------------------------
     def state_dict(self) -> dict[str, torch.Tensor]:

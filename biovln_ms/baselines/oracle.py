@@ -19,10 +19,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import shapely
 
 from biovln_ms.baselines.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT, EpisodeInfo, Policy
-from biovln_ms.people.body import PERSON_RADIUS
+from biovln_ms.people.body import PERSON_RADIUS, overlaps_zone
 
 #: m kept between the robot's body and a person's by a FORWARD of the oracles
 PERSON_GAP = 0.15
@@ -89,10 +88,7 @@ class PeopleGuard:
         """A person's body overlaps the goal's Zone 3."""
         if self.zone is None:
             return False
-        people = self.people()
-        return bool(len(people)) and bool(
-            (shapely.distance(self.zone, shapely.points(people)) < PERSON_RADIUS).any()
-        )
+        return overlaps_zone(self.zone, self.people())
 
     def _gaps(self, xy: np.ndarray) -> np.ndarray:
         """m from a robot body centred at ``xy`` to each person's body."""

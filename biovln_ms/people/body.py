@@ -1,16 +1,25 @@
-"""A person's body as the model knows it, and what the measures read of the people after a step (NumPy only:
-evaluation reads the measures without the route planner)."""
+"""A person's body as the model knows it, and what the measures read of the people after a step (NumPy and
+shapely only: evaluation reads the measures without the route planner)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 
 #: m: a person's body, a disc about their centre (the SAPIEN figure, shoulders 0.4 m wide, fits in it)
 PERSON_RADIUS = 0.2
 #: m: the figure's height
 PERSON_HEIGHT = 1.7
+
+
+def overlaps_zone(zone, centres) -> bool:
+    """Whether the body of a person centred at any of ``centres`` ((P, 2)) overlaps ``zone`` (a shapely
+    geometry, e.g. an instrument's Zone 3)."""
+    return bool(len(centres)) and bool(
+        (shapely.distance(zone, shapely.points(centres)) < PERSON_RADIUS).any()
+    )
 
 
 @dataclass

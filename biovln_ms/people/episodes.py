@@ -19,7 +19,7 @@ from biovln_ms.episodes.generator import stable_seed
 from biovln_ms.episodes.samplers import Sampler, SceneSamplers
 from biovln_ms.episodes.schema import Episode
 from biovln_ms.geometry.navigation import NavGeometry
-from biovln_ms.people.body import PERSON_RADIUS
+from biovln_ms.people.body import overlaps_zone
 from biovln_ms.people.crowd import Crowd, CrowdError, stations
 from biovln_ms.scene.spec import SceneSpec
 
@@ -47,7 +47,7 @@ def occupied_steps(
     n = 0
     for _ in range(steps):
         crowd.advance(seconds, start)
-        n += bool((shapely.distance(zone, shapely.points(crowd.pos)) < PERSON_RADIUS).any())
+        n += overlaps_zone(zone, crowd.pos)
     return n
 
 

@@ -17,7 +17,7 @@ from biovln_ms.scene.spec import SceneSpec  # noqa: E402
 from biovln_ms.people.body import PERSON_RADIUS  # noqa: E402
 from biovln_ms.scene.topdown import PERSON_COLOR, draw_map  # noqa: E402
 
-#: poses of a person's way drawn behind them (at 0.5 s a step, the last 10 s)
+#: poses of a person's way drawn behind them (one per action step)
 PERSON_TRAIL = 20
 
 
@@ -61,14 +61,13 @@ class MapCanvas:
 
     def _people(self, draw, recent: np.ndarray) -> None:
         """People's bodies (discs) and their recent ways, ``recent`` (poses, people, 2)."""
-        colour = tuple(int(PERSON_COLOR[k : k + 2], 16) for k in (1, 3, 5))
         r = abs(self.to_px((PERSON_RADIUS, 0.0))[0] - self.to_px((0.0, 0.0))[0])
         for k in range(recent.shape[1]):
             way = [self.to_px(p) for p in recent[:, k]]
             if len(way) > 1:
-                draw.line(way, fill=colour, width=2)
+                draw.line(way, fill=PERSON_COLOR, width=2)
             x, y = way[-1]
-            draw.ellipse([x - r, y - r, x + r, y + r], fill=colour, outline=(0, 0, 0))
+            draw.ellipse([x - r, y - r, x + r, y + r], fill=PERSON_COLOR, outline=(0, 0, 0))
 
 
 def side_by_side(ego: np.ndarray, map_img: np.ndarray) -> np.ndarray:
