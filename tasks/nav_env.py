@@ -330,12 +330,15 @@ class BioVLNNavEnv(BaseEnv):
         """What a policy may know of sub-env ``i``'s episode; ``privileged`` adds the oracle's
         read-only view."""
         ep = self._episodes[i]
-        view = None
-        if privileged:
-            view = PrivilegedView(
-                self._ctx.episode(i), self.navs[i], lambda: self._pose()[i], self.cfg.goal_mode
-            )
+        view = self._privileged_view(i) if privileged else None
         return EpisodeInfo(ep["scene_id"], ep["episode_id"], ep["object_category"], self.task_spec(), view)
+
+    def _privileged_view(self, i: int, current=None) -> PrivilegedView:
+        """Sub-env ``i``'s read-only oracle view (with people: where they are), ``current`` its goal index."""
+        people = self._people.view(i) if self._people is not None else None
+        return PrivilegedView(
+            self._ctx.episode(i), self.navs[i], lambda: self._pose()[i], self.cfg.goal_mode, current, people
+        )
 
     def reach_configuration(self, i: int = 0) -> np.ndarray | None:
         """Sub-env ``i``'s reaching joint positions (every active joint) found at its STOP, or None (not

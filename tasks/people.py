@@ -10,7 +10,6 @@ locomotion controller), so the contact is exact and replayable and people are mo
 
 from __future__ import annotations
 
-from dataclasses import replace
 
 import numpy as np
 import sapien
@@ -37,17 +36,6 @@ _HEAD = (0.11, PERSON_HEIGHT - 0.11, _SKIN)  # radius, centre height, colour
 
 def _material(rgb) -> sapien.render.RenderMaterial:
     return sapien.render.RenderMaterial(base_color=[*rgb, 1.0], roughness=0.8)
-
-
-class PeopleView:
-    """A base of every navigation env class (:mod:`~biovln_ms.tasks.variant_envs`): with people, an oracle's
-    privileged view also reads where they are (:meth:`~biovln_ms.tasks.privileged.PrivilegedView.people`)."""
-
-    def episode_info(self, i: int = 0, privileged: bool = False):
-        info = super().episode_info(i, privileged)
-        if privileged and getattr(self, "_people", None) is not None:
-            info = replace(info, privileged=info.privileged.with_people(self._people.view(i)))
-        return info
 
 
 class EnvPeople:

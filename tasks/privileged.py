@@ -40,10 +40,6 @@ class PrivilegedView:
         self._ctx, self._nav, self._pose, self._goal_mode = ctx, nav, pose, goal_mode
         self._current, self._people = current, people
 
-    def with_people(self, people: Callable[[], np.ndarray]) -> "PrivilegedView":
-        """This view that also reads the people (``people`` gives their centres now)."""
-        return PrivilegedView(self._ctx, self._nav, self._pose, self._goal_mode, self._current, people)
-
     def _now(self) -> tuple[np.ndarray, float, PlacedInstrument]:
         """(goal, success radius, target) of the goal asked for now."""
         return self._ctx.goals[0 if self._current is None else int(self._current())]

@@ -27,7 +27,6 @@ from biovln_ms.metrics.protocol_measures import ProtocolBatchContext, ProtocolEp
 from biovln_ms.protocols.vocabulary import load_vocabulary
 from biovln_ms.task_config import EpisodeInfo, ProtocolTaskConfig
 from biovln_ms.tasks.nav_env import BioVLNNavEnv
-from biovln_ms.tasks.privileged import PrivilegedView
 from biovln_ms.tasks.sensors import SENSORS, SensorInputs, register_sensor
 from biovln_ms.variants import PROTOCOL_ENV, VARIANTS
 
@@ -117,12 +116,9 @@ class BioVLNProtocolEnv(BioVLNNavEnv):
         info = super().episode_info(i, privileged)
         if privileged:
             k = len(self._ctx.episode(i).goals)
-            view = PrivilegedView(
-                self._ctx.episode(i),
-                self.navs[i],
-                lambda: self._pose()[i],
-                self.cfg.goal_mode,
-                lambda: min(int(self._measures["subgoal_index"][i]), k - 1),
-            )
-            info = replace(info, privileged=view)
+
+            def current() -> int:
+                return min(int(self._measures["subgoal_index"][i]), k - 1)
+
+            info = replace(info, privileged=self._privileged_view(i, current))
         return replace(info, instruction=self._episodes[i]["protocol"]["instruction"])

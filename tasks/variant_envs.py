@@ -3,8 +3,7 @@
 Each id gets a subclass of :class:`~biovln_ms.tasks.nav_env.BioVLNNavEnv` (of
 :class:`~biovln_ms.tasks.protocol_env.BioVLNProtocolEnv` for the protocol variants) that differs only in its
 ``config``, named after the id (``BioVLN-OpFace-RL-v0`` -> ``BioVLNOpFaceRLv0``) and importable from this
-module, so spawned worker processes can unpickle it; with people, an oracle's view also reads them
-(:class:`~biovln_ms.tasks.people.PeopleView`).
+module, so spawned worker processes can unpickle it.
 """
 
 from __future__ import annotations
@@ -12,7 +11,6 @@ from __future__ import annotations
 from biovln_ms.registration import VARIANT_HOOKS, register_biovln_env
 from biovln_ms.task_config import NavTaskConfig
 from biovln_ms.tasks.nav_env import BioVLNNavEnv
-from biovln_ms.tasks.people import PeopleView
 from biovln_ms.tasks.protocol_env import BioVLNProtocolEnv
 from biovln_ms.variants import VARIANTS
 
@@ -23,7 +21,7 @@ def register_variant_class(uid: str, cfg: NavTaskConfig) -> type:
     base = BioVLNProtocolEnv if cfg.protocol else BioVLNNavEnv
     cls = type(
         name,
-        (PeopleView, base),
+        (base,),
         {
             "config": cfg,
             "__module__": __name__,

@@ -98,11 +98,11 @@ def test_the_privileged_view_reads_people_as_copies():
     from biovln_ms.tasks.privileged import PrivilegedView
 
     crowd = np.array([[1.0, 2.0], [3.0, 4.0]])
-    view = PrivilegedView(None, None, lambda: np.zeros(3), "opface")
-    assert view.people().shape == (0, 2)
-    seen = view.with_people(lambda: crowd).people()
+    assert PrivilegedView(None, None, lambda: np.zeros(3), "opface").people().shape == (0, 2)
+    view = PrivilegedView(None, None, lambda: np.zeros(3), "opface", people=lambda: crowd)
+    seen = view.people()
     seen[0, 0] = 99.0
-    assert crowd[0, 0] == 1.0 and view.with_people(lambda: crowd).people().tolist() == crowd.tolist()
+    assert crowd[0, 0] == 1.0 and view.people().tolist() == crowd.tolist()
 
 
 def test_a_robot_that_drifted_against_someone_steps_away():
