@@ -238,9 +238,9 @@ def main() -> None:
         "busy_val empty, 640x480 RGB-D": "(the next row's reference)",
         "busy_val empty, state only": "(the next row's reference)",
     }
-    rate = {label: r for label, r, _ in rows}
+    rates = {label: r for label, r, _ in rows}
     for mode in ("640x480 RGB-D", "state only"):  # a busy step's cost over the same episodes' empty step
-        cost = rate[f"busy_val empty, {mode}"] / rate[f"busy_val, {mode}"]
+        cost = rates[f"busy_val empty, {mode}"] / rates[f"busy_val, {mode}"]
         budgets[f"busy_val, {mode}"] = f"{cost:.2f}× an empty-lab step (≤ 1.25×)"
         print(f"people, {mode}: a busy step costs {cost:.2f}x an empty-lab step (budget <= 1.25x)")
     table = [

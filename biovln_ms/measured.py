@@ -26,6 +26,7 @@ import json
 import os
 import platform
 import shlex
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -53,6 +54,21 @@ REQUIRED = ("title", "command", "machine", "columns", "rows")
 def docs_data_dir() -> Path:
     """``docs/data`` of the source checkout this package runs from (benchmarks run from a checkout)."""
     return Path(__file__).resolve().parents[1] / "docs" / "data"
+
+
+def source_commit() -> str | None:
+    """The git commit of the package's source tree, when it runs from a checkout."""
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            cwd=Path(__file__).resolve().parent,
+            capture_output=True,
+            text=True,
+            timeout=5,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out.stdout.strip() if out.returncode == 0 else None
 
 
 def machine(render_device: str | None = None) -> str:

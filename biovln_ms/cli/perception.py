@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from biovln_ms.cli.common import app, given_path
+from biovln_ms.measured import source_commit
 
 perception_app = typer.Typer(
     help="Object detector data.\n\nLabelled frames rendered from the simulator.", no_args_is_help=True
@@ -85,7 +86,6 @@ def perception_train(
     On a frame dataset's train part: a segmentation net (EfficientNet-Lite0 encoder, small decoder) over
     background and the catalog's goal categories; a tenth of the training groups validates each epoch.
     The held-out parts are not read."""
-    from biovln_ms.eval.harness import _commit
     from biovln_ms.perception.train_detector import install_weights, train_detector
 
     target = given_path(out)
@@ -98,7 +98,7 @@ def perception_train(
         threads=threads,
         max_minutes=max_minutes,
         progress=sys.stderr.isatty(),
-        commit=_commit(),
+        commit=source_commit(),
     )
     last = data["history"][-1]
     typer.echo(

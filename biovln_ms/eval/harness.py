@@ -23,7 +23,6 @@ import json
 import math
 import os
 import re
-import subprocess
 import time
 from dataclasses import asdict, dataclass, field
 from importlib import metadata
@@ -39,6 +38,7 @@ from biovln_ms.eval.aggregate import aggregate_all, record_error
 from biovln_ms.eval.handoff import handoff_payload, write_handoff
 from biovln_ms.eval.rollout import rollout
 from biovln_ms.io_utils import atomic_write_text, exclusive_lock, inside
+from biovln_ms.measured import source_commit
 from biovln_ms.limits import ID_CHARS, ID_RULE, MAX_ID_LENGTH, MAX_WORKERS, RUN_NAME_CHARS, RUN_NAME_RULE
 from biovln_ms.metrics.measures import OUTCOME, DistanceToGoal, Metric, measure_type
 from biovln_ms.metrics.reach_measures import REACH_MEASURES
@@ -623,21 +623,6 @@ def _run_on_ray(address: str, wcfg: dict, todo: list[int], workers: int, write) 
 MANIFEST = "manifest.json"  # in a run's split folder: who the run is (the report reads it)
 
 
-def _commit() -> str | None:
-    """The git commit of the package's source tree, when it runs from a checkout."""
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "HEAD"],
-            cwd=Path(__file__).resolve().parent,
-            capture_output=True,
-            text=True,
-            timeout=5,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return out.stdout.strip() if out.returncode == 0 else None
-
-
 def _dataset_digest(root: Path, split: str) -> str:
     """SHA-256 over the dataset's manifest and the split's files (names and bytes)."""
     h = hashlib.sha256()
@@ -667,7 +652,7 @@ def write_manifest(cfg: EvalConfig, root: Path) -> dict:
         "dataset": str(root),
         "dataset_sha256": _dataset_digest(Path(root), cfg.split),
         "package_version": version,
-        "commit": _commit(),
+        "commit": source_commit(),
         "arguments": {
             "method_kwargs": cfg.method_kwargs,
             "camera": list(cfg.camera),

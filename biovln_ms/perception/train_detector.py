@@ -183,6 +183,7 @@ def train_detector(
     manifest = read_manifest(frames)
     images, anns = read_part(frames, "train", limit)
     val = [im for im in images if is_validation(im, seed)]
+    val_frames = [read_frame(frames, im, anns[im["id"]]) for im in val]  # read once, matched every epoch
     fit = [im for im in images if not is_validation(im, seed)]
     if not fit:
         raise FramesError("no training frames", source=str(frames), fix="render more frames")
@@ -239,8 +240,7 @@ def train_detector(
             net.eval()
             tally = Tally(cats)
             seg = _InMemorySegmenter(net, cats)
-            for im in val:
-                rgb, lab = read_frame(frames, im, anns[im["id"]])
+            for im, (rgb, lab) in zip(val, val_frames):
                 match_frame(tally, seg.instances(rgb), anns[im["id"]], cats, lab)
             summary = tally.summary()
             history[-1].update({k: summary[k] for k in ("mean_precision", "mean_recall", "mean_pixel_iou")})
