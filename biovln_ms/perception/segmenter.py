@@ -278,6 +278,14 @@ class Instance:
     score: float
 
 
+def nearest(labels: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """``labels`` sampled at the pixel centres of a (width, height) grid (nearest neighbour)."""
+    h, w = labels.shape
+    ys = np.minimum(((np.arange(size[1]) + 0.5) * h / size[1]).astype(int), h - 1)
+    xs = np.minimum(((np.arange(size[0]) + 0.5) * w / size[0]).astype(int), w - 1)
+    return labels[np.ix_(ys, xs)]
+
+
 class Segmenter:
     """Label maps and instances of RGB frames from a weights file (default: the shipped weights)."""
 
@@ -329,8 +337,6 @@ class Segmenter:
         lab, conf = self.labels(arr)
         smallest = min_pixels(*lab.shape)
         h, w = arr.shape[:2]
-        ys = np.minimum(((np.arange(h) + 0.5) * lab.shape[0] / h).astype(int), lab.shape[0] - 1)
-        xs = np.minimum(((np.arange(w) + 0.5) * lab.shape[1] / w).astype(int), lab.shape[1] - 1)
         out = []
         for name in categories if categories is not None else self.categories:
             k = self.categories.index(name) + 1
@@ -339,10 +345,10 @@ class Segmenter:
                 continue
             sizes = np.bincount(regions.ravel(), minlength=n + 1)
             scores = np.bincount(regions.ravel(), weights=conf.ravel(), minlength=n + 1)
-            for r in np.flatnonzero(sizes >= smallest):
-                if r > 0:
-                    mask = (regions == r)[np.ix_(ys, xs)]
-                    out.append(Instance(name, mask, float(scores[r] / sizes[r])))
+            kept = [r for r in np.flatnonzero(sizes >= smallest) if r > 0]
+            frame_regions = nearest(regions, (w, h)) if kept else None  # one resampling per category
+            for r in kept:
+                out.append(Instance(name, frame_regions == r, float(scores[r] / sizes[r])))
         return out
 
     def target_mask(self, rgb: np.ndarray, target: str) -> np.ndarray:

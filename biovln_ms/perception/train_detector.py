@@ -93,14 +93,6 @@ def read_frame(folder: Path, image: dict, anns: list[dict]) -> tuple[np.ndarray,
     return rgb, lut[inst]
 
 
-def _nearest(labels: np.ndarray, size: tuple[int, int]) -> np.ndarray:
-    """``labels`` sampled at the pixel centres of a (width, height) grid."""
-    h, w = labels.shape
-    ys = np.minimum(((np.arange(size[1]) + 0.5) * h / size[1]).astype(int), h - 1)
-    xs = np.minimum(((np.arange(size[0]) + 0.5) * w / size[0]).astype(int), w - 1)
-    return labels[np.ix_(ys, xs)]
-
-
 def is_validation(image: dict, seed: int) -> bool:
     return stable_hash("validation", seed, image["group"]) % 1000 < VAL_SHARE * 1000
 
@@ -114,7 +106,7 @@ def load_tensors(folder: Path, images: list[dict], anns: dict[int, list], progre
     for im in tqdm(images, desc="reading frames", unit="frame", disable=not progress):
         rgb, lab = read_frame(folder, im, anns[im["id"]])
         xs.append(S.prepare(rgb)[0])
-        ys.append(torch.from_numpy(_nearest(lab, S.INPUT_SIZE).astype(np.int64)))
+        ys.append(torch.from_numpy(S.nearest(lab, S.INPUT_SIZE).astype(np.int64)))
     return torch.stack(xs), torch.stack(ys)
 
 
