@@ -1,6 +1,7 @@
 """Baselines that cope with people, on synthetic inputs (no simulator): the frontier map forgets what moves
-only with people, the oracles' guard waits for a person in the way and for a free face, and the privileged
-view reads the people read-only."""
+only with people, its controller steps round what stands in the way or waits and then plans with round
+growth, the oracles' guard waits for a person in the way and for a free face, and the privileged view reads
+the people read-only."""
 
 from __future__ import annotations
 
@@ -8,15 +9,19 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import pytest
 import shapely
 from shapely.geometry import box
 
 from biovln_ms.baselines.frontier import OCCUPIED, FrontierParams, OccupancyMap
-from biovln_ms.baselines.frontier import forgets
+from biovln_ms.baselines.frontier import forgets, sideways_spread
+from biovln_ms.baselines.frontier.control import FrontierController
+from biovln_ms.baselines.frontier.planner import ESCAPE_INFLATE, Plan, PlanField
 from biovln_ms.baselines.oracle import PeopleGuard
 from biovln_ms.baselines.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT
+from biovln_ms.noise import resolve_noise
 from biovln_ms.people.body import PERSON_RADIUS
-from tests.test_frontier_units import TASK, _extrinsic, _intrinsic, _render
+from tests.test_frontier_units import PARAMS, TASK, FixedPlanner, _extrinsic, _grid, _intrinsic, _render
 
 
 def _wall_cells(m: OccupancyMap, x: float) -> int:
@@ -40,6 +45,79 @@ def test_the_map_forgets_what_moved_only_when_asked():
 def test_the_map_forgets_with_people_unless_told():
     assert not forgets(FrontierParams(), TASK) and forgets(FrontierParams(), replace(TASK, people=2))
     assert not forgets(FrontierParams(forget=False), replace(TASK, people=2))
+
+
+def _forgetting_controller(
+    obstacles, grow: int = PARAMS.inflate_cells
+) -> tuple[FrontierController, FixedPlanner]:
+    """A controller on a map that forgets, with obstacle cells at world ``obstacles`` and a fixed plan
+    straight east to (2.5, 0), made with obstacles grown ``grow`` cells."""
+    m = OccupancyMap((0.0, 0.0), 0.05, 20.0, forget=True)
+    for xy in obstacles:
+        m.mark_occupied(xy)
+    planner = FixedPlanner(Plan("explore", np.array([2.5, 0.0]), [np.array([2.5, 0.0])], grow))
+    planner.round_growth = False
+    return FrontierController(PARAMS, 0.25, math.radians(30), m, planner), planner
+
+
+def test_the_frontier_controller_turns_aside_and_steps_past_what_stands_in_the_way():
+    ctl, planner = _forgetting_controller([(0.45, -0.15)])  # ahead and a little right of the path
+    assert ctl.act(np.zeros(3)) == TURN_LEFT and planner.calls == 2  # the step hits: re-planned, then aside
+    assert ctl.act(np.array([0.0, 0.0, math.radians(30)])) == FORWARD  # the step that passes it
+
+
+def test_the_frontier_controller_waits_then_plans_with_round_growth_for_a_while():
+    wall = [(0.45, y) for y in np.arange(-0.6, 0.61, 0.05)]  # across the way: no step passes
+    ctl, planner = _forgetting_controller(wall)
+    actions = []
+    for k in range(2 * PARAMS.wait_limit):  # a wait turns left, the next step turns back
+        actions.append(ctl.act(np.array([0.0, 0.0, 0.0 if k % 2 == 0 else math.radians(30)])))
+    assert actions == [TURN_LEFT, TURN_RIGHT] * PARAMS.wait_limit
+    assert planner.round_growth  # waited long: the next plans grow obstacles by a disc
+    ctl.occ_map.grid[:] = 0  # the way is free again
+    for k in range(PARAMS.wait_limit):
+        assert planner.round_growth
+        assert ctl.act(np.array([0.25 * k, 0.0, 0.0])) == FORWARD
+    assert not planner.round_growth  # ... for wait_limit FORWARDs
+
+
+def test_a_boxed_in_frontier_controller_squeezes_out_after_a_long_wait():
+    wall = [(0.45, y) for y in np.arange(-0.6, 0.61, 0.05)]
+    ctl, planner = _forgetting_controller(wall, grow=ESCAPE_INFLATE)  # the plan of a robot boxed in
+    actions = [ctl.act(np.array([0.0, 0.0, 0.0 if k % 2 == 0 else math.radians(30)])) for k in range(16)]
+    assert actions == [TURN_LEFT, TURN_RIGHT] * PARAMS.wait_limit and not planner.round_growth
+    assert ctl.act(np.zeros(3)) == FORWARD  # squeezes out along the escape plan, check off
+    planner.fixed = planner.fixed._replace(grow=PARAMS.inflate_cells)  # out: a plan with the full growth
+    ctl._replan_now = True
+    assert ctl.act(np.array([0.25, 0.0, 0.0])) == TURN_LEFT  # the check is back
+
+
+def test_on_an_evidence_map_the_last_frames_points_count_and_a_noisy_robot_keeps_further():
+    m = OccupancyMap((0.0, 0.0), 0.05, 20.0, evidence=True, forget=True)
+    m.last_hits = np.array([[0.5, 0.0]])  # seen once: no obstacle cell yet
+    planner = FixedPlanner(
+        Plan("explore", np.array([2.5, 0.0]), [np.array([2.5, 0.0])], PARAMS.inflate_cells)
+    )
+    ctl = FrontierController(PARAMS, 0.25, math.radians(30), m, planner)
+    assert not (m.grid == OCCUPIED).any() and ctl.act(np.zeros(3)) != FORWARD
+    m.last_hits = np.array([[0.65, 0.0]])  # 0.4 m beyond the step's end: clear, unless the step is noisy
+    assert ctl.act(np.zeros(3)) == FORWARD
+    noisy = replace(PARAMS, noise_margin=sideways_spread(resolve_noise("realistic")))
+    assert (
+        noisy.noise_margin == pytest.approx(0.152, abs=1e-3) and sideways_spread(resolve_noise("ideal")) == 0
+    )
+    ctl = FrontierController(noisy, 0.25, math.radians(30), m, planner)
+    assert ctl.act(np.zeros(3)) != FORWARD
+
+
+def test_round_growth_reaches_as_far_diagonally_as_straight_on():
+    m = _grid(free=[(180, 220, 180, 220)], occupied=[(200, 201, 200, 201)])
+    grow = PARAMS.inflate_cells  # 7 four-connected steps: diagonally the diamond reaches (3, 4) cells
+    diamond = PlanField.compute(m, np.array([0.9, 0.9]), grow)
+    disc = PlanField.compute(m, np.array([0.9, 0.9]), grow, round_growth=True)  # a disc of 8 cells
+    for dr, dc in ((4, 4), (grow + 1, 0)):  # 0.28 m diagonally, 0.4 m straight on
+        r, c = np.array([200 + dr, 200 + dc]) - diamond.lo
+        assert diamond.trav[r, c] and not disc.trav[r, c]
 
 
 class _View:

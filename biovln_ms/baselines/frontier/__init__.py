@@ -21,7 +21,8 @@ estimate moved less than half a step was blocked. ``episode_stats`` reports the 
 
 In a lab with people (``TaskSpec.people``) the map forgets what moves (``OccupancyMap(forget=True)``): a
 person seen once is no wall for ever, and the re-plan every few steps finds the way they freed; obstacles are
-grown by ``people_margin`` more, as depth sees a person's figure inside the body the robot must not touch.
+grown by ``people_margin`` more, as depth sees a person's figure inside the body the robot must not touch,
+and under actuation noise the controller's people check reaches :func:`sideways_spread` further.
 
 Goal rule (the paper leaves it implicit): the goal position is used only to decide when to go there
 and stop: as soon as the goal cell is known free and reachable on the robot's map it navigates to it
@@ -57,6 +58,7 @@ from biovln_ms.baselines.frontier.planner import (
 )
 from biovln_ms.baselines.frontier.localisation import Localiser, camera_mount, extrinsic_at, scan_points
 from biovln_ms.baselines.policy import EpisodeInfo, Policy, TaskSpec
+from biovln_ms.noise import LOCOBOT_FORWARD
 
 __all__ = [
     "FREE",
@@ -121,6 +123,12 @@ def head_depth(obs: dict) -> tuple[np.ndarray, np.ndarray]:
     """The head camera's depth (m, float32) and its OpenCV intrinsics."""
     depth = to_numpy(obs["sensor_data"]["head"]["depth"][0, ..., 0]).astype(np.float32) / 1000.0
     return depth, to_numpy(obs["sensor_param"]["head"]["intrinsic_cv"][0])
+
+
+def sideways_spread(noise) -> float:
+    """Two standard deviations (m) of a FORWARD's sideways error under ``noise``'s actuation noise (the
+    LoCoBot model, scaled; 0 without): how far a noisy step may land beside where it was aimed."""
+    return 2.0 * math.sqrt(LOCOBOT_FORWARD.position.variance[1]) * float(noise.actuation)
 
 
 def forgets(params: FrontierParams, task: TaskSpec) -> bool:
@@ -208,7 +216,7 @@ class FrontierPolicy(Policy):
             pose[:2], p.resolution, p.extent, evidence=self.task.noise.depth, forget=forget
         )
         if forget:  # what moves is people: keep clear of their bodies, not only of the figures depth sees
-            p = replace(p, margin=p.margin + p.people_margin)
+            p = replace(p, margin=p.margin + p.people_margin, noise_margin=sideways_spread(self.task.noise))
         if not self.task.noise.sliding:  # a move that grazes an obstacle is lost: step clear when boxed in
             p = replace(p, step_clear=True)
         self.planner = FrontierPlanner(p, self)

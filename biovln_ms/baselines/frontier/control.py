@@ -7,8 +7,14 @@ obstacle just ahead (contact the depth map missed, e.g. a low object). With no p
 to look around, banning an unreachable frontier, and gives up with STOP after ``stuck_turns`` steps.
 
 On a map that forgets what moves (people in the lab), a FORWARD whose end would put the robot's body on an
-obstacle cell (someone who stepped into the path since the plan) re-plans at once, and waits (a turn) when
-the new plan's step does too.
+obstacle cell (someone who stepped into the path since the plan) re-plans at once. When the new plan's step
+does too, it turns aside if one turn either way gives a step that passes and gains on the path, then takes
+that step; else it waits (a turn). The planner grows obstacles as a diamond (4-connected steps), which lets
+a diagonal path pass a wall's corner nearer than this check allows: after ``wait_limit`` waits in a row the
+plans grow obstacles by a disc for the next ``wait_limit`` FORWARDs, so that a path it can follow is found
+(or, for a person who stands on, a way round them). Boxed in (the planner's escape growth), every step out
+passes nearer than the check allows: after ``wait_limit`` waits it follows the escape plan without the
+check until a plan has the full growth again; a person within reach then is touched (a person collision).
 
 STOP rule (towards a target to stop at, mode "goal"): STOP within half a step of it, or, with the
 target in sight (at most two waypoints left), when a forward step would not bring it closer.
@@ -50,6 +56,10 @@ class FrontierController:
         self._replan_now = True
         self._last: tuple[np.ndarray, int] | None = None  # position and action of the previous step
         self._stuck = 0
+        self._waits = 0  # consecutive waits for something in the way
+        self._round_left = 0  # FORWARDs left before plans grow obstacles as a diamond again
+        self._dodge = False  # the last step turned aside to pass something in the way
+        self._squeeze = False  # boxed in after a long wait: follow the plan without the people check
 
     @property
     def target(self) -> np.ndarray | None:
@@ -79,21 +89,64 @@ class FrontierController:
             self._stuck += 1
             return self.record(p, TURN_LEFT if self._stuck < self.params.stuck_turns else STOP)
         self._stuck = 0
+        dodge, self._dodge = self._dodge, False
+        if dodge and self._clear_ahead(p, yaw):  # turned aside last step: the step that passes
+            return self.record(p, FORWARD)
         action = self._follow(p, yaw)
-        if action == FORWARD and self.occ_map.forget and self._step_hits(p, yaw):
+        self._squeeze &= self.plan.grow < self.params.inflate_cells  # until a plan with the full growth
+        if action == FORWARD and self.occ_map.forget and not self._squeeze and self._step_hits(p, yaw):
             self.plan = self.planner.plan(self.occ_map, pose)  # something moved into the way: re-plan
             self._since_plan = 1
             action = self._follow(p, yaw) if self.plan.path else TURN_LEFT
             if action == FORWARD and self._step_hits(p, yaw):
+                aside = self._aside(p, yaw)
+                if aside is not None:  # a turn aside, then a step that passes it
+                    self._dodge = True
+                    return self.record(p, aside)
                 action = TURN_LEFT  # still in the way: wait for it to move on
+                self._waits += 1
+                if self._waits >= self.params.wait_limit and self.plan.grow < self.params.inflate_cells:
+                    self._squeeze, self._waits = True, 0  # boxed in, waited long: squeeze out along the plan
+                elif self._waits >= self.params.wait_limit:  # waited long: plan with round growth a while
+                    self.planner.round_growth, self._replan_now = True, True
+                    self._waits, self._round_left = 0, self.params.wait_limit
+        if action == FORWARD:
+            self._waits = 0
+            if self._round_left > 0:
+                self._round_left -= 1
+                self.planner.round_growth = self._round_left > 0
         return self.record(p, action)
 
     def _step_hits(self, p: np.ndarray, yaw: float) -> bool:
         """A FORWARD's end puts the robot's body on an obstacle cell (a person's figure: their body reaches
-        ``people_margin`` beyond it)."""
-        reach = self.params.robot_radius + self.params.people_margin
-        cells = self.occ_map.disc_cells(p + self.step_len * heading(yaw), reach)
-        return bool((self.occ_map.grid[cells[:, 0], cells[:, 1]] == OCCUPIED).any())
+        ``people_margin`` beyond it, and a noisy step may land ``noise_margin`` aside), or, on an evidence map
+        (noisy depth), on an obstacle point of the last frame: a cell needs several frames of evidence, and a
+        person walking up is there at once."""
+        reach = self.params.robot_radius + self.params.people_margin + self.params.noise_margin
+        end = p + self.step_len * heading(yaw)
+        cells = self.occ_map.disc_cells(end, reach)
+        if (self.occ_map.grid[cells[:, 0], cells[:, 1]] == OCCUPIED).any():
+            return True
+        if self.occ_map.log_odds is None:  # every obstacle point seen is an obstacle cell already
+            return False
+        near = self.occ_map.last_hits - end  # with evidence: what the last frame saw there counts too
+        return bool(((near * near).sum(axis=1) < reach * reach).any())
+
+    def _clear_ahead(self, p: np.ndarray, yaw: float) -> bool:
+        """A FORWARD at ``yaw`` hits nothing and brings the robot nearer the path a little way on."""
+        path = self.plan.path
+        if not path:
+            return False
+        ahead = path[min(len(path) - 1, round(2 * self.step_len / self.occ_map.res))]
+        end = p + self.step_len * heading(yaw)
+        return not self._step_hits(p, yaw) and np.linalg.norm(ahead - end) < np.linalg.norm(ahead - p)
+
+    def _aside(self, p: np.ndarray, yaw: float) -> int | None:
+        """TURN_LEFT or TURN_RIGHT when, one turn that way, a FORWARD would pass (:meth:`_clear_ahead`)."""
+        for action, sign in ((TURN_LEFT, 1.0), (TURN_RIGHT, -1.0)):
+            if self._clear_ahead(p, yaw + sign * self.turn):
+                return action
+        return None
 
     def record(self, p: np.ndarray, action: int) -> int:
         """Remember the step's position and action (to detect a blocked move next step); returns it."""

@@ -70,6 +70,9 @@ class OccupancyMap:
         # cells a depth frame has reached, kept once a frame frees the ground under the base (``base_xy``):
         # that ground is known free but not seen, so its edge is no frontier (None: every free cell is seen)
         self.seen: np.ndarray | None = None
+        #: the last frame's obstacle points (world x, y): with evidence its cells need several frames to be
+        #: obstacles, and a person walking up is here at once
+        self.last_hits = np.zeros((0, 2))
 
     def cell(self, xy) -> np.ndarray:
         """The (row, col) of world point(s) ``xy`` (..., 2)."""
@@ -124,7 +127,8 @@ class OccupancyMap:
         scan = Scan(cam[:2], direction, free_len)
         rc, owner = self.ray_cells(scan)
         clear = self._passed(scan, rc, owner) if self.forget and self.log_odds is None else None
-        orc = self.cell(pw[obstacle][:, :2])
+        self.last_hits = pw[obstacle][:, :2]
+        orc = self.cell(self.last_hits)
         orc = orc[self._in_bounds(orc)]
         if base_xy is not None:
             if self.seen is None:

@@ -28,12 +28,19 @@ class FrontierParams:
     # m added to the margin on a map that forgets (people): depth sees a person's figure, which lies up to
     # this much inside the body the robot must not touch (biovln_ms.people.body.PERSON_RADIUS)
     people_margin: float = 0.1
+    # m added to the people check's reach (frontier.control), not to the planner's growth, under actuation
+    # noise: the policy sets it to two standard deviations of a FORWARD's sideways error (it knows its own)
+    noise_margin: float = 0.0
     # controller
     replan_every: int = 4  # steps between re-plans (Table 15)
     waypoint_reach: float = 0.3  # m: a nearer waypoint is passed, a nearer exploration target re-planned
     blocked_move: float = 0.02  # m: a FORWARD that moved less was blocked by something the map missed
     step_clear: bool = False  # boxed in: first go to the nearest cell clear of the full growth (set by the
     # policy without sliding, where a move that grazes an obstacle is lost; frontier.planner)
+    # on a map that forgets (people): consecutive waits for something in the way after which plans grow
+    # obstacles by a disc (frontier.control); a standing person or a wall the diamond growth let the path
+    # pass too near
+    wait_limit: int = 8
     stuck_turns: int = 12  # consecutive steps without a path (turning left to look around) before STOP
     # localisation without GPS+compass (biovln_ms.baselines.frontier.localisation)
     scan_match: bool = True  # correct dead reckoning by matching each depth scan to the map (False: dead

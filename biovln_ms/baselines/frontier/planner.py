@@ -45,11 +45,13 @@ class Candidate(NamedTuple):
 
 class Plan(NamedTuple):
     """``mode``: "explore" (to a frontier) or "goal" (to a target to stop at); the path's waypoints end
-    at the target's cell and are empty when it is unreachable."""
+    at the target's cell and are empty when it is unreachable; ``grow``: the cells by which obstacles were
+    grown for it (the full growth, or ``ESCAPE_INFLATE`` while boxed in)."""
 
     mode: str
     target: np.ndarray
     path: list[np.ndarray]
+    grow: int = 0
 
 
 @dataclass
@@ -65,11 +67,18 @@ class PlanField:
     pred: np.ndarray  # Dijkstra predecessor per node (negative at the robot and for unreachable nodes)
 
     @classmethod
-    def compute(cls, occ_map: OccupancyMap, start_xy: np.ndarray, inflate_cells: int) -> PlanField:
+    def compute(
+        cls, occ_map: OccupancyMap, start_xy: np.ndarray, inflate_cells: int, round_growth: bool = False
+    ) -> PlanField:
+        """``inflate_cells``: obstacle growth, in 4-connected steps (a diamond: diagonally it reaches
+        1/sqrt(2) as far), or with ``round_growth`` a disc of one cell more (as far every way)."""
         lo = np.maximum(occ_map.lo - CROP_PAD, 0)
         hi = np.minimum(occ_map.hi + CROP_PAD, occ_map.n)
         g = occ_map.grid[lo[0] : hi[0], lo[1] : hi[1]]
-        occ = ndimage.binary_dilation(g == OCCUPIED, iterations=inflate_cells)
+        if round_growth:
+            occ = ndimage.binary_dilation(g == OCCUPIED, disk(inflate_cells + 1))
+        else:
+            occ = ndimage.binary_dilation(g == OCCUPIED, iterations=inflate_cells)
         trav = (g == FREE) & ~occ
         s = np.clip(occ_map.cell(start_xy) - lo, 0, np.array(g.shape) - 1)
         trav[s[0], s[1]] = True  # the robot's own cell
@@ -166,12 +175,16 @@ class FrontierPlanner:
     def __init__(self, params: FrontierParams, rules: TargetRules) -> None:
         self.params, self.rules = params, rules
         self.banned: list[np.ndarray] = []
+        #: grow obstacles by a disc, not a diamond (set by the controller for a while after a long wait: a
+        #: diagonal path that the diamond lets pass nearer an obstacle than the people check allows)
+        self.round_growth = False
 
     def plan(self, occ_map: OccupancyMap, pose: np.ndarray) -> Plan:
         """A known target if the rules have one, else the chosen frontier, else the exhausted fallback."""
         grow = self.params.inflate_cells
-        boxed = boxed_in(occ_map, pose[:2], grow)
-        field = PlanField.compute(occ_map, pose[:2], ESCAPE_INFLATE if boxed else grow)
+        boxed = boxed_in(occ_map, pose[:2], grow + self.round_growth)
+        used = ESCAPE_INFLATE if boxed else grow
+        field = PlanField.compute(occ_map, pose[:2], used, self.round_growth and not boxed)
         mode, target = "goal", self.rules.known_target(field)
         if target is None and boxed and self.params.step_clear:
             mode, target = "explore", clear_cell(field, grow)
@@ -181,7 +194,7 @@ class FrontierPlanner:
                 mode, target = "explore", self.rules.choose(candidates, pose)
             else:
                 mode, target = "goal", self.rules.exhausted(field, pose)
-        return Plan(mode, target, field.path_to(target))
+        return Plan(mode, target, field.path_to(target), used)
 
     def ban(self, target: np.ndarray) -> None:
         """No frontier within the cluster radius of ``target`` is a candidate any more."""
