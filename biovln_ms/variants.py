@@ -20,6 +20,8 @@ from biovln_ms.task_config import (
 
 #: the busy variants' figures: the busy splits' largest crowd (biovln_ms.splits.BUSY_MAX_PEOPLE)
 BUSY_PEOPLE = 4
+#: the busy protocol variant's people: every protocol split's scene has faces for them apart from the start
+PROTOCOL_PEOPLE = 2
 
 # lab protocols: K = 2-5 ordered goals, a STOP at each; the step budget is steps_per_goal x K,
 # and the registered step limit (gymnasium's truncation) the largest budget, steps_per_goal x MAX_VISITS
@@ -41,6 +43,7 @@ BUSY_ENV = "BioVLN-OpFace-Busy-v0"
 BUSY_STRICT_ENV = "BioVLN-OpFace-Busy-Strict-v0"
 PROTOCOL_ENV = "BioVLN-Protocol-v0"
 PROTOCOL_STRICT_ENV = "BioVLN-Protocol-Strict-v0"
+PROTOCOL_BUSY_ENV = "BioVLN-Protocol-Busy-v0"
 LAB_SCENE_ENV = "BioVLN-LabScene-v0"  # the scene viewer (no task; not a variant)
 
 VARIANTS: dict[str, NavTaskConfig] = {
@@ -75,4 +78,7 @@ VARIANTS: dict[str, NavTaskConfig] = {
     PROTOCOL_ENV: _PROTOCOL,
     # ... and also in its Zone 3, facing its operational face within 30 deg (strict_success's rule)
     PROTOCOL_STRICT_ENV: replace(_PROTOCOL, subgoal_rule="strict"),
+    # ... with people: PROTOCOL_PEOPLE technicians drawn from each episode's seed (the protocol splits carry
+    # no crowds); a person collision ends the episode, failed
+    PROTOCOL_BUSY_ENV: replace(_PROTOCOL, people=PROTOCOL_PEOPLE),
 }

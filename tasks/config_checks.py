@@ -251,10 +251,6 @@ def checked_config(cfg: NavTaskConfig, robot: str) -> NavTaskConfig:
     check_measures(cfg, values["measures"], robot)
     if cfg.protocol:
         check_protocol_options(cfg.wrong_stop, cfg.subgoal_rule, values["steps_per_goal"])
-        if values["people"]:
-            raise EnvConfigError(
-                "people walk in the single-goal variants only", field="people", fix="pass people=0 here"
-            )
     return people_config(replace(cfg, **values))
 
 

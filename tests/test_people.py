@@ -167,9 +167,7 @@ def test_bad_people_values_are_one_line(bad):
     assert "\n" not in str(e.value)
 
 
-def test_people_in_a_protocol_env_and_their_measures_without_people_are_refused():
-    with pytest.raises(BioVLNError, match="field 'people'.*single-goal"):
-        gym.make("BioVLN-Protocol-v0", people=1, **CPU)
+def test_the_measures_of_people_without_people_are_refused():
     measures = NavTaskConfig().measures + ("min_person_distance",)
     with pytest.raises(BioVLNError, match="field 'measures'.*measure of people"):
         gym.make("BioVLN-OpFace-v0", measures=measures, **CPU)

@@ -284,13 +284,13 @@ def teleport(u, xy, yaw=0.0):
 
 
 def test_registered_with_a_budget_bound_of_five_goals():
-    assert {"BioVLN-Protocol-v0", "BioVLN-Protocol-Strict-v0"} <= set(gym.registry)
+    assert {"BioVLN-Protocol-v0", "BioVLN-Protocol-Strict-v0", "BioVLN-Protocol-Busy-v0"} <= set(gym.registry)
     import biovln_ms.tasks  # noqa: F401
     from mani_skill.utils.registration import REGISTERED_ENVS
 
     from biovln_ms.tasks.protocol_env import BioVLNProtocolEnv
 
-    for uid in ("BioVLN-Protocol-v0", "BioVLN-Protocol-Strict-v0"):
+    for uid in ("BioVLN-Protocol-v0", "BioVLN-Protocol-Strict-v0", "BioVLN-Protocol-Busy-v0"):
         assert issubclass(REGISTERED_ENVS[uid].cls, BioVLNProtocolEnv)
         assert REGISTERED_ENVS[uid].max_episode_steps == PROTOCOL.steps_per_goal * 5
 
@@ -375,6 +375,33 @@ def test_a_wrong_stop_ends_or_misses(dataset, env):
             assert bool(info["subgoal_found"]) and bool(term) == (j == len(goals) - 1)
         assert bool(info["fail"]) and not bool(info["success"])
         assert float(info["progress"]) == pytest.approx((len(goals) - 1) / len(goals))
+    finally:
+        e.close()
+
+
+def test_people_walk_a_protocol_and_a_person_collision_ends_it(dataset):
+    e = make(dataset, env_id="BioVLN-Protocol-Busy-v0", obs_mode="none")
+    try:
+        _, info = e.reset(options={"episode_index": 0})
+        u = e.unwrapped
+        assert u.cfg.people == 2 and u.cfg.fail_measure == "protocol_people_fail"
+        assert "person_distance" in info and "occupied_stop" in info
+        crowd, goals = u._people.crowds[0], u.current_episode["goals"]
+        crowd.timer[:] = 1e3  # both stand on
+        crowd.pos[0], crowd.pos[1] = goals[1]["position"][:2], (1.0e4, 1.0e4)  # the second goal's face
+        teleport(u, goals[0]["position"], _goal_heading(goals[0]))
+        _, _, _, _, info = e.step(0)  # a STOP at the first goal: its face is free
+        assert int(info["subgoal_index"]) == 1 and not bool(info["occupied_stop"])
+        teleport(u, goals[1]["position"], _goal_heading(goals[1]))
+        _, _, _, _, info = e.step(0)  # at the second: a person stands there
+        assert int(info["subgoal_index"]) == 2 and bool(info["occupied_stop"])
+        e.reset(options={"episode_index": 0})
+        person = u._people.crowds[0].pos[0]
+        start = np.asarray(u.current_episode["start_position"][:2], float)
+        away = (start - person) / np.linalg.norm(start - person)  # toward the start: free floor
+        teleport(u, person + 0.45 * away, math.atan2(-away[1], -away[0]))  # facing them, 5 cm apart
+        _, _, term, _, info = e.step(1)
+        assert bool(info["person_collision"]) and bool(term) and bool(info["fail"])
     finally:
         e.close()
 

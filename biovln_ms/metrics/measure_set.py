@@ -22,18 +22,28 @@ class MeasureSet:
         cfg: NavTaskConfig | None = None,
     ) -> None:
         order: list[str] = []
+        present: set[str] = set()  # the measures and their dependencies, all of them
+
+        def close(name: str) -> None:
+            if name not in _REGISTRY:
+                raise KeyError(f"unknown measure '{name}'; registered: {', '.join(_REGISTRY)}")
+            if name not in present:
+                present.add(name)
+                for d in _REGISTRY[name].dependencies:
+                    close(d)
 
         def visit(name: str, stack: tuple = ()) -> None:
             if name in order:
                 return
-            if name not in _REGISTRY:
-                raise KeyError(f"unknown measure '{name}'; registered: {', '.join(_REGISTRY)}")
             if name in stack:
                 raise ValueError(f"measure dependency cycle: {' -> '.join(stack + (name,))}")
-            for d in _REGISTRY[name].dependencies:
+            cls = _REGISTRY[name]
+            for d in cls.dependencies + tuple(a for a in cls.after if a in present):
                 visit(d, stack + (name,))
             order.append(name)
 
+        for name in names:
+            close(name)
         for name in names:
             visit(name)
         self.names, self.n, self.device = tuple(names), n, torch.device(device)

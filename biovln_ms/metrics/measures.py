@@ -234,6 +234,8 @@ class Measure:
     uuid: ClassVar[str]
     metric: ClassVar[Metric | None] = None
     dependencies: ClassVar[tuple[str, ...]] = ()
+    #: measures updated before this one when the task has them (an order, not a need)
+    after: ClassVar[tuple[str, ...]] = ()
     dtype: ClassVar[type] = F64
     shape: ClassVar[tuple[int, ...]] = ()
     state_names: ClassVar[tuple[str, ...]] = ("value",)

@@ -14,10 +14,12 @@ the summaries of runs without people have none of them. Conventions:
   ``people_wait_time``: person-seconds people stood waiting because the robot was in their way;
 * ``mcr_people`` / ``vrt_people``: MCR and VRT with people counted as obstacles (the robot's centre to the
   nearest instrument's or person's body, the 0.5 m threshold), beside the unchanged ``mcr`` / ``vrt``;
-* ``occupied_stop``: the episode's STOP came with a person's body in the goal's Zone 3 (any goal's): the
-  face could not be operated (what fails ``strict_success`` with people);
+* ``occupied_stop``: the episode's STOP came with a person's body in the goal's Zone 3 (any goal's; in a
+  protocol, the goal asked for at that STOP): the face could not be operated (what fails ``strict_success``
+  with people);
 * ``people_fail``: a STOP that is not the variant's success, or, with ``person_collision_ends``, a person
-  collision (the fail measure of the single-goal variants with people).
+  collision (the fail measure of the single-goal variants with people); ``protocol_people_fail`` the same
+  for the protocol env (its ``protocol_fail``, or a person collision).
 """
 
 from __future__ import annotations
@@ -203,7 +205,8 @@ class ViolationRatePeople(_PoseShare):
 
 @register_measure
 class OccupiedStop(Measure):
-    """A STOP with a person's body in the goal's Zone 3 (any goal's), over the episode."""
+    """A STOP with a person's body in the goal's Zone 3, over the episode: any goal's (a category's
+    instances), or in a protocol the goal asked for at that STOP (``subgoal_index`` before the step)."""
 
     uuid = "occupied_stop"
     dtype = bool
@@ -214,14 +217,30 @@ class OccupiedStop(Measure):
         aggregates=(rate("occupied_stop", "STOP at an occupied face"),),
     )
     dependencies = ("stopped",)
+    after = ("subgoal_index",)  # a protocol's: updated first, so ``goal`` follows it
+    state_names = ("value", "goal")
+
+    def __init__(self, n, cfg):
+        super().__init__(n, cfg)
+        self.goal = np.zeros(n, dtype=np.int64)  # a protocol's goal asked for, before this step
 
     def reset(self, ctx, s, m, idx):
         self.value[idx] = False
+        self.goal[idx] = 0
 
     def update(self, ctx, s, m, idx):
         stopped = m["stopped"][idx]
+        protocol = "subgoal_index" in m.measures
         if stopped.any():  # the Zone 3 test only at a STOP
-            self.value[idx] |= stopped & _zone3_occupied(ctx, s, idx).any(axis=1)
+            occupied = _zone3_occupied(ctx, s, idx)
+            if protocol:
+                col = np.minimum(self.goal[idx], occupied.shape[1] - 1)
+                occupied = occupied[np.arange(len(col)), col]
+            else:
+                occupied = occupied.any(axis=1)
+            self.value[idx] |= stopped & occupied
+        if protocol:
+            self.goal[idx] = m["subgoal_index"][idx]
 
 
 @register_measure
@@ -235,3 +254,15 @@ class PeopleFail(Measure):
     def compute(self, ctx, s, m, idx):
         wrong_stop = m["stopped"][idx] & ~m[self.cfg.success_measure][idx]
         return wrong_stop | (m["person_collision"][idx] & bool(self.cfg.person_collision_ends))
+
+
+@register_measure
+class ProtocolPeopleFail(Measure):
+    """The protocol's fail (``protocol_fail``), or (``person_collision_ends``) a person collision."""
+
+    uuid = "protocol_people_fail"
+    dtype = bool
+    dependencies = ("protocol_fail", "person_collision")
+
+    def compute(self, ctx, s, m, idx):
+        return m["protocol_fail"][idx] | (m["person_collision"][idx] & bool(self.cfg.person_collision_ends))

@@ -70,8 +70,12 @@ PEOPLE_MEASURES = (
     "vrt_people",
     "occupied_stop",
 )
-#: the single-goal variants' fail measures, which ``people_fail`` extends with a person collision
-STOP_FAIL_MEASURES = ("failed_stop", "strict_failed_stop")
+#: a variant's fail measure and the one that extends it with a person collision (``person_collision_ends``)
+PEOPLE_FAIL = {
+    "failed_stop": "people_fail",
+    "strict_failed_stop": "people_fail",
+    "protocol_fail": "protocol_people_fail",
+}
 
 
 class CrowdError(BioVLNError):
@@ -86,12 +90,12 @@ def step_seconds(forward_step: float, turn_deg: float) -> float:
 
 
 def people_config(cfg):
-    """A :class:`~biovln_ms.task_config.NavTaskConfig` with people: its measures and the people's, and, for a
-    variant whose episode fails at a wrong STOP, the fail measure ``people_fail`` (that, or a person
-    collision when ``person_collision_ends``). Unchanged without people."""
+    """A :class:`~biovln_ms.task_config.NavTaskConfig` with people: its measures and the people's, and the
+    fail measure that adds a person collision (when ``person_collision_ends``) to the variant's
+    (:data:`PEOPLE_FAIL`; a variant's own fail measure is kept). Unchanged without people."""
     if not cfg.people:
         return cfg
-    fail = "people_fail" if cfg.fail_measure in STOP_FAIL_MEASURES else cfg.fail_measure
+    fail = PEOPLE_FAIL.get(cfg.fail_measure, cfg.fail_measure)
     return replace(cfg, measures=tuple(dict.fromkeys(cfg.measures + PEOPLE_MEASURES)), fail_measure=fail)
 
 
