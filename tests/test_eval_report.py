@@ -15,6 +15,8 @@ from biovln_ms.eval.paper_tables import (
     SPLIT_EPISODES,
     differences,
     mcnemar_table,
+    other_measures_table,
+    people_table,
     table5,
     table9,
     table10,
@@ -241,3 +243,27 @@ def test_the_benchmark_table_ranks_every_method_under_each_preset_and_tests_the_
     noise = _row(mcnemar_table(summ), "| Frontier (realistic) | Frontier | Hard VAL | 40 |")
     assert "| 20 | 0 |" in noise and "**yes**" in noise  # n01: realistic fails where ideal succeeds
     assert SPLIT_EPISODES["hard_val"] == SPLIT_EPISODES["hard_test"] == 160
+
+
+def test_the_people_table_shows_busy_runs_beside_their_empty_lab_sr():
+    people = {
+        "min_person_distance": 0.6,
+        "personal_space_rate": 20.0,
+        "person_collisions": 0,
+        "robot_wait_time": 5.0,
+        "occupied_stop": False,
+        "mcr_people": 0.4,
+    }
+    busy = [{**r, **people} for r in _records([True] * 3 + [False])]
+    summ = summarize(
+        {("frontier@opface-busy", "busy_val"): busy, ("frontier", "ms_val"): _records([True] * 4)}
+    )
+    lines = people_table(summ)
+    head, row = _row(lines, "| Method"), _row(lines, "| Frontier | ideal | busy_val")
+    assert "min. person distance m" in head and "empty lab SR % (ms_val)" in head
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[4].startswith("75.0") and cells[6].startswith("0.600") and cells[-2].startswith("100.0")
+    assert cells[-1] == "–"  # not run on hard_val
+    other = "\n".join(other_measures_table(summ))
+    assert "min. person distance" not in other  # shown once, in the people table
+    assert people_table(summarize({("frontier", "ms_val"): _records([True])})) == []

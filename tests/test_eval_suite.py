@@ -8,6 +8,7 @@ import pytest
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.harness import EvalConfig, load_records
 from biovln_ms.eval.methods import method_spec
+from biovln_ms.splits import BUSY_SPLITS
 from biovln_ms.eval.suite import SUITE_METHODS, SUITE_SPLITS, Suite, plan, run_suite
 from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.noise import NoiseConfigError, resolve_noise
@@ -17,7 +18,7 @@ from biovln_ms.variants import VARIANTS
 def test_plan_covers_every_method_split_and_preset_and_names_each_skip(monkeypatch):
     monkeypatch.delenv("BIOVLN_LLM_API_KEY", raising=False)
     monkeypatch.delenv("DEEPSEEK_API_KEY", raising=False)
-    runs = plan(SUITE_METHODS, SUITE_SPLITS, ("ideal", "realistic"), paper_tables=False)
+    runs = plan(SUITE_METHODS, SUITE_SPLITS, ("ideal", "realistic"), paper_tables=False, people=False)
     assert len(runs) == len(SUITE_METHODS) * len(SUITE_SPLITS) * 2
     assert {r.split for r in runs} == {
         "ms_val",
@@ -36,7 +37,7 @@ def test_plan_covers_every_method_split_and_preset_and_names_each_skip(monkeypat
 
 
 def test_plan_adds_the_runs_of_the_papers_tables():
-    runs = plan(["oracle", "frontier"], ["ms_val"], ["ideal"])
+    runs = plan(["oracle", "frontier"], ["ms_val"], ["ideal"], people=False)
     assert [r.key for r in runs] == [
         "oracle/ms_val/ideal",
         "oracle/ms_dev/ideal",
@@ -46,6 +47,17 @@ def test_plan_adds_the_runs_of_the_papers_tables():
         "frontier@BioVLN-Centroid-v0/ms_val/ideal",
         "frontier@BioVLN-Centroid-v0/ms_test/ideal",
     ]
+
+
+def test_plan_adds_the_runs_with_people_for_the_methods_that_can_have_them():
+    runs = plan(
+        ["frontier", "ppo", "protocol_oracle"], ["ms_val"], ["ideal", "realistic"], paper_tables=False
+    )
+    keys = [r.key for r in runs]
+    busy = [f"frontier@BioVLN-OpFace-Busy-v0/{s}/{n}" for n in ("ideal", "realistic") for s in BUSY_SPLITS]
+    assert keys[:2] == ["frontier/ms_val/ideal", "frontier/ms_val/realistic"] and keys[2:6] == busy
+    assert not any("ppo@" in k for k in keys)  # the RL variant has no people
+    assert "protocol_oracle@BioVLN-Protocol-Busy-v0/protocol_val/ideal" in keys
 
 
 def test_plan_refuses_unknown_names():
@@ -80,6 +92,8 @@ def test_suite_runs_resumes_and_logs(held_out_dataset, tmp_path, monkeypatch):
     assert all(v["episodes"] == 3 and v["errors"] == 0 for v in done.values())
     assert done["oracle/ms_val/ideal"]["sr"] == 100.0
     assert log["runs"]["llm_frontier/ms_val/ideal"]["status"] == "skipped"
+    busy = log["runs"]["oracle@BioVLN-OpFace-Busy-v0/busy_val/ideal"]  # this dataset has no busy splits
+    assert busy["status"] == "skipped" and "no split 'busy_val'" in busy["reason"]
     recs = load_records(tmp_path / "results" / "oracle+realistic" / "ms_val" / "episodes.jsonl")
     assert len(recs) == 3 and all(r["noise"] == "realistic" for r in recs)
     table = (tmp_path / "suite.md").read_text()

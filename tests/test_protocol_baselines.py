@@ -450,7 +450,13 @@ def test_the_report_plots_each_protocol_runs_stage_success(tmp_path):
 def test_the_suite_runs_the_protocol_methods_on_the_protocol_splits_ideal_only():
     from biovln_ms.eval.suite import PROTOCOL_METHODS, PROTOCOL_SPLITS, plan
 
-    runs = plan(["oracle", "protocol_oracle", "protocol_frontier"], ["ms_val"], ["ideal", "realistic"], False)
+    runs = plan(
+        ["oracle", "protocol_oracle", "protocol_frontier"],
+        ["ms_val"],
+        ["ideal", "realistic"],
+        False,
+        people=False,
+    )
     assert [r.key for r in runs] == [
         "oracle/ms_val/ideal",
         "oracle/ms_val/realistic",

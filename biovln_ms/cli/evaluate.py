@@ -213,7 +213,8 @@ def eval_cmd(
 @app.command(
     "benchmark",
     help="Run the whole benchmark, then report.\n\n"
-    "Every method on every benchmark split under every noise preset. Resumable (run it again after a "
+    "Every method on every benchmark split under every noise preset, and with people in the lab (the busy "
+    "splits; --no-people leaves them out). Resumable (run it again after a "
     "kill); trains PPO and BC once when no --checkpoints are given; suite.json / suite.md in --out keep "
     "each run's status and wall time; --report writes the report.",
 )
@@ -242,6 +243,9 @@ def benchmark_cmd(
     dataset: Optional[Path] = typer.Option(
         None, help="Dataset folder (default: built on first use).", parser=given_path
     ),
+    people: bool = typer.Option(
+        True, "--people/--no-people", help="Also run the methods with people in the lab (the busy splits)."
+    ),
 ) -> None:
     from biovln_ms.errors import BioVLNError
     from biovln_ms.eval.suite import PROTOCOL_METHODS, SUITE_METHODS, SUITE_NOISE, SUITE_SPLITS, run_suite
@@ -269,6 +273,7 @@ def benchmark_cmd(
         given,
         report_dir,
         echo=typer.echo,
+        people=people,
     )
 
 

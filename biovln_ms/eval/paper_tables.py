@@ -7,13 +7,14 @@ from __future__ import annotations
 
 import math
 
-from biovln_ms.variants import CENTROID_ENV
-from biovln_ms.splits import HARD_SPLITS, HELD_OUT, LSAT_EPISODES, TWO_ROOM_BENCH
+from biovln_ms.variants import BUSY_ENV, CENTROID_ENV
+from biovln_ms.splits import BUSY_SPLITS, HARD_SPLITS, HELD_OUT, LSAT_EPISODES, TWO_ROOM_BENCH
 from biovln_ms.eval import paper
 from biovln_ms.eval.harness import run_name
 from biovln_ms.eval.methods import METHODS, method_of_paper_key, report_methods
 from biovln_ms.eval.aggregate import PROTOCOL_INTERVALS
-from biovln_ms.eval.tables import STANDARD_MEASURES, fmt as _fmt, table_keys
+from biovln_ms.eval.tables import PEOPLE_TABLE_MEASURES, STANDARD_MEASURES, fmt as _fmt, table_keys
+from biovln_ms.metrics.measures import measure_type
 
 SPLITS = ["ms_dev", "ms_val", "ms_test", "two_room", "lsat_target"]  # the paper's
 #: the benchmark's splits (the paper's and the Hard track), and its noise presets in order
@@ -183,15 +184,57 @@ def reach_table(summ) -> list[str]:
     return out + [""]
 
 
+#: the empty-lab splits the people table shows a method's SR on, beside its busy runs
+EMPTY_LAB_SPLITS = ("ms_val", "hard_val")
+
+
+def people_table(summ) -> list[str]:
+    """People in the lab: every method on the busy splits (``BioVLN-OpFace-Busy-v0``) under each preset, with
+    the human-aware measures (``PEOPLE_TABLE_MEASURES``) and, beside them, its empty-lab SR."""
+    aggs = [measure_type(u).metric.aggregates[0] for u in PEOPLE_TABLE_MEASURES]
+    head = ["Method", "noise", "split", "n", *(f"{a.label} {a.unit}" for a in aggs)]
+    head += [f"empty lab SR % ({s})" for s in EMPTY_LAB_SPLITS]
+    rows = []
+    for m in report_methods():
+        for preset in PRESETS:
+            run = run_name(m, BUSY_ENV, noise=preset)
+            for s in BUSY_SPLITS:
+                if not _ran(summ, run, s):
+                    continue
+                agg = _get(summ, run, s)
+                cells = [METHODS[m].label, preset, s, _n(summ, run, s)]
+                cells += [_metric(agg, a.key, 1 if a.unit.startswith("%") else 3) for a in aggs]
+                empty = _preset_run(m, preset)
+                cells += [_metric(_get(summ, empty, e), "sr", 1) for e in EMPTY_LAB_SPLITS]
+                rows.append("| " + " | ".join(cells) + " |")
+    if not rows:
+        return []
+    return [
+        "## People in the lab: ours [95 % CI]",
+        "",
+        "BioVLN-OpFace-Busy-v0 on the busy splits: each episode with its own crowd of 1-4 technicians (the "
+        "people guide). Distances body to body; a person collision ends the episode as a failure. The "
+        "empty-lab SR is the same method's on other scenes (a dash: not run). " + N_NOTE,
+        "",
+        "| " + " | ".join(head) + " |",
+        "|" + "---|" * len(head),
+        *rows,
+        "",
+    ]
+
+
 def other_measures_table(summ) -> list[str]:
     """Every aggregate that no other table shows (a measure registered by a variant or a user), per run
     and split: its value with its interval, under its label."""
-    shown = set(table_keys(STANDARD_MEASURES))
+    standard = set(table_keys(STANDARD_MEASURES))
+    with_people = standard | set(table_keys(PEOPLE_TABLE_MEASURES))  # what the people table shows too
+    busy_runs = {run_name(m, BUSY_ENV, noise=p) for m in report_methods() for p in PRESETS}
     labels = summ.get("labels", {})
     rows = []
     for run, splits in sorted(summ["runs"].items()):
         for split, d in sorted(splits.items()):
             o = d["overall"]
+            shown = with_people if run in busy_runs and split in BUSY_SPLITS else standard
             for key, v in o.items():
                 number = v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
                 if key not in shown and not key.endswith("_ci95") and number:

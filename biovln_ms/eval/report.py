@@ -57,6 +57,7 @@ from biovln_ms.eval.paper_tables import (
     differences,
     mcnemar_table,
     other_measures_table,
+    people_table,
     protocol_table,
     reach_table,
     table5,
@@ -287,6 +288,7 @@ TABLES = {
     "mcnemar": mcnemar_table,
     "reach": reach_table,
     "protocols": protocol_table,
+    "people": people_table,
     "other": other_measures_table,
     "differences": differences,
 }

@@ -1,7 +1,8 @@
 """The benchmark's whole evaluation from one command (``biovln-ms benchmark``): every method on every
 benchmark split under every noise preset, the runs the paper's table layouts need (MS DEV, the centroid
-ablation), the lab-protocol methods on the protocol splits (ideal preset only), the learned methods'
-training when no checkpoint is given, then the report.
+ablation), the lab-protocol methods on the protocol splits (ideal preset only), the same with people in the
+lab (the single-goal methods on the busy splits under every preset, the protocol methods with people), the
+learned methods' training when no checkpoint is given, then the report.
 
 Each (method, split, preset) is one harness run (:func:`biovln_ms.eval.harness.evaluate`), so a killed
 suite resumes where it stopped: finished episodes are never run again, a finished run costs a file read,
@@ -18,15 +19,17 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
-from biovln_ms.variants import CENTROID_ENV, PROTOCOL_ENV
+from biovln_ms.variants import BUSY_ENV, CENTROID_ENV, PROTOCOL_BUSY_ENV, PROTOCOL_ENV
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.harness import EvalConfig, evaluate
 from biovln_ms.eval.methods import METHODS, method_spec
 from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.noise import resolve_noise
+from biovln_ms.episodes.dataset import EpisodeDataset
+from biovln_ms.splits import BUSY_SPLITS, dataset_root
 
 #: the benchmark splits: the paper's MS VAL / TEST, Two-Room and LSAT, and the Hard track
 SUITE_SPLITS = ("ms_val", "ms_test", "two_room", "lsat_target", "hard_val", "hard_test")
@@ -78,10 +81,16 @@ def skip_reason(method: str) -> str | None:
 
 
 def plan(
-    methods: Sequence[str], splits: Sequence[str], noises: Sequence[str], paper_tables: bool = True
+    methods: Sequence[str],
+    splits: Sequence[str],
+    noises: Sequence[str],
+    paper_tables: bool = True,
+    people: bool = True,
 ) -> list[SuiteRun]:
     """Every (method, split, preset), a method's ideal runs first; with ``paper_tables`` also each method
-    on MS DEV (ideal) and the centroid ablation, for the paper's table layouts."""
+    on MS DEV (ideal) and the centroid ablation, for the paper's table layouts; with ``people`` each
+    single-goal method of the benchmark env on the busy splits (``BUSY_ENV``) under every preset, and each
+    protocol method on the protocol splits with people (``PROTOCOL_BUSY_ENV``, ideal)."""
     for m in methods:
         method_spec(m)
     for n in noises:
@@ -91,8 +100,12 @@ def plan(
         why = skip_reason(m)
         if METHODS[m].env_id == PROTOCOL_ENV:  # lab protocols: the protocol splits, ideal only
             runs += [SuiteRun(m, s, "ideal", why) for s in PROTOCOL_SPLITS]
+            if people:
+                runs += [SuiteRun(m, s, "ideal", why, PROTOCOL_BUSY_ENV) for s in PROTOCOL_SPLITS]
             continue
         runs += [SuiteRun(m, s, n, why) for n in noises for s in splits]
+        if people and METHODS[m].env_id is None:  # the RL methods' own variant has no people
+            runs += [SuiteRun(m, s, n, why, BUSY_ENV) for n in noises for s in BUSY_SPLITS]
         if paper_tables:
             runs.append(SuiteRun(m, PAPER_SPLIT, "ideal", why))
             method, env, paper_splits = CENTROID
@@ -173,11 +186,25 @@ class Suite:
         return str(path / "bc.pt")
 
     # --- the runs -------------------------------------------------------------------------------------
+    def _people_splits(self, runs: list[SuiteRun]) -> list[SuiteRun]:
+        """The runs with people, skipped where the dataset lacks their split (a dataset of one's own)."""
+        if not any(r.env_id in (BUSY_ENV, PROTOCOL_BUSY_ENV) for r in runs):
+            return runs
+        known = set(EpisodeDataset(dataset_root(self.dataset)).split_names())
+        why = "the dataset has no split '{}' (biovln-ms dataset build makes the paper's splits)"
+        return [
+            replace(r, skip=r.skip or why.format(r.split))
+            if r.env_id in (BUSY_ENV, PROTOCOL_BUSY_ENV) and r.split not in known
+            else r
+            for r in runs
+        ]
+
     def run(
         self, runs: list[SuiteRun], checkpoints: dict[str, str] | None = None, progress: bool = True
     ) -> dict:
         """Make (or resume) every run; returns the log."""
         given = dict(checkpoints or {})
+        runs = self._people_splits(runs)
         todo = [r for r in runs if not r.skip]
         for method in dict.fromkeys(r.method for r in todo if r.method in given):
             spec = method_spec(method)
@@ -283,10 +310,11 @@ def run_suite(
     progress: bool = True,
     echo: Callable[[str], None] = print,
     paper_tables: bool = True,
+    people: bool = True,
 ) -> dict:
     """Plan, run (or resume) and, with ``report``, write the report of ``<out>/results``."""
     suite = Suite(out, workers, dataset, echo)
-    log = suite.run(plan(methods, splits, noises, paper_tables), checkpoints, progress)
+    log = suite.run(plan(methods, splits, noises, paper_tables, people), checkpoints, progress)
     for line in suite.table():
         echo(line)
     if report is not None:

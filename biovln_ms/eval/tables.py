@@ -39,6 +39,19 @@ STANDARD_MEASURES = (
 )
 
 
+#: the people table's columns: a busy run's success and its human-aware measures (docs/guides/people.md)
+PEOPLE_TABLE_MEASURES = (
+    "success",
+    "strict_success",
+    "min_person_distance",
+    "personal_space_rate",
+    "person_collisions",
+    "robot_wait_time",
+    "occupied_stop",
+    "mcr_people",
+)
+
+
 #: the one-line summary `biovln-ms eval` and `train` print, of a single-goal and of a protocol run
 HEADLINE_MEASURES = ("success", "spl", "distance_to_goal", "mcr", "vrt")
 PROTOCOL_HEADLINE_MEASURES = ("protocol_success", "progress", "ppl", "mcr", "vrt")
