@@ -279,6 +279,7 @@ class BioVLNNavEnv(BaseEnv):
     def get_state_dict(self):
         """ManiSkill's simulation and controller state plus the task's (:mod:`~.task_state`), so a replay
         from it gives the same rewards and infos."""
+        self._sync_people()
         state = super().get_state_dict()
         state["task"] = task_state(self)
         return state
@@ -290,16 +291,27 @@ class BioVLNNavEnv(BaseEnv):
         if state.get("task") is not None:
             load_task_state(self, state["task"], reference["task"], env_idx)
 
-    # --- rendering -----------------------------------------------------------------------------
+    # --- rendering: the people's figures are placed first (``EnvPeople.sync``) -------------------------
+    def _sync_people(self) -> None:
+        if self._people is not None:
+            self._people.sync()
+
+    def _get_obs_sensor_data(self, apply_texture_transforms: bool = True) -> dict:
+        self._sync_people()
+        return super()._get_obs_sensor_data(apply_texture_transforms)
+
+    def render_human(self):
+        self._sync_people()
+        return super().render_human()
+
+    def render_all(self):
+        self._sync_people()
+        return super().render_all()
+
     def render_rgb_array(self, camera_name: str | None = None):
         """The follow camera's view with the ceilings hidden (sensors keep them)."""
-        bodies = [
-            e.find_component_by_type(sapien.render.RenderBodyComponent)
-            for b in self.scene_builder.built.values()
-            for a in b.shell
-            if a.name.endswith("ceiling")
-            for e in a._objs
-        ]
+        self._sync_people()
+        bodies = self.scene_builder.ceiling_bodies()
         for body in bodies:
             body.visibility = 0.0
         try:

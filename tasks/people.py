@@ -46,6 +46,7 @@ class EnvPeople:
         self.crowds = [Crowd(p) for _ in range(n)]
         self.hit = np.zeros(n, dtype=bool)
         self._placed = np.full((n, p, 3), np.nan)  # each figure's last placed (x, y, yaw) per sub-env
+        self._stale = False  # people moved since their figures were placed (``sync``)
         self.seconds = step_seconds(env.cfg.forward_step, env.cfg.turn_deg)
         self.actors = [self._figure(k) for k in range(p)]  # one actor per person, batched over sub-envs
         self.label = len(env.category_names) + 1  # a person's semantic category: after the goal categories
@@ -92,7 +93,7 @@ class EnvPeople:
                 ) from None
         self.hit[rows] = False
         self._placed[rows] = np.nan  # a new episode's figures are placed whatever they were
-        self._place(sorted(rows))
+        self._stale = True
         return self._view(np.zeros(e.num_envs))
 
     def cut(self, i: int, x: float, y: float, tx: float, ty: float) -> tuple[float, float]:
@@ -106,7 +107,7 @@ class EnvPeople:
         wait = np.zeros(self.env.num_envs)
         for i in np.flatnonzero(~frozen).tolist():
             wait[i] = self.crowds[i].advance(self.seconds, pose[i, :2])
-        self._place(list(range(self.env.num_envs)))
+        self._stale = True
         out = self._view(wait)
         self.hit[:] = False
         return out
@@ -114,6 +115,13 @@ class EnvPeople:
     def _view(self, wait: np.ndarray) -> PeopleStep:
         positions = np.stack([c.pos for c in self.crowds])
         return PeopleStep(positions, self.hit.copy(), wait, self.env._footprint, self.seconds)
+
+    def sync(self) -> None:
+        """Place the figures where their people are, if they moved since (the env calls it before anything
+        renders and before its state is read: a state-only step never pays for the figures)."""
+        if self._stale:
+            self._place(list(range(self.env.num_envs)))
+            self._stale = False
 
     def _place(self, rows: list[int]) -> None:
         """The figures of sub-envs ``rows`` where their people are (on the GPU, rows are the sub-envs being
@@ -157,5 +165,6 @@ class EnvPeople:
 
     def load_state_dict(self, state: dict, rows: np.ndarray) -> None:
         self._placed[rows] = np.nan  # the figures' poses come back with ManiSkill's actor state
+        self._stale = True
         for i in rows.tolist():
             self.crowds[i].load({k: torch.as_tensor(state[k]).cpu().numpy()[i] for k in Crowd.STATE})

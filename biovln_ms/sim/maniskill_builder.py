@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Sequence, Union
 
 import numpy as np
+import sapien
 import shapely
 import torch
 import trimesh
@@ -87,6 +88,16 @@ class LabSceneBuilder(SceneBuilder):
 
     def initialize(self, env_idx: torch.Tensor, init_config_idxs: list[int] | None = None) -> None:
         """The scene is static: nothing to reset between episodes."""
+
+    def ceiling_bodies(self) -> list:
+        """The render bodies of every built scene's ceilings (a follow camera above the robot hides them)."""
+        return [
+            e.find_component_by_type(sapien.render.RenderBodyComponent)
+            for b in self.built.values()
+            for a in b.shell
+            if a.name.endswith("ceiling")
+            for e in a._objs
+        ]
 
     def segmentation_ids(self, bci: int = 0) -> dict[int, str]:
         """Per-scene segmentation id -> object id for one build config."""
