@@ -251,6 +251,43 @@ def test_a_killed_run_resumes_with_each_episode_exactly_once(held_out_dataset, t
     assert any("resuming" in line for line in said)
 
 
+def test_a_terminated_run_stops_its_workers(held_out_dataset, tmp_path):
+    """``kill`` (SIGTERM) of a run with worker processes ends them too: none is left running on its own."""
+    data = held_out_dataset(ms_val=40)
+    path = tmp_path / "random" / "ms_val" / "episodes.jsonl"
+    cmd = [sys.executable, "-m", "biovln_ms.cli", "eval", "-m", "random", "-s", "ms_val"]
+    proc = subprocess.Popen(
+        [*cmd, "--dataset", data, "-o", str(tmp_path), "--workers", "2"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,  # its own process group: the workers are in it too
+    )
+    try:
+        deadline = time.monotonic() + 180
+        while _lines(path) < 2 and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert proc.poll() is None and _lines(path) >= 2  # the workers are running episodes
+        os.kill(proc.pid, signal.SIGTERM)
+        proc.wait(timeout=60)
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            try:
+                os.killpg(proc.pid, 0)  # a process of the group still exists
+            except ProcessLookupError:
+                break
+            time.sleep(0.1)
+        else:
+            pytest.fail("worker processes outlived the terminated run")
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    assert proc.returncode == 128 + signal.SIGTERM
+
+
 def test_duplicate_records_of_an_older_version_are_repaired_and_named(ds, tmp_path):
     from biovln_ms.eval.report import load_runs
 

@@ -23,6 +23,9 @@ import json
 import math
 import os
 import re
+import signal
+import sys
+import threading
 import time
 from dataclasses import asdict, dataclass, field
 from importlib import metadata
@@ -559,6 +562,7 @@ def _run_on_pool(wcfg: dict, todo: list[int], workers: int, write) -> None:
     pool = ProcessPoolExecutor(
         workers, mp_context=mp.get_context("spawn"), initializer=_keep_config, initargs=(wcfg,)
     )
+    previous = _exit_on_sigterm()
     try:
         pending = {pool.submit(_run_pooled, i) for i in todo}
         while pending:
@@ -573,6 +577,16 @@ def _run_on_pool(wcfg: dict, todo: list[int], workers: int, write) -> None:
         ) from None
     finally:
         _stop_pool(pool)
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _exit_on_sigterm():
+    """While workers run, a SIGTERM (``kill``'s default) ends the run as ^C does, so that the workers are
+    stopped rather than left running on their own; the handler it replaced (None off the main thread)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
 
 
 def _stop_pool(pool) -> None:

@@ -74,6 +74,7 @@ __all__ = [
     "head_depth",
     "head_frame",
     "pose_from_odometry",
+    "sideways_spread",
     "to_numpy",
 ]
 
