@@ -16,7 +16,7 @@ from shapely.geometry import box
 from biovln_ms.baselines.frontier import OCCUPIED, FrontierParams, OccupancyMap
 from biovln_ms.baselines.frontier import forgets, sideways_spread
 from biovln_ms.baselines.frontier.control import FrontierController
-from biovln_ms.baselines.frontier.planner import ESCAPE_INFLATE, Plan, PlanField
+from biovln_ms.baselines.frontier.planner import Plan, PlanField
 from biovln_ms.baselines.oracle import PeopleGuard
 from biovln_ms.baselines.policy import FORWARD, STOP, TURN_LEFT, TURN_RIGHT
 from biovln_ms.noise import resolve_noise
@@ -47,15 +47,13 @@ def test_the_map_forgets_with_people_unless_told():
     assert not forgets(FrontierParams(forget=False), replace(TASK, people=2))
 
 
-def _forgetting_controller(
-    obstacles, grow: int = PARAMS.inflate_cells
-) -> tuple[FrontierController, FixedPlanner]:
+def _forgetting_controller(obstacles, boxed: bool = False) -> tuple[FrontierController, FixedPlanner]:
     """A controller on a map that forgets, with obstacle cells at world ``obstacles`` and a fixed plan
-    straight east to (2.5, 0), made with obstacles grown ``grow`` cells."""
+    straight east to (2.5, 0) (``boxed``: made while boxed in)."""
     m = OccupancyMap((0.0, 0.0), 0.05, 20.0, forget=True)
     for xy in obstacles:
         m.mark_occupied(xy)
-    planner = FixedPlanner(Plan("explore", np.array([2.5, 0.0]), [np.array([2.5, 0.0])], grow))
+    planner = FixedPlanner(Plan("explore", np.array([2.5, 0.0]), [np.array([2.5, 0.0])], boxed))
     planner.round_growth = False
     return FrontierController(PARAMS, 0.25, math.radians(30), m, planner), planner
 
@@ -83,11 +81,14 @@ def test_the_frontier_controller_waits_then_plans_with_round_growth_for_a_while(
 
 def test_a_boxed_in_frontier_controller_squeezes_out_after_a_long_wait():
     wall = [(0.45, y) for y in np.arange(-0.6, 0.61, 0.05)]
-    ctl, planner = _forgetting_controller(wall, grow=ESCAPE_INFLATE)  # the plan of a robot boxed in
-    actions = [ctl.act(np.array([0.0, 0.0, 0.0 if k % 2 == 0 else math.radians(30)])) for k in range(16)]
+    ctl, planner = _forgetting_controller(wall, boxed=True)  # the plan of a robot boxed in
+    actions = [
+        ctl.act(np.array([0.0, 0.0, 0.0 if k % 2 == 0 else math.radians(30)]))
+        for k in range(2 * PARAMS.wait_limit)
+    ]
     assert actions == [TURN_LEFT, TURN_RIGHT] * PARAMS.wait_limit and not planner.round_growth
     assert ctl.act(np.zeros(3)) == FORWARD  # squeezes out along the escape plan, check off
-    planner.fixed = planner.fixed._replace(grow=PARAMS.inflate_cells)  # out: a plan with the full growth
+    planner.fixed = planner.fixed._replace(boxed=False)  # out: a plan with the full growth
     ctl._replan_now = True
     assert ctl.act(np.array([0.25, 0.0, 0.0])) == TURN_LEFT  # the check is back
 
@@ -104,7 +105,7 @@ def test_on_an_evidence_map_the_last_frames_points_count_and_a_noisy_robot_keeps
     assert ctl.act(np.zeros(3)) == FORWARD
     noisy = replace(PARAMS, noise_margin=sideways_spread(resolve_noise("realistic")))
     assert (
-        noisy.noise_margin == pytest.approx(0.152, abs=1e-3) and sideways_spread(resolve_noise("ideal")) == 0
+        noisy.noise_margin == pytest.approx(0.173, abs=1e-3) and sideways_spread(resolve_noise("ideal")) == 0
     )
     ctl = FrontierController(noisy, 0.25, math.radians(30), m, planner)
     assert ctl.act(np.zeros(3)) != FORWARD

@@ -173,6 +173,30 @@ def test_the_measures_of_people_without_people_are_refused():
         gym.make("BioVLN-OpFace-v0", measures=measures, **CPU)
 
 
+def test_figures_are_placed_when_the_state_is_read_not_at_every_step():
+    e = gym.make("BioVLN-OpFace-v0", people=2, **CPU)  # no camera observes them
+    try:
+        u = e.unwrapped
+        e.reset(seed=3)
+        for a in (1, 2, 1, 1):
+            e.step(a)
+        assert u._people._stale  # moved since their figures were placed
+        actors = u.get_state_dict()["actors"]
+        for k, person in enumerate(u._people.crowds[0].pos):
+            assert np.allclose(actors[f"person_{k}"][0, :2].numpy(), person, atol=1e-5)
+        assert not u._people._stale
+    finally:
+        e.close()
+
+
+def test_a_protocols_occupied_stop_is_updated_after_its_goal_index_whatever_the_order():
+    from biovln_ms.variants import PROTOCOL_BUSY_ENV, VARIANTS
+
+    order = list(MeasureSet(("occupied_stop", "subgoal_index"), cfg=VARIANTS[PROTOCOL_BUSY_ENV]).measures)
+    assert order.index("subgoal_index") < order.index("occupied_stop")
+    assert "subgoal_index" not in MeasureSet(("occupied_stop",)).measures  # an order, not a need
+
+
 def test_env_with_people_replays_from_its_state_and_a_collision_ends_it():
     e = gym.make("BioVLN-OpFace-v0", people=2, **CPU)
     try:

@@ -562,7 +562,7 @@ def _run_on_pool(wcfg: dict, todo: list[int], workers: int, write) -> None:
     pool = ProcessPoolExecutor(
         workers, mp_context=mp.get_context("spawn"), initializer=_keep_config, initargs=(wcfg,)
     )
-    previous = _exit_on_sigterm()
+    restore = _exit_on_sigterm()
     try:
         pending = {pool.submit(_run_pooled, i) for i in todo}
         while pending:
@@ -577,29 +577,33 @@ def _run_on_pool(wcfg: dict, todo: list[int], workers: int, write) -> None:
         ) from None
     finally:
         _stop_pool(pool)
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        restore()
 
 
 def _exit_on_sigterm():
     """While workers run, a SIGTERM (``kill``'s default) ends the run as ^C does, so that the workers are
-    stopped rather than left running on their own; the handler it replaced (None off the main thread)."""
-    if threading.current_thread() is not threading.main_thread():
-        return None
-    return signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+    stopped rather than left running on their own; returns what puts the previous handler back."""
+    if threading.current_thread() is not threading.main_thread():  # only the main thread may set one
+        return lambda: None
+    previous = signal.getsignal(signal.SIGTERM)  # None: set outside Python, restored as the default
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+    return lambda: signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
 
 
 def _stop_pool(pool) -> None:
-    """Shut ``pool`` down without waiting for the episodes still running (after an error, or ^C)."""
-    pool.shutdown(wait=False, cancel_futures=True)
-    # ProcessPoolExecutor has no public way to end running workers before Python 3.14
-    stop = getattr(pool, "terminate_workers", None)
+    """Shut ``pool`` down without waiting for the episodes still running (after an error, ^C or SIGTERM):
+    its workers are ended, and gone when this returns."""
+    stop = getattr(pool, "terminate_workers", None)  # Python 3.14's public way
     if stop is not None:
         stop()
         return
-    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+    workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown() forgets them
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in workers:
         if proc.is_alive():
             proc.terminate()
+    for proc in workers:
+        proc.join(timeout=10)
 
 
 class EpisodeRunner:

@@ -7,8 +7,15 @@ from __future__ import annotations
 
 import math
 
-from biovln_ms.variants import BUSY_ENV, CENTROID_ENV
-from biovln_ms.splits import BUSY_SPLITS, HARD_SPLITS, HELD_OUT, LSAT_EPISODES, TWO_ROOM_BENCH
+from biovln_ms.variants import BUSY_ENV, CENTROID_ENV, PROTOCOL_BUSY_ENV, PROTOCOL_PEOPLE
+from biovln_ms.splits import (
+    BUSY_MAX_PEOPLE,
+    BUSY_SPLITS,
+    HARD_SPLITS,
+    HELD_OUT,
+    LSAT_EPISODES,
+    TWO_ROOM_BENCH,
+)
 from biovln_ms.eval import paper
 from biovln_ms.eval.harness import run_name
 from biovln_ms.eval.methods import METHODS, method_of_paper_key, report_methods
@@ -184,37 +191,53 @@ def reach_table(summ) -> list[str]:
     return out + [""]
 
 
-#: the empty-lab splits the people table shows a method's SR on, beside its busy runs
+#: the empty-lab splits the people table shows a single-goal method's SR on, beside its busy runs
 EMPTY_LAB_SPLITS = ("ms_val", "hard_val")
 
 
-def people_table(summ) -> list[str]:
-    """People in the lab: every method on the busy splits (``BioVLN-OpFace-Busy-v0``) under each preset, with
-    the human-aware measures (``PEOPLE_TABLE_MEASURES``) and, beside them, its empty-lab SR."""
-    aggs = [measure_type(u).metric.aggregates[0] for u in PEOPLE_TABLE_MEASURES]
-    head = ["Method", "noise", "split", "n", *(f"{a.label} {a.unit}" for a in aggs)]
-    head += [f"empty lab SR % ({s})" for s in EMPTY_LAB_SPLITS]
-    rows = []
+def _people_runs():
+    """(run, split, the empty-lab runs and splits beside it) of every people run the people table shows:
+    the single-goal methods on the busy splits, the protocol methods on the protocol splits with people."""
     for m in report_methods():
         for preset in PRESETS:
-            run = run_name(m, BUSY_ENV, noise=preset)
+            empty = _preset_run(m, preset)
             for s in BUSY_SPLITS:
-                if not _ran(summ, run, s):
-                    continue
-                agg = _get(summ, run, s)
-                cells = [METHODS[m].label, preset, s, _n(summ, run, s)]
-                cells += [_metric(agg, a.key, 1 if a.unit.startswith("%") else 3) for a in aggs]
-                empty = _preset_run(m, preset)
-                cells += [_metric(_get(summ, empty, e), "sr", 1) for e in EMPTY_LAB_SPLITS]
-                rows.append("| " + " | ".join(cells) + " |")
+                yield (
+                    m,
+                    preset,
+                    run_name(m, BUSY_ENV, noise=preset),
+                    s,
+                    [(empty, e) for e in EMPTY_LAB_SPLITS],
+                )
+            for s in PROTOCOL_REPORT_SPLITS:
+                yield m, preset, run_name(m, PROTOCOL_BUSY_ENV, noise=preset), s, [(empty, s)]
+
+
+def people_table(summ) -> list[str]:
+    """People in the lab: every method's runs with people (``BUSY_ENV`` on the busy splits,
+    ``PROTOCOL_BUSY_ENV`` on the protocol splits) under each preset, with the human-aware measures
+    (``PEOPLE_TABLE_MEASURES``) and, beside them, its SR in the empty lab."""
+    aggs = [measure_type(u).metric.aggregates[0] for u in PEOPLE_TABLE_MEASURES]
+    head = ["Method", "noise", "split", "n", *(f"{a.label} {a.unit}" for a in aggs), "empty lab SR %"]
+    rows = []
+    for m, preset, run, s, empty in _people_runs():
+        if not _ran(summ, run, s):
+            continue
+        agg = _get(summ, run, s)
+        cells = [METHODS[m].label, preset, s, _n(summ, run, s)]
+        cells += [_metric(agg, a.key, 1 if a.unit.startswith("%") else 3) for a in aggs]
+        cells.append(" / ".join(_metric(_get(summ, r, e), "sr", 1) for r, e in empty))
+        rows.append("| " + " | ".join(cells) + " |")
     if not rows:
         return []
     return [
         "## People in the lab: ours [95 % CI]",
         "",
-        "BioVLN-OpFace-Busy-v0 on the busy splits: each episode with its own crowd of 1-4 technicians (the "
-        "people guide). Distances body to body; a person collision ends the episode as a failure. The "
-        "empty-lab SR is the same method's on other scenes (a dash: not run). " + N_NOTE,
+        f"BioVLN-OpFace-Busy-v0 on the busy splits, each episode with its own crowd of 1-{BUSY_MAX_PEOPLE} "
+        f"technicians; BioVLN-Protocol-Busy-v0 on the protocol splits, {PROTOCOL_PEOPLE} technicians (the "
+        "people guide). Distances body to body; a person collision ends the episode as a failure. Empty lab "
+        f"SR: the same method's, on {' / '.join(EMPTY_LAB_SPLITS)} (other scenes) beside a busy split and on "
+        "the same split beside a protocol one (a dash: not run). " + N_NOTE,
         "",
         "| " + " | ".join(head) + " |",
         "|" + "---|" * len(head),
@@ -228,13 +251,13 @@ def other_measures_table(summ) -> list[str]:
     and split: its value with its interval, under its label."""
     standard = set(table_keys(STANDARD_MEASURES))
     with_people = standard | set(table_keys(PEOPLE_TABLE_MEASURES))  # what the people table shows too
-    busy_runs = {run_name(m, BUSY_ENV, noise=p) for m in report_methods() for p in PRESETS}
+    people_runs = {(run, s) for _, _, run, s, _ in _people_runs()}
     labels = summ.get("labels", {})
     rows = []
     for run, splits in sorted(summ["runs"].items()):
         for split, d in sorted(splits.items()):
             o = d["overall"]
-            shown = with_people if run in busy_runs and split in BUSY_SPLITS else standard
+            shown = with_people if (run, split) in people_runs else standard
             for key, v in o.items():
                 number = v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
                 if key not in shown and not key.endswith("_ci95") and number:

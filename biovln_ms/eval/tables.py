@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import math
 
-import biovln_ms.metrics.protocol_measures  # noqa: F401  (registers the measures the tables name)
+import biovln_ms.metrics.people_measures  # noqa: F401  (registers the measures the tables name)
+import biovln_ms.metrics.protocol_measures  # noqa: F401
 import biovln_ms.metrics.reach_measures  # noqa: F401
 from biovln_ms.metrics.measures import Aggregate, measure_type
 

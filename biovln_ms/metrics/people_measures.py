@@ -233,8 +233,8 @@ class OccupiedStop(Measure):
         protocol = "subgoal_index" in m.measures
         if stopped.any():  # the Zone 3 test only at a STOP
             occupied = _zone3_occupied(ctx, s, idx)
-            if protocol:
-                col = np.minimum(self.goal[idx], occupied.shape[1] - 1)
+            if protocol:  # the goal asked for at this STOP (the last once every goal is done)
+                col = np.minimum(self.goal[idx], ctx.num_goals[idx] - 1)
                 occupied = occupied[np.arange(len(col)), col]
             else:
                 occupied = occupied.any(axis=1)

@@ -47,6 +47,7 @@ from biovln_ms.metrics.measures import (
     _facing_face,
     _goal_distances,
     _in_zone3,
+    _zone3_occupied,
     rate,
     register_measure,
 )
@@ -139,8 +140,10 @@ class SubgoalIndex(Measure):
         j, k = self.value[idx], ctx.num_goals[idx]
         col = np.minimum(j, k - 1)
         at = _column(_goal_distances(ctx, s, idx), col) <= _column(ctx.radii[idx], col)
-        if self.cfg.subgoal_rule == "strict":
+        if self.cfg.subgoal_rule == "strict":  # strict_success's rule: with people, a free Zone 3 too
             at &= _column(_in_zone3(ctx, s, idx), col) & _column(_facing_face(ctx, s, idx, self.cfg), col)
+            if s.people is not None and at.any():
+                at &= ~_column(_zone3_occupied(ctx, s, idx), col)
         stop = m["stopped"][idx] & (j < k)
         found, wrong = stop & at, stop & ~at
         status = self.status[idx]

@@ -127,9 +127,10 @@ def head_depth(obs: dict) -> tuple[np.ndarray, np.ndarray]:
 
 
 def sideways_spread(noise) -> float:
-    """Two standard deviations (m) of a FORWARD's sideways error under ``noise``'s actuation noise (the
-    LoCoBot model, scaled; 0 without): how far a noisy step may land beside where it was aimed."""
-    return 2.0 * math.sqrt(LOCOBOT_FORWARD.position.variance[1]) * float(noise.actuation)
+    """How far (m) a FORWARD may land beside where it was aimed under ``noise``'s actuation noise: the mean
+    of its sideways error plus two standard deviations (the LoCoBot model, scaled; 0 without)."""
+    across = LOCOBOT_FORWARD.position
+    return (abs(across.mean[1]) + 2.0 * math.sqrt(across.variance[1])) * float(noise.actuation)
 
 
 def forgets(params: FrontierParams, task: TaskSpec) -> bool:
@@ -216,8 +217,7 @@ class FrontierPolicy(Policy):
         self.map = OccupancyMap(
             pose[:2], p.resolution, p.extent, evidence=self.task.noise.depth, forget=forget
         )
-        if forget:  # what moves is people: keep clear of their bodies, not only of the figures depth sees
-            p = replace(p, margin=p.margin + p.people_margin, noise_margin=sideways_spread(self.task.noise))
+        p = self.people_params(p)
         if not self.task.noise.sliding:  # a move that grazes an obstacle is lost: step clear when boxed in
             p = replace(p, step_clear=True)
         self.planner = FrontierPlanner(p, self)
@@ -225,6 +225,13 @@ class FrontierPolicy(Policy):
         if self.localiser is not None:  # an estimated pose: a blocked FORWARD moved it less than half a step
             p = replace(p, blocked_move=max(p.blocked_move, self.task.forward_step / 2))
         self.control = FrontierController(p, self.task.forward_step, turn, self.map, self.planner)
+
+    def people_params(self, p: FrontierParams) -> FrontierParams:
+        """``p`` kept clear of people's bodies, not only of the figures depth sees, on a map that forgets
+        (people walk the lab); ``p`` itself otherwise."""
+        if not forgets(p, self.task):
+            return p
+        return replace(p, margin=p.margin + p.people_margin, noise_margin=sideways_spread(self.task.noise))
 
     def _integrate(self, obs) -> Scan:
         """Add the head camera's depth frame to the map (VLFM also scores and detects on it), and the disc

@@ -73,6 +73,7 @@ class FrontierController:
     def act(self, pose: np.ndarray) -> int:
         """The action at ``pose`` (x, y, yaw)."""
         p, yaw = pose[:2], float(pose[2])
+        dodge, self._dodge = self._dodge, False  # a turn aside last step asks for the step that passes
         if self._blocked(p):  # contact the map missed: mark it and re-plan
             self.occ_map.mark_occupied(p + (self.params.robot_radius + self.occ_map.res) * heading(yaw))
             self._replan_now = True
@@ -89,11 +90,10 @@ class FrontierController:
             self._stuck += 1
             return self.record(p, TURN_LEFT if self._stuck < self.params.stuck_turns else STOP)
         self._stuck = 0
-        dodge, self._dodge = self._dodge, False
-        if dodge and self._clear_ahead(p, yaw):  # turned aside last step: the step that passes
+        if dodge and self._clear_ahead(p, yaw):
             return self.record(p, FORWARD)
         action = self._follow(p, yaw)
-        self._squeeze &= self.plan.grow < self.params.inflate_cells  # until a plan with the full growth
+        self._squeeze &= self.plan.boxed  # until a plan with the full growth
         if action == FORWARD and self.occ_map.forget and not self._squeeze and self._step_hits(p, yaw):
             self.plan = self.planner.plan(self.occ_map, pose)  # something moved into the way: re-plan
             self._since_plan = 1
@@ -105,16 +105,11 @@ class FrontierController:
                     return self.record(p, aside)
                 action = TURN_LEFT  # still in the way: wait for it to move on
                 self._waits += 1
-                if self._waits >= self.params.wait_limit and self.plan.grow < self.params.inflate_cells:
+                if self._waits >= self.params.wait_limit and self.plan.boxed:
                     self._squeeze, self._waits = True, 0  # boxed in, waited long: squeeze out along the plan
                 elif self._waits >= self.params.wait_limit:  # waited long: plan with round growth a while
                     self.planner.round_growth, self._replan_now = True, True
                     self._waits, self._round_left = 0, self.params.wait_limit
-        if action == FORWARD:
-            self._waits = 0
-            if self._round_left > 0:
-                self._round_left -= 1
-                self.planner.round_growth = self._round_left > 0
         return self.record(p, action)
 
     def _step_hits(self, p: np.ndarray, yaw: float) -> bool:
@@ -149,7 +144,13 @@ class FrontierController:
         return None
 
     def record(self, p: np.ndarray, action: int) -> int:
-        """Remember the step's position and action (to detect a blocked move next step); returns it."""
+        """Remember the step's position and action (to detect a blocked move next step); returns it. A FORWARD
+        ends a run of waits and counts down the round growth."""
+        if action == FORWARD:
+            self._waits = 0
+            if self._round_left > 0:
+                self._round_left -= 1
+                self.planner.round_growth = self._round_left > 0
         self._last = (p.copy(), action)
         return action
 

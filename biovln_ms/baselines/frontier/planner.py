@@ -45,13 +45,13 @@ class Candidate(NamedTuple):
 
 class Plan(NamedTuple):
     """``mode``: "explore" (to a frontier) or "goal" (to a target to stop at); the path's waypoints end
-    at the target's cell and are empty when it is unreachable; ``grow``: the cells by which obstacles were
-    grown for it (the full growth, or ``ESCAPE_INFLATE`` while boxed in)."""
+    at the target's cell and are empty when it is unreachable; ``boxed``: planned while boxed in, on
+    obstacles grown ``ESCAPE_INFLATE`` cells only."""
 
     mode: str
     target: np.ndarray
     path: list[np.ndarray]
-    grow: int = 0
+    boxed: bool = False
 
 
 @dataclass
@@ -183,8 +183,9 @@ class FrontierPlanner:
         """A known target if the rules have one, else the chosen frontier, else the exhausted fallback."""
         grow = self.params.inflate_cells
         boxed = boxed_in(occ_map, pose[:2], grow + self.round_growth)
-        used = ESCAPE_INFLATE if boxed else grow
-        field = PlanField.compute(occ_map, pose[:2], used, self.round_growth and not boxed)
+        field = PlanField.compute(
+            occ_map, pose[:2], ESCAPE_INFLATE if boxed else grow, self.round_growth and not boxed
+        )
         mode, target = "goal", self.rules.known_target(field)
         if target is None and boxed and self.params.step_clear:
             mode, target = "explore", clear_cell(field, grow)
@@ -194,7 +195,7 @@ class FrontierPlanner:
                 mode, target = "explore", self.rules.choose(candidates, pose)
             else:
                 mode, target = "goal", self.rules.exhausted(field, pose)
-        return Plan(mode, target, field.path_to(target), used)
+        return Plan(mode, target, field.path_to(target), boxed)
 
     def ban(self, target: np.ndarray) -> None:
         """No frontier within the cluster radius of ``target`` is a candidate any more."""

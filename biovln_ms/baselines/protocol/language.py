@@ -259,7 +259,7 @@ class ProtocolLanguagePolicy(FrontierPolicy):
 
     def _new_leg(self) -> None:
         """A new planner and controller on the map kept so far."""
-        self.planner = FrontierPlanner(self.params, self)
+        self.planner = FrontierPlanner(self.people_params(self.params), self)
         turn = math.radians(self.task.turn_deg)
         p = self.control.params
         self.control = FrontierController(p, self.task.forward_step, turn, self.map, self.planner)
