@@ -562,13 +562,14 @@ def _run_on_pool(wcfg: dict, todo: list[int], workers: int, write) -> None:
     pool = ProcessPoolExecutor(
         workers, mp_context=mp.get_context("spawn"), initializer=_keep_config, initargs=(wcfg,)
     )
-    restore = _exit_on_sigterm()
+    restore, finished = _exit_on_sigterm(), False
     try:
         pending = {pool.submit(_run_pooled, i) for i in todo}
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for fut in done:
                 write(fut.result())
+        finished = True
     except BrokenProcessPool:
         raise BioVLNError(
             "an evaluation worker process died (crashed, or killed for memory)",
@@ -576,7 +577,10 @@ def _run_on_pool(wcfg: dict, todo: list[int], workers: int, write) -> None:
             fix="run again to resume; with --workers 1 its error shows, fewer workers need less memory",
         ) from None
     finally:
-        _stop_pool(pool)
+        if finished:  # every episode ran: the workers end on their own
+            pool.shutdown(wait=True)
+        else:
+            _stop_pool(pool)
         restore()
 
 
