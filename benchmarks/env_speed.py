@@ -75,13 +75,32 @@ def time_noise_work(env) -> dict[str, float]:
     return spent
 
 
+def interleaved_ratio(envs, steps: int, block: int, after_block=None) -> float:
+    """The median over block pairs of ``envs[1]``'s time over ``envs[0]``'s for the same random actions:
+    blocks of ``block`` steps alternate between the two envs (which goes first alternating too), so a burst
+    of machine noise in one block does not decide it. ``after_block`` runs after each pair, untimed."""
+    actions = np.random.default_rng(0).integers(1, 4, steps).tolist()
+    ratios = []
+    for start in range(0, steps, block):
+        spent = [0.0, 0.0]
+        for i in (0, 1) if (start // block) % 2 == 0 else (1, 0):
+            t = time.perf_counter()
+            for a in actions[start : start + block]:
+                _, _, term, trunc, _ = envs[i].step(a)
+                if bool(term) or bool(trunc):
+                    envs[i].reset()
+            spent[i] = time.perf_counter() - t
+        ratios.append(spent[1] / spent[0])
+        if after_block is not None:
+            after_block()
+    return float(np.median(ratios))
+
+
 def same_path_overhead(steps: int, block: int = 20) -> float:
     """End to end on one path: ``ideal`` against the ``realistic`` preset's sensing (RGB and depth noise, no
     GPS+compass, so base-frame extrinsics) with exact, sliding motion, at 640x480 RGB-D. Both robots take the
-    same actions, hence the same path and the same views (checked after every block, outside the timing).
-    Blocks of ``block`` steps alternate between the two envs (which goes first alternating too) and the
-    result is the median over block pairs of the sensing block's time over the ideal one's, minus 1, so a
-    burst of machine noise in one block does not decide it."""
+    same actions, hence the same path and the same views (checked after every block, outside the timing);
+    the result is :func:`interleaved_ratio` of the sensing env over the ideal one, minus 1."""
     sensing = {"preset": "realistic", "actuation": 0.0, "sliding": True}
     envs = []
     try:
@@ -98,23 +117,14 @@ def same_path_overhead(steps: int, block: int = 20) -> float:
                 )
             )
             envs[-1].reset(seed=0, options={"episode_index": 0})
-        actions = np.random.default_rng(0).integers(1, 4, steps).tolist()
-        ratios = []
-        for start in range(0, steps, block):
-            spent = [0.0, 0.0]
-            for i in (0, 1) if (start // block) % 2 == 0 else (1, 0):
-                t = time.perf_counter()
-                for a in actions[start : start + block]:
-                    _, _, term, trunc, _ = envs[i].step(a)
-                    if bool(term) or bool(trunc):
-                        envs[i].reset()
-                spent[i] = time.perf_counter() - t
-            ratios.append(spent[1] / spent[0])
+
+        def same_path() -> None:
             if not np.array_equal(*(env.unwrapped._measures["agent_pose"] for env in envs)):
                 raise RuntimeError(
                     "the ideal and sensing-only envs took different paths; the comparison is void"
                 )
-        return float(np.median(ratios)) - 1
+
+        return interleaved_ratio(envs, steps, block, same_path) - 1
     finally:
         for env in envs:
             env.close()
@@ -136,10 +146,8 @@ def step_rate(env, steps: int) -> float:
 
 
 def busy_cost(obs_mode: str, size: tuple[int, int], steps: int, block: int) -> float:
-    """A busy step's time over an empty-lab step on the ``busy_val`` episodes (``people=0``): both envs take
-    the same actions in blocks of ``block`` steps that alternate between them (which goes first alternating
-    too), and the result is the median over block pairs of the busy block's time over the empty one's, so a
-    burst of machine noise in one block does not decide it."""
+    """A busy step's time over an empty-lab step on the ``busy_val`` episodes (``people=0``): the
+    :func:`interleaved_ratio` of the busy env over the empty one."""
     envs = []
     try:
         for where in ({"people": 0}, {}):
@@ -155,19 +163,7 @@ def busy_cost(obs_mode: str, size: tuple[int, int], steps: int, block: int) -> f
                 )
             )
             envs[-1].reset(seed=0, options={"episode_index": 0})
-        actions = np.random.default_rng(0).integers(1, 4, steps).tolist()
-        ratios = []
-        for start in range(0, steps, block):
-            spent = [0.0, 0.0]
-            for i in (0, 1) if (start // block) % 2 == 0 else (1, 0):
-                t = time.perf_counter()
-                for a in actions[start : start + block]:
-                    _, _, term, trunc, _ = envs[i].step(a)
-                    if bool(term) or bool(trunc):
-                        envs[i].reset()
-                spent[i] = time.perf_counter() - t
-            ratios.append(spent[1] / spent[0])
-        return float(np.median(ratios))
+        return interleaved_ratio(envs, steps, block)
     finally:
         for env in envs:
             env.close()

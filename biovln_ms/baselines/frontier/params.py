@@ -29,7 +29,7 @@ class FrontierParams:
     # this much inside the body the robot must not touch (biovln_ms.people.body.PERSON_RADIUS)
     people_margin: float = 0.1
     # m added to the people check's reach (frontier.control), not to the planner's growth, under actuation
-    # noise: the policy sets it to two standard deviations of a FORWARD's sideways error (it knows its own)
+    # noise: how far a FORWARD may land aside (frontier.sideways_spread; the robot knows its own noise)
     noise_margin: float = 0.0
     # controller
     replan_every: int = 4  # steps between re-plans (Table 15)
@@ -38,8 +38,8 @@ class FrontierParams:
     step_clear: bool = False  # boxed in: first go to the nearest cell clear of the full growth (set by the
     # policy without sliding, where a move that grazes an obstacle is lost; frontier.planner)
     # on a map that forgets (people): consecutive waits for something in the way after which plans grow
-    # obstacles by a disc (frontier.control); a standing person or a wall the diamond growth let the path
-    # pass too near
+    # obstacles by a disc, or a robot boxed in squeezes out (frontier.control): a standing person or a wall
+    # the diamond growth let the path pass too near
     wait_limit: int = 8
     stuck_turns: int = 12  # consecutive steps without a path (turning left to look around) before STOP
     # localisation without GPS+compass (biovln_ms.baselines.frontier.localisation)
