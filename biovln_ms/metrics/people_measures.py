@@ -32,6 +32,7 @@ from biovln_ms.metrics.measures import (
     Measure,
     Metric,
     MinClearance,
+    _once,
     _zone3_occupied,
     rate,
     register_measure,
@@ -45,6 +46,11 @@ WAIT_DISTANCE = 1.0
 STILL = 0.01
 
 
+def _centre_distance(s, idx) -> np.ndarray:
+    """The robot's centre to the nearest person's body, once per step for the measures that read it."""
+    return _once(s, idx, "person_centre_distance", lambda: s.people.centre_distance(s.position, idx))
+
+
 def _metric(key: str, label: str, unit: str, **kw) -> Metric:
     """An optional end-of-episode metric with one mean, recorded only by envs with people."""
     return Metric(key, required=False, when_recorded=True, aggregates=(Aggregate(key, label, unit, **kw),))
@@ -55,7 +61,7 @@ class PersonDistance(Measure):
     uuid = "person_distance"
 
     def compute(self, ctx, s, m, idx):
-        return s.people.gaps(s.position, idx)
+        return s.people.body_gap(_centre_distance(s, idx))
 
 
 @register_measure
@@ -179,7 +185,7 @@ class ObstacleDistance(Measure):
     dependencies = ("clearance",)
 
     def compute(self, ctx, s, m, idx):
-        return np.minimum(m["clearance"][idx], s.people.centre_distance(s.position, idx))
+        return np.minimum(m["clearance"][idx], _centre_distance(s, idx))
 
 
 @register_measure

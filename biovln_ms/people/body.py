@@ -38,6 +38,7 @@ class PeopleStep:
         d = self.positions[idx] - position[idx][:, None, :]
         return np.maximum(np.hypot(d[..., 0], d[..., 1]).min(axis=1) - PERSON_RADIUS, 0.0)
 
-    def gaps(self, position: np.ndarray, idx) -> np.ndarray:
-        """(n,) m from the robot's body to the nearest person's body of rows ``idx`` (0 at contact)."""
-        return np.maximum(self.centre_distance(position, idx) - self.robot_radius, 0.0)
+    def body_gap(self, centre: np.ndarray) -> np.ndarray:
+        """(n,) m from the robot's body to the nearest person's body, from :meth:`centre_distance`'s output
+        (0 at contact)."""
+        return np.maximum(centre - self.robot_radius, 0.0)

@@ -250,19 +250,20 @@ class Crowd:
     def advance(self, seconds: float, robot_xy) -> float:
         """Move the people for ``seconds`` with the robot at ``robot_xy``; the person-seconds they spent
         waiting for the robot."""
-        robot = np.asarray(robot_xy, float)[:2]
+        robot = (float(robot_xy[0]), float(robot_xy[1]))
         ticks = max(1, round(seconds / TICK))
         dt, waited_for_robot = seconds / ticks, 0.0
         people = np.flatnonzero(self.present).tolist()
+        mode, timer = self.mode, self.timer
         for _ in range(ticks):
             for p in people:
-                if self.mode[p] == STAND and self.timer[p] > dt:  # standing on: _tick's work, faster
-                    self.timer[p] -= dt
+                if mode[p] == STAND and timer[p] > dt:  # standing on: _tick's work, faster
+                    timer[p] -= dt
                 else:
                     waited_for_robot += self._tick(p, dt, robot)
         return waited_for_robot
 
-    def _tick(self, p: int, dt: float, robot: np.ndarray) -> float:
+    def _tick(self, p: int, dt: float, robot: tuple[float, float]) -> float:
         """Person ``p``'s tick; the seconds it waited for the robot."""
         if self.mode[p] == STAND:
             self.timer[p] -= dt
@@ -278,56 +279,63 @@ class Crowd:
         side = self._sidestep(p, cand, step, robot)
         self.waited[p] += dt
         if side is not None:  # off the route: a new one from there
-            d = side - self.pos[p]
-            self.pos[p], self.yaw[p] = side, math.atan2(d[1], d[0])
+            self.yaw[p] = math.atan2(side[1] - self.pos[p, 1], side[0] - self.pos[p, 0])
+            self.pos[p] = side
             self._plan(p, int(self.target[p]))
         elif self.waited[p] >= PATIENCE:
             self._retarget(p)
         return dt if blocker == _ROBOT and side is None else 0.0
 
-    def _along(self, p: int, dist: float) -> tuple[np.ndarray, int]:
+    # A tick's geometry is on Python floats: a crowd is a few people, and NumPy's per-call cost dominates.
+    def _along(self, p: int, dist: float) -> tuple[tuple[float, float], int]:
         """Where ``dist`` metres along person ``p``'s route end, and the index of the next waypoint."""
-        x, k = self.pos[p].copy(), int(self.leg[p])
-        while dist > 0.0 and k < self.route_len[p]:
-            w = self.route[p, k]
-            d = math.hypot(*(w - x))
+        (x, y), k, end = self.pos[p].tolist(), int(self.leg[p]), int(self.route_len[p])
+        while dist > 0.0 and k < end:
+            wx, wy = self.route[p, k].tolist()
+            d = math.hypot(wx - x, wy - y)
             if d <= dist:
-                x, dist, k = w.copy(), dist - d, k + 1
+                x, y, dist, k = wx, wy, dist - d, k + 1
             else:
-                x, dist = x + (w - x) * (dist / d), 0.0
-        return x, k
+                f = dist / d
+                x, y, dist = x + (wx - x) * f, y + (wy - y) * f, 0.0
+        return (x, y), k
 
-    def _blocker(self, p: int, cand: np.ndarray, robot: np.ndarray) -> int:
+    def _blocker(self, p: int, cand: tuple[float, float], robot: tuple[float, float]) -> int:
         """What a move of person ``p`` to ``cand`` would come too close to (0: nothing): the robot's body or
         another person's, nearer than GAP and nearer than before."""
-        old = self.pos[p]
-        r = math.hypot(*(cand - robot))
-        if r < PERSON_RADIUS + self.robot_radius + GAP and r <= math.hypot(*(old - robot)):
+        (cx, cy), (ox, oy), (rx, ry) = cand, self.pos[p].tolist(), robot
+        r = math.hypot(cx - rx, cy - ry)
+        if r < PERSON_RADIUS + self.robot_radius + GAP and r <= math.hypot(ox - rx, oy - ry):
             return _ROBOT
-        near = np.hypot(*(self.pos - cand).T)
-        near[p] = np.inf  # not themselves
-        closer = near <= np.hypot(*(self.pos - old).T)
-        return _PERSON if bool(((near < 2 * PERSON_RADIUS + GAP) & closer).any()) else 0
+        for q, (qx, qy) in enumerate(self.pos.tolist()):
+            if q != p:  # not themselves
+                near = math.hypot(qx - cx, qy - cy)
+                if near < 2 * PERSON_RADIUS + GAP and near <= math.hypot(qx - ox, qy - oy):
+                    return _PERSON
+        return 0
 
-    def _sidestep(self, p: int, cand: np.ndarray, step: float, robot: np.ndarray) -> np.ndarray | None:
+    def _sidestep(
+        self, p: int, cand: tuple[float, float], step: float, robot: tuple[float, float]
+    ) -> tuple[float, float] | None:
         """A step of length ``step`` off the way to ``cand`` (right, then left) inside the free space and
         clear of everyone, or None."""
-        d = cand - self.pos[p]
-        if not d.any():
+        x, y = self.pos[p].tolist()
+        dx, dy = cand[0] - x, cand[1] - y
+        if not (dx or dy):
             return None
-        heading = math.atan2(d[1], d[0])
+        heading = math.atan2(dy, dx)
         for turn in (-SIDESTEP_DEG, SIDESTEP_DEG):
             a = heading + math.radians(turn)
-            side = self.pos[p] + step * np.array([math.cos(a), math.sin(a)])
-            inside = shapely.covers(self.nav.free, LineString([self.pos[p], side]))
+            side = (x + step * math.cos(a), y + step * math.sin(a))
+            inside = shapely.covers(self.nav.free, LineString([(x, y), side]))
             if inside and self._blocker(p, side, robot) == 0:
                 return side
         return None
 
-    def _move(self, p: int, to: np.ndarray, leg: int) -> None:
-        d = to - self.pos[p]
-        if d.any():
-            self.yaw[p] = math.atan2(d[1], d[0])
+    def _move(self, p: int, to: tuple[float, float], leg: int) -> None:
+        x, y = self.pos[p].tolist()
+        if to[0] - x or to[1] - y:
+            self.yaw[p] = math.atan2(to[1] - y, to[0] - x)
         self.pos[p], self.leg[p] = to, leg
         if leg < self.route_len[p]:
             return
