@@ -64,3 +64,29 @@ def test_bad_recordings_are_named(tmp_path):
         r.RECORDER_VERSION = old
     with pytest.raises(TrajectoryDataError, match="recordings of versions"):
         TrajectoryDataset(tmp_path / "t", require_images=False)
+
+
+def test_recordings_from_elsewhere_are_bounded(tmp_path, monkeypatch):
+    import gzip
+    import json
+
+    import biovln_ms.learning.recordings as recordings
+    from biovln_ms.learning.recorder import RECORDER_VERSION
+
+    # a frame path that leaves the recording folder is refused when the frame is read
+    root = tmp_path / "r"
+    root.mkdir()
+    step = {
+        "step_idx": 0,
+        "action": 1,
+        "obs": {"position": [0, 0, 0], "heading": [1, 0], "goal_position": [3, 0], "rgb_path": "../x.png"},
+    }
+    entry = {"recorder_version": RECORDER_VERSION, "mode": "full", "success": True, "steps": [step]}
+    (root / "trajectories-0.jsonl.gz").write_bytes(gzip.compress((json.dumps(entry) + "\n").encode()))
+    ds = TrajectoryDataset(root)
+    with pytest.raises(TrajectoryDataError, match="obs.rgb_path"):
+        ds[0]
+    # an episode that decompresses past the bound stops there (a gzip bomb)
+    monkeypatch.setattr(recordings, "MAX_ENTRY_BYTES", 100)
+    with pytest.raises(recordings.RecordingReadError, match="decompresses to more than"):
+        TrajectoryDataset(_record(tmp_path / "a", 1), require_images=False)

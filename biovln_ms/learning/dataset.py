@@ -12,8 +12,6 @@ dropped.
 
 from __future__ import annotations
 
-import json
-import zlib
 from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +21,9 @@ import torch
 from PIL import Image
 
 from biovln_ms.errors import BioVLNError
+from biovln_ms.io_utils import inside
 from biovln_ms.learning.recorder import RECORDER_VERSION
+from biovln_ms.learning.recordings import member_spans, read_member
 from biovln_ms.task_config import TURN_LEFT, TURN_RIGHT
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
@@ -75,23 +75,6 @@ def image_tensor(
     return x
 
 
-def _members(path: Path):
-    """(offset, length) of each complete gzip member in a recording file."""
-    raw = path.read_bytes()
-    pos = 0
-    while pos < len(raw):
-        d = zlib.decompressobj(zlib.MAX_WBITS | 16)
-        try:
-            d.decompress(raw[pos:])
-        except zlib.error:
-            return
-        if not d.eof:
-            return
-        end = len(raw) - len(d.unused_data)
-        yield pos, end - pos
-        pos = end
-
-
 class TrajectoryDataset(torch.utils.data.Dataset):
     def __init__(
         self,
@@ -120,7 +103,7 @@ class TrajectoryDataset(torch.utils.data.Dataset):
                     fix="record some: biovln-ms eval --method frontier --split ms_dev --record DIR",
                 )
             for f in files:
-                for off, length in _members(f):
+                for off, length in member_spans(f):
                     entry = self._load(f, off, length)
                     versions.add(entry.get("recorder_version"))
                     modes.add(entry.get("mode"))
@@ -161,13 +144,25 @@ class TrajectoryDataset(torch.utils.data.Dataset):
         if key in self._cache:
             self._cache.move_to_end(key)
             return self._cache[key]
-        with open(f, "rb") as fh:
-            fh.seek(off)
-            entry = json.loads(zlib.decompress(fh.read(length), zlib.MAX_WBITS | 16).decode())
+        entry = read_member(f, off, length)
         self._cache[key] = entry
         if len(self._cache) > self._cache_size:
             self._cache.popitem(last=False)
         return entry
+
+    @staticmethod
+    def _frame(root: Path, f: Path, step: dict) -> Path:
+        """A step's RGB frame, refused in one line unless its path stays inside the recording folder."""
+        return inside(
+            root,
+            str(step["obs"].get("rgb_path")),
+            what="frame",
+            error=TrajectoryDataError,
+            source=str(f),
+            field="obs.rgb_path",
+            fix="train on recordings as eval writes them (frames under images/)",
+            nested=True,
+        )
 
     def __len__(self) -> int:
         return len(self.index)
@@ -175,7 +170,7 @@ class TrajectoryDataset(torch.utils.data.Dataset):
     def frame_size(self) -> list[int]:
         """(width, height) of the recorded frames, so inference can resize live frames the same way."""
         root, f, off, n, k = self.index[0]
-        with Image.open(root / self._load(f, off, n)["steps"][k]["obs"]["rgb_path"]) as im:
+        with Image.open(self._frame(root, f, self._load(f, off, n)["steps"][k])) as im:
             return list(im.size)
 
     def actions(self) -> np.ndarray:
@@ -199,7 +194,6 @@ class TrajectoryDataset(torch.utils.data.Dataset):
             gain = (
                 1 + self.rng.uniform(-self.t.brightness, self.t.brightness) if self.t.brightness > 0 else 1.0
             )
-            item["image"] = image_tensor(
-                Image.open(root / obs["rgb_path"]).convert("RGB"), self.t.size, self.t.normalize, flip, gain
-            )
+            rgb = Image.open(self._frame(root, f, step)).convert("RGB")
+            item["image"] = image_tensor(rgb, self.t.size, self.t.normalize, flip, gain)
         return item

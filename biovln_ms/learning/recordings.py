@@ -168,9 +168,45 @@ def _entries(path: Path) -> Iterator[dict]:
                     k += 1
 
 
-def _member(mm, pos: int, path: Path, k: int) -> tuple[bytes | None, int]:
-    """The gzip member starting at ``pos``, decompressed in bounded steps, and where the next begins;
-    (None, end) for a member cut short."""
+def member_spans(path: Path) -> Iterator[tuple[int, int]]:
+    """(offset, length) of each complete gzip member (one episode) of a recording file, each checked to
+    decompress to at most ``MAX_ENTRY_BYTES``, for a reader that loads episodes when it needs them
+    (:func:`read_member`); a truncated last member is skipped, as :func:`read_episodes` skips it."""
+    import mmap
+
+    regular_size(path, MAX_RECORDING_BYTES, "recording", error=RecordingReadError, fix=_FIX_FOLDER)
+    if path.stat().st_size == 0:
+        return
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+        pos, k = 0, 0
+        while pos < len(mm):
+            data, end = _member(mm, pos, path, k)
+            if data is None:
+                return
+            yield pos, end - pos
+            pos, k = end, k + 1
+
+
+def read_member(path: Path, offset: int, length: int) -> dict:
+    """The episode entry of the gzip member at ``offset`` (``length`` bytes) of :func:`member_spans`,
+    decompressed within the same bound."""
+    k = f"at byte {offset}"  # how the messages name the entry
+    with open(path, "rb") as f:
+        f.seek(offset)
+        data, _ = _member(f.read(length), 0, path, k)
+    if data is None:
+        raise RecordingReadError(f"the entry {k} is cut short", source=str(path), fix=_FIX_FOLDER)
+    try:
+        return _entry_json(data.decode("utf-8"), path, k)
+    except UnicodeDecodeError:
+        raise RecordingReadError(
+            f"the entry {k} is not UTF-8 text", source=str(path), fix=_FIX_FOLDER
+        ) from None
+
+
+def _member(mm, pos: int, path: Path, k: int | str) -> tuple[bytes | None, int]:
+    """The gzip member starting at ``pos`` of ``mm`` (a mapped file or bytes), decompressed in bounded
+    steps, and where the next begins; (None, end) for a member cut short."""
     d = zlib.decompressobj(zlib.MAX_WBITS | 16)
     parts, size, start = [], 0, pos
     while not d.eof:
@@ -200,7 +236,7 @@ def _member(mm, pos: int, path: Path, k: int) -> tuple[bytes | None, int]:
     return b"".join(parts), pos - len(d.unused_data)
 
 
-def _entry_json(line: str, path: Path, k: int) -> dict:
+def _entry_json(line: str, path: Path, k: int | str) -> dict:
     try:
         entry = json.loads(line)
     except ValueError as e:  # json.JSONDecodeError
