@@ -9,6 +9,7 @@ import base64
 import binascii
 import json
 import math
+import mmap
 import re
 import zlib
 from dataclasses import dataclass, field
@@ -145,8 +146,6 @@ def _entries(path: Path) -> Iterator[dict]:
     """The entries of one recording file, one gzip member (one episode) at a time, each decompressed to
     at most ``MAX_ENTRY_BYTES``; the file is mapped, never read whole. A truncated last member (a run
     killed while writing) is skipped, as the trainers skip it; a corrupt one is an error."""
-    import mmap
-
     regular_size(path, MAX_RECORDING_BYTES, "recording", error=RecordingReadError, fix=_FIX_FOLDER)
     if path.stat().st_size == 0:
         return
@@ -172,8 +171,6 @@ def member_spans(path: Path) -> Iterator[tuple[int, int]]:
     """(offset, length) of each complete gzip member (one episode) of a recording file, each checked to
     decompress to at most ``MAX_ENTRY_BYTES``, for a reader that loads episodes when it needs them
     (:func:`read_member`); a truncated last member is skipped, as :func:`read_episodes` skips it."""
-    import mmap
-
     regular_size(path, MAX_RECORDING_BYTES, "recording", error=RecordingReadError, fix=_FIX_FOLDER)
     if path.stat().st_size == 0:
         return
