@@ -23,7 +23,7 @@ from PIL import Image
 from biovln_ms.errors import BioVLNError
 from biovln_ms.io_utils import inside
 from biovln_ms.learning.recorder import RECORDER_VERSION
-from biovln_ms.learning.recordings import member_spans, read_member
+from biovln_ms.learning.recordings import episode_members, read_member
 from biovln_ms.task_config import TURN_LEFT, TURN_RIGHT
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
@@ -103,8 +103,8 @@ class TrajectoryDataset(torch.utils.data.Dataset):
                     fix="record some: biovln-ms eval --method frontier --split ms_dev --record DIR",
                 )
             for f in files:
-                for off, length in member_spans(f):
-                    entry = self._load(f, off, length)
+                for off, length, entry in episode_members(f):
+                    self._keep((f, off), entry)
                     versions.add(entry.get("recorder_version"))
                     modes.add(entry.get("mode"))
                     episodes += 1
@@ -144,7 +144,10 @@ class TrajectoryDataset(torch.utils.data.Dataset):
         if key in self._cache:
             self._cache.move_to_end(key)
             return self._cache[key]
-        entry = read_member(f, off, length)
+        return self._keep(key, read_member(f, off, length))
+
+    def _keep(self, key: tuple[Path, int], entry: dict) -> dict:
+        """``entry`` in the cache of the last ``cache_episodes`` episodes read."""
         self._cache[key] = entry
         if len(self._cache) > self._cache_size:
             self._cache.popitem(last=False)

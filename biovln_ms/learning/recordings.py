@@ -142,35 +142,10 @@ def read_episodes(folder: str | Path) -> list[Episode]:
     return sorted(episodes, key=lambda ep: (_natural(ep.entry.scene_id), _natural(ep.entry.episode_id)))
 
 
-def _entries(path: Path) -> Iterator[dict]:
-    """The entries of one recording file, one gzip member (one episode) at a time, each decompressed to
-    at most ``MAX_ENTRY_BYTES``; the file is mapped, never read whole. A truncated last member (a run
-    killed while writing) is skipped, as the trainers skip it; a corrupt one is an error."""
-    regular_size(path, MAX_RECORDING_BYTES, "recording", error=RecordingReadError, fix=_FIX_FOLDER)
-    if path.stat().st_size == 0:
-        return
-    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
-        pos, k = 0, 0
-        while pos < len(mm):
-            data, pos = _member(mm, pos, path, k)
-            if data is None:
-                return  # truncated last member
-            try:
-                text = data.decode("utf-8")
-            except UnicodeDecodeError:
-                raise RecordingReadError(
-                    f"entry {k} is not UTF-8 text", source=str(path), fix=_FIX_FOLDER
-                ) from None
-            for line in text.splitlines():
-                if line.strip():
-                    yield _entry_json(line, path, k)
-                    k += 1
-
-
-def member_spans(path: Path) -> Iterator[tuple[int, int]]:
-    """(offset, length) of each complete gzip member (one episode) of a recording file, each checked to
-    decompress to at most ``MAX_ENTRY_BYTES``, for a reader that loads episodes when it needs them
-    (:func:`read_member`); a truncated last member is skipped, as :func:`read_episodes` skips it."""
+def _members(path: Path) -> Iterator[tuple[int, int, bytes]]:
+    """(offset, length, decompressed bytes) of each complete gzip member (one episode) of a recording file,
+    each decompressed to at most ``MAX_ENTRY_BYTES``; the file is mapped, never read whole. A truncated last
+    member (a run killed while writing) is skipped, as the trainers skip it; a corrupt one is an error."""
     regular_size(path, MAX_RECORDING_BYTES, "recording", error=RecordingReadError, fix=_FIX_FOLDER)
     if path.stat().st_size == 0:
         return
@@ -180,25 +155,45 @@ def member_spans(path: Path) -> Iterator[tuple[int, int]]:
             data, end = _member(mm, pos, path, k)
             if data is None:
                 return
-            yield pos, end - pos
+            yield pos, end - pos, data
             pos, k = end, k + 1
 
 
+def _entries(path: Path) -> Iterator[dict]:
+    """The entries of one recording file, read one member at a time (:func:`_members`)."""
+    k = 0
+    for _, _, data in _members(path):
+        for line in _text(data, path, k).splitlines():
+            if line.strip():
+                yield _entry_json(line, path, k)
+                k += 1
+
+
+def episode_members(path: Path) -> Iterator[tuple[int, int, dict]]:
+    """(offset, length, entry) of each episode of a recording file, read as :func:`_members` reads them,
+    for a reader that keeps only the offsets and loads an episode again later (:func:`read_member`)."""
+    for offset, length, data in _members(path):
+        k = f"at byte {offset}"  # how the messages name the entry
+        yield offset, length, _entry_json(_text(data, path, k), path, k)
+
+
 def read_member(path: Path, offset: int, length: int) -> dict:
-    """The episode entry of the gzip member at ``offset`` (``length`` bytes) of :func:`member_spans`,
+    """The episode entry of the gzip member at ``offset`` (``length`` bytes) of :func:`episode_members`,
     decompressed within the same bound."""
-    k = f"at byte {offset}"  # how the messages name the entry
+    k = f"at byte {offset}"
     with open(path, "rb") as f:
         f.seek(offset)
         data, _ = _member(f.read(length), 0, path, k)
     if data is None:
-        raise RecordingReadError(f"the entry {k} is cut short", source=str(path), fix=_FIX_FOLDER)
+        raise RecordingReadError(f"entry {k} is cut short", source=str(path), fix=_FIX_FOLDER)
+    return _entry_json(_text(data, path, k), path, k)
+
+
+def _text(data: bytes, path: Path, k: int | str) -> str:
     try:
-        return _entry_json(data.decode("utf-8"), path, k)
+        return data.decode("utf-8")
     except UnicodeDecodeError:
-        raise RecordingReadError(
-            f"the entry {k} is not UTF-8 text", source=str(path), fix=_FIX_FOLDER
-        ) from None
+        raise RecordingReadError(f"entry {k} is not UTF-8 text", source=str(path), fix=_FIX_FOLDER) from None
 
 
 def _member(mm, pos: int, path: Path, k: int | str) -> tuple[bytes | None, int]:
