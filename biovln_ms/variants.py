@@ -34,6 +34,18 @@ _PROTOCOL = ProtocolTaskConfig(
 )
 _PROTOCOL = replace(_PROTOCOL, max_episode_steps=_PROTOCOL.step_budget(MAX_VISITS))
 
+# the paper's Gym variant for RL: 10 deg turns, positions / 4.0 m, heading as a unit vector,
+# Eq. 5 with the proportional safety penalty, episodes shuffled once and cycled
+_RL = NavTaskConfig(
+    turn_deg=10.0,
+    proportional_safety=True,
+    safety_penalty=1.0,
+    shuffle_episodes=True,
+    sensors=("rl_state", "objectgoal"),
+    agent_obs=False,
+    default_split="train",
+)
+
 #: the env ids, each defined here once
 BENCHMARK_ENV = "BioVLN-OpFace-v0"
 CENTROID_ENV = "BioVLN-Centroid-v0"
@@ -41,6 +53,7 @@ STRICT_ENV = "BioVLN-OpFace-Strict-v0"
 RL_ENV = "BioVLN-OpFace-RL-v0"
 BUSY_ENV = "BioVLN-OpFace-Busy-v0"
 BUSY_STRICT_ENV = "BioVLN-OpFace-Busy-Strict-v0"
+RL_BUSY_ENV = "BioVLN-OpFace-RL-Busy-v0"
 PROTOCOL_ENV = "BioVLN-Protocol-v0"
 PROTOCOL_STRICT_ENV = "BioVLN-Protocol-Strict-v0"
 PROTOCOL_BUSY_ENV = "BioVLN-Protocol-Busy-v0"
@@ -53,17 +66,8 @@ VARIANTS: dict[str, NavTaskConfig] = {
     CENTROID_ENV: NavTaskConfig(goal_mode="centroid"),
     # operational success: STOP within r in Zone 3, facing the face within 30 deg (strict_success)
     STRICT_ENV: NavTaskConfig(success_measure="strict_success", fail_measure="strict_failed_stop"),
-    # the paper's Gym variant for RL: 10 deg turns, positions / 4.0 m, heading as a unit vector,
-    # Eq. 5 with the proportional safety penalty, episodes shuffled once and cycled
-    RL_ENV: NavTaskConfig(
-        turn_deg=10.0,
-        proportional_safety=True,
-        safety_penalty=1.0,
-        shuffle_episodes=True,
-        sensors=("rl_state", "objectgoal"),
-        agent_obs=False,
-        default_split="train",
-    ),
+    # the paper's Gym variant for RL (above)
+    RL_ENV: _RL,
     # people in the lab (docs/guides/people.md): the busy splits, each episode with its own crowd of 1-4
     # technicians (up to 4 figures; a split or scene without crowds gets 4 people)
     BUSY_ENV: NavTaskConfig(people=BUSY_PEOPLE, default_split="busy_val"),
@@ -74,6 +78,8 @@ VARIANTS: dict[str, NavTaskConfig] = {
         people=BUSY_PEOPLE,
         default_split="busy_val",
     ),
+    # ... and the RL variant with them (its state vector has no people: a policy trained on RL-v0 runs blind)
+    RL_BUSY_ENV: replace(_RL, people=BUSY_PEOPLE, default_split="busy_val"),
     # lab protocols: a correct STOP is within the current goal's success radius r
     PROTOCOL_ENV: _PROTOCOL,
     # ... and also in its Zone 3, facing its operational face within 30 deg (strict_success's rule)
@@ -81,4 +87,12 @@ VARIANTS: dict[str, NavTaskConfig] = {
     # ... with people: PROTOCOL_PEOPLE technicians drawn from each episode's seed (the protocol splits carry
     # no crowds); a person collision ends the episode, failed
     PROTOCOL_BUSY_ENV: replace(_PROTOCOL, people=PROTOCOL_PEOPLE),
+}
+
+#: each variant's counterpart with people in the lab (the benchmark suite and the report pair them)
+WITH_PEOPLE = {
+    BENCHMARK_ENV: BUSY_ENV,
+    STRICT_ENV: BUSY_STRICT_ENV,
+    RL_ENV: RL_BUSY_ENV,
+    PROTOCOL_ENV: PROTOCOL_BUSY_ENV,
 }

@@ -113,7 +113,8 @@ class EnvPeople:
         return out
 
     def _view(self, wait: np.ndarray) -> PeopleStep:
-        positions = np.stack([c.pos for c in self.crowds])
+        crowds = self.crowds
+        positions = crowds[0].pos[None].copy() if len(crowds) == 1 else np.stack([c.pos for c in crowds])
         return PeopleStep(positions, self.hit.copy(), wait, self.env._footprint, self.seconds)
 
     def sync(self) -> None:

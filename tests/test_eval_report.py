@@ -256,9 +256,15 @@ def test_the_people_table_shows_busy_runs_beside_their_empty_lab_sr():
     }
     busy = [{**r, **people} for r in _records([True] * 3 + [False])]
     summ = summarize(
-        {("frontier@opface-busy", "busy_val"): busy, ("frontier", "ms_val"): _records([True] * 4)}
+        {
+            ("frontier@opface-busy", "busy_val"): busy,
+            ("frontier", "ms_val"): _records([True] * 4),
+            ("ppo@opface-rl-busy", "busy_test"): busy[:2],  # the RL methods' variant with people
+            ("ppo", "ms_val"): _records([True, False]),  # the suite names its ideal run by the method
+        }
     )
     lines = people_table(summ)
+    assert _row(lines, "| PPO | ideal | busy_test | 2 | 100.0").endswith("| 50.0 [9.5, 90.5] / – |")
     head, row = _row(lines, "| Method"), _row(lines, "| Frontier | ideal | busy_val")
     assert "min. person distance m" in head and head.endswith("empty lab SR % |")
     cells = [c.strip() for c in row.strip("|").split("|")]

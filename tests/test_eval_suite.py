@@ -49,14 +49,15 @@ def test_plan_adds_the_runs_of_the_papers_tables():
     ]
 
 
-def test_plan_adds_the_runs_with_people_for_the_methods_that_can_have_them():
+def test_plan_adds_the_runs_with_people_on_each_methods_variant_with_people():
     runs = plan(
         ["frontier", "ppo", "protocol_oracle"], ["ms_val"], ["ideal", "realistic"], paper_tables=False
     )
     keys = [r.key for r in runs]
     busy = [f"frontier@BioVLN-OpFace-Busy-v0/{s}/{n}" for n in ("ideal", "realistic") for s in BUSY_SPLITS]
     assert keys[:2] == ["frontier/ms_val/ideal", "frontier/ms_val/realistic"] and keys[2:6] == busy
-    assert not any("ppo@" in k for k in keys)  # the RL variant has no people
+    rl_busy = [f"ppo@BioVLN-OpFace-RL-Busy-v0/{s}/{n}" for n in ("ideal", "realistic") for s in BUSY_SPLITS]
+    assert [k for k in keys if k.startswith("ppo@")] == rl_busy
     assert "protocol_oracle@BioVLN-Protocol-Busy-v0/protocol_val/ideal" in keys
 
 

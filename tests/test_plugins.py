@@ -94,11 +94,18 @@ def test_a_plugin_sensor_and_template_reach_the_env(plugin):
 
 @pytest.mark.slow
 def test_the_cli_lists_what_a_plugin_registers(plugin):
-    def run(*args: str) -> str:
-        cmd = [sys.executable, "-m", "biovln_ms.cli", "--plugin", plugin, "list", *args]
-        return subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+    from typer.testing import CliRunner
 
-    assert "stop_at_once" in run("methods")
+    from biovln_ms.cli import app
+
+    cmd = [sys.executable, "-m", "biovln_ms.cli", "--plugin", plugin, "list", "methods"]
+    assert "stop_at_once" in subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+
+    def run(what: str) -> str:  # the same command in this process (the plugin is loaded once per process)
+        r = CliRunner().invoke(app, ["--plugin", plugin, "list", what])
+        assert r.exit_code == 0, r.output
+        return r.output
+
     assert "MyLab-Zone3Facing-v0" in run("variants").split()
     assert "zone3_facing_success -> zone3_facing_success" in run("measures")
     assert "my_single_room" in run("templates").split()

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from biovln_ms.variants import BUSY_ENV, CENTROID_ENV, PROTOCOL_BUSY_ENV, PROTOCOL_PEOPLE
+from biovln_ms.variants import BENCHMARK_ENV, CENTROID_ENV, PROTOCOL_ENV, PROTOCOL_PEOPLE, WITH_PEOPLE
 from biovln_ms.splits import (
     BUSY_MAX_PEOPLE,
     BUSY_SPLITS,
@@ -199,24 +199,25 @@ def _people_runs():
     """(run, split, the empty-lab runs and splits beside it) of every people run the people table shows:
     the single-goal methods on the busy splits, the protocol methods on the protocol splits with people."""
     for m in report_methods():
+        busy = WITH_PEOPLE.get(METHODS[m].env_id or BENCHMARK_ENV)
         for preset in PRESETS:
             empty = _preset_run(m, preset)
-            for s in BUSY_SPLITS:
+            for s in BUSY_SPLITS if busy else ():
                 yield (
                     m,
                     preset,
-                    run_name(m, BUSY_ENV, noise=preset),
+                    run_name(m, busy, noise=preset),
                     s,
                     [(empty, e) for e in EMPTY_LAB_SPLITS],
                 )
             for s in PROTOCOL_REPORT_SPLITS:
-                yield m, preset, run_name(m, PROTOCOL_BUSY_ENV, noise=preset), s, [(empty, s)]
+                yield m, preset, run_name(m, WITH_PEOPLE[PROTOCOL_ENV], noise=preset), s, [(empty, s)]
 
 
 def people_table(summ) -> list[str]:
-    """People in the lab: every method's runs with people (``BUSY_ENV`` on the busy splits,
-    ``PROTOCOL_BUSY_ENV`` on the protocol splits) under each preset, with the human-aware measures
-    (``PEOPLE_TABLE_MEASURES``) and, beside them, its SR in the empty lab."""
+    """People in the lab: every method's runs with people (on its variant's counterpart with people,
+    ``WITH_PEOPLE``: the busy splits, or the protocol splits for the protocol methods) under each preset,
+    with the human-aware measures (``PEOPLE_TABLE_MEASURES``) and, beside them, its SR in the empty lab."""
     aggs = [measure_type(u).metric.aggregates[0] for u in PEOPLE_TABLE_MEASURES]
     head = ["Method", "noise", "split", "n", *(f"{a.label} {a.unit}" for a in aggs), "empty lab SR %"]
     rows = []
@@ -234,7 +235,8 @@ def people_table(summ) -> list[str]:
         "## People in the lab: ours [95 % CI]",
         "",
         f"BioVLN-OpFace-Busy-v0 on the busy splits, each episode with its own crowd of 1-{BUSY_MAX_PEOPLE} "
-        f"technicians; BioVLN-Protocol-Busy-v0 on the protocol splits, {PROTOCOL_PEOPLE} technicians (the "
+        f"technicians (the RL methods: BioVLN-OpFace-RL-Busy-v0, whose state vector has no people); "
+        f"BioVLN-Protocol-Busy-v0 on the protocol splits, {PROTOCOL_PEOPLE} technicians (the "
         "people guide). Distances body to body; a person collision ends the episode as a failure. Empty lab "
         f"SR: the same method's, on {' / '.join(EMPTY_LAB_SPLITS)} (other scenes) beside a busy split and on "
         "the same split beside a protocol one (a dash: not run). " + N_NOTE,

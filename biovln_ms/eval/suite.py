@@ -22,7 +22,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from biovln_ms.variants import BUSY_ENV, CENTROID_ENV, PROTOCOL_BUSY_ENV, PROTOCOL_ENV
+from biovln_ms.variants import BENCHMARK_ENV, CENTROID_ENV, PROTOCOL_ENV, RL_ENV, WITH_PEOPLE
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.harness import EvalConfig, evaluate
 from biovln_ms.eval.methods import METHODS, method_spec
@@ -89,8 +89,8 @@ def plan(
 ) -> list[SuiteRun]:
     """Every (method, split, preset), a method's ideal runs first; with ``paper_tables`` also each method
     on MS DEV (ideal) and the centroid ablation, for the paper's table layouts; with ``people`` each
-    single-goal method of the benchmark env on the busy splits (``BUSY_ENV``) under every preset, and each
-    protocol method on the protocol splits with people (``PROTOCOL_BUSY_ENV``, ideal)."""
+    single-goal method on the busy splits, on its variant's counterpart with people (``WITH_PEOPLE``), under
+    every preset, and each protocol method on the protocol splits with people (ideal)."""
     for m in methods:
         method_spec(m)
     for n in noises:
@@ -101,11 +101,12 @@ def plan(
         if METHODS[m].env_id == PROTOCOL_ENV:  # lab protocols: the protocol splits, ideal only
             runs += [SuiteRun(m, s, "ideal", why) for s in PROTOCOL_SPLITS]
             if people:
-                runs += [SuiteRun(m, s, "ideal", why, PROTOCOL_BUSY_ENV) for s in PROTOCOL_SPLITS]
+                runs += [SuiteRun(m, s, "ideal", why, WITH_PEOPLE[PROTOCOL_ENV]) for s in PROTOCOL_SPLITS]
             continue
         runs += [SuiteRun(m, s, n, why) for n in noises for s in splits]
-        if people and METHODS[m].env_id is None:  # the RL methods' own variant has no people
-            runs += [SuiteRun(m, s, n, why, BUSY_ENV) for n in noises for s in BUSY_SPLITS]
+        if people and METHODS[m].env_id in (None, RL_ENV):  # the RL methods on their variant with people
+            busy = WITH_PEOPLE[METHODS[m].env_id or BENCHMARK_ENV]
+            runs += [SuiteRun(m, s, n, why, busy) for n in noises for s in BUSY_SPLITS]
         if paper_tables:
             runs.append(SuiteRun(m, PAPER_SPLIT, "ideal", why))
             method, env, paper_splits = CENTROID
@@ -188,13 +189,14 @@ class Suite:
     # --- the runs -------------------------------------------------------------------------------------
     def _people_splits(self, runs: list[SuiteRun]) -> list[SuiteRun]:
         """The runs with people, skipped where the dataset lacks their split (a dataset of one's own)."""
-        if not any(r.env_id in (BUSY_ENV, PROTOCOL_BUSY_ENV) for r in runs):
+        with_people = set(WITH_PEOPLE.values())
+        if not any(r.env_id in with_people for r in runs):
             return runs
         known = set(EpisodeDataset(dataset_root(self.dataset)).split_names())
         why = "the dataset has no split '{}' (biovln-ms dataset build makes the paper's splits)"
         return [
             replace(r, skip=r.skip or why.format(r.split))
-            if r.env_id in (BUSY_ENV, PROTOCOL_BUSY_ENV) and r.split not in known
+            if r.env_id in with_people and r.split not in known
             else r
             for r in runs
         ]

@@ -226,25 +226,30 @@ class Crowd:
     # --- the robot's move -------------------------------------------------------------------------
     def cut(self, x: float, y: float, tx: float, ty: float) -> tuple[float, float, bool]:
         """The robot's move from (x, y) toward (tx, ty) stopped 1 mm before its body first touches a
-        person's, and whether it was (a person collision)."""
-        d = np.array([tx - x, ty - y])
-        length2 = float(d @ d)
+        person's, and whether it was (a person collision): the first root of |(x, y) + t d - p| = contact
+        over the people p moving closer (on Python floats, as a tick's geometry)."""
+        dx, dy = tx - x, ty - y
+        length2 = dx * dx + dy * dy
         if length2 == 0.0:
             return tx, ty, False
         contact = PERSON_RADIUS + self.robot_radius
-        f = np.array([x, y]) - self.pos  # (P, 2)
-        b = f @ d
-        c = (f * f).sum(axis=1) - contact * contact
-        disc = b * b - length2 * c
-        toward = b < 0
-        inside = toward & (c <= 0)  # already touching and moving closer
-        t = np.where(toward & (c > 0) & (disc >= 0), (-b - np.sqrt(np.maximum(disc, 0.0))) / length2, np.inf)
-        t = np.where(inside, 0.0, t)
-        first = float(t.min(initial=np.inf))
+        first = math.inf
+        for px, py in self.pos.tolist():
+            fx, fy = x - px, y - py
+            b = fx * dx + fy * dy
+            if b >= 0.0:  # not moving closer
+                continue
+            c = fx * fx + fy * fy - contact * contact
+            if c <= 0.0:  # already touching and moving closer
+                first = 0.0
+                continue
+            disc = b * b - length2 * c
+            if disc >= 0.0:
+                first = min(first, (-b - math.sqrt(disc)) / length2)
         if first > 1.0:
             return tx, ty, False
         first = max(0.0, first - 1e-3 / math.sqrt(length2))
-        return x + d[0] * first, y + d[1] * first, True
+        return x + dx * first, y + dy * first, True
 
     # --- the people's moves -----------------------------------------------------------------------
     def advance(self, seconds: float, robot_xy) -> float:
