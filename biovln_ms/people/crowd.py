@@ -36,6 +36,8 @@ ROBOT_SPEED = 0.5  # m/s
 ROBOT_TURN_RATE = 60.0  # degrees/s
 #: s: people move in ticks of this within a step
 TICK = 0.1
+#: shortest paths a crowd keeps per scene (people walk between the same faces again and again)
+MAX_CACHED_PATHS = 4096
 #: m kept between a person's body and another's or the robot's
 GAP = 0.1
 #: m: at reset no person stands closer than this to the robot's body
@@ -151,6 +153,7 @@ class Crowd:
         self.route = np.zeros((n, ROUTE_POINTS, 2))
         self.route_len, self.leg = np.zeros(n, np.int64), np.zeros(n, np.int64)
         self.nav: NavGeometry | None = None
+        self._paths: dict[tuple[float, ...], np.ndarray | None] = {}  # shortest paths, by their ends
         self.robot_radius, self.seed = 0.0, 0
 
     # --- an episode -------------------------------------------------------------------------------
@@ -181,6 +184,8 @@ class Crowd:
                 field="people",
                 fix="use people=0 with this robot",
             )
+        if nav is not self.nav:  # another scene's geometry
+            self._paths = {}
         self.nav, self.st, self.robot_radius, self.seed = nav, st, float(robot_radius), int(seed)
         rng = np.random.default_rng([self.seed, PEOPLE_STREAM])
         self.speed[:] = 0.0  # the draws are the episode's people's only: any number of slots gives one crowd
@@ -372,9 +377,16 @@ class Crowd:
 
     def _plan(self, p: int, s: int) -> bool:
         """Person ``p``'s route to face ``s`` (its first ROUTE_POINTS waypoints); whether there is one."""
-        try:
-            path = self.nav.shortest_path(self.pos[p], self.st.stand[s])[1:][:ROUTE_POINTS]
-        except UnreachableError:
+        key = (*self.pos[p].tolist(), *self.st.stand[s].tolist())
+        if key not in self._paths:  # people walk between the same faces again and again
+            if len(self._paths) >= MAX_CACHED_PATHS:  # routes from where a sidestep left someone: unbounded
+                self._paths.clear()
+            try:
+                self._paths[key] = self.nav.shortest_path(self.pos[p], self.st.stand[s])[1:][:ROUTE_POINTS]
+            except UnreachableError:
+                self._paths[key] = None
+        path = self._paths[key]
+        if path is None:
             return False
         self.route[p, : len(path)] = path
         self.route_len[p], self.leg[p] = len(path), 0
