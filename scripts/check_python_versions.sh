@@ -10,7 +10,8 @@
 # ${BIOVLN_PYCHECK_DIR:-/tmp}/biovln-py3.X (a second run reuses them). A version whose install fails is
 # reported with pip's "no matching distribution" line (the dependency that blocks it) and the script goes on
 # to the next; the exit status is non-zero if any version failed to install or to pass. pyproject's
-# requires-python is ignored here, so that a version outside it shows what still blocks it.
+# requires-python is ignored here, so that a version outside it shows what still blocks it. 3.13+ takes
+# scripts/install_python.sh's route without mplib (mani-skill pins it; it has no wheel there).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 repo="$(pwd)"
@@ -50,9 +51,18 @@ for v in "${versions[@]}"; do
   vpy="$venv/bin/python"
   echo "[pycheck] $v: installing into $venv ($("$py" --version))"
   start=$SECONDS
+  route="pinned"
+  if "$vpy" -c 'import sys; sys.exit(sys.version_info < (3, 13))'; then
+    # mani-skill's mplib==0.1.1 has no wheel here: install_python.sh's route without it
+    route="every pin but mplib"
+    if ! VIRTUAL_ENV="$venv" PATH="$venv/bin:$PATH" BIOVLN_WITHOUT_MPLIB=1 bash scripts/install_python.sh >"$log" 2>&1; then
+      summary+=("$v: install without mplib failed: see $log")
+      status=1
+      continue
+    fi
   # a dry run first: it resolves every dependency from the registry's metadata without installing, so a
   # version that a dependency blocks is told in seconds, not after torch's download
-  if ! {
+  elif ! {
     "$vpy" -m pip install -q --upgrade pip setuptools wheel &&
       "$vpy" -m pip install --dry-run --ignore-installed --ignore-requires-python "torch==${BIOVLN_TORCH_VERSION:-2.13.0}" \
         -e "$repo[dev]" -c "$cons" &&
@@ -69,13 +79,13 @@ for v in "${versions[@]}"; do
     status=1
     continue
   fi
-  echo "[pycheck] $v: installed in $((SECONDS - start)) s"
+  echo "[pycheck] $v: installed ($route) in $((SECONDS - start)) s"
   # shellcheck disable=SC2206
   tests=(${BIOVLN_PYCHECK_TESTS:-})
   start=$SECONDS
   if "$vpy" -m pytest -q -p no:cacheprovider -n "${BIOVLN_TEST_WORKERS:-1}" --dist loadfile -m "not slow" \
     "${tests[@]}"; then
-    summary+=("$v: installed, fast tests passed (${tests[*]:-the whole fast suite}) in $((SECONDS - start)) s")
+    summary+=("$v: installed ($route), fast tests passed (${tests[*]:-the whole fast suite}) in $((SECONDS - start)) s")
   else
     summary+=("$v: installed, fast tests FAILED (${tests[*]:-the whole fast suite})")
     status=1
