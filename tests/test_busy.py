@@ -4,6 +4,8 @@ taking an episode's crowd (and its figures count from the split), and the varian
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -19,7 +21,7 @@ from biovln_ms.people.episodes import BusyEpisodes, occupied_steps
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.splits import BUSY_SPLITS, FOUR_CATEGORIES, HARD_SPLITS, MOLBIO_SPLITS, PROTOCOL_SPLITS
 from biovln_ms.splits import held_out_seeds
-from biovln_ms.variants import BUSY_ENV, BUSY_STRICT_ENV, VARIANTS
+from biovln_ms.variants import BUSY_ENV, BUSY_STRICT_ENV, RL_BUSY_ENV, RL_ENV, VARIANTS, WITH_PEOPLE
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu", obs_mode="none")
 STEPS = 80  # a short step limit keeps the model runs quick
@@ -125,10 +127,16 @@ def test_the_env_takes_the_episodes_crowd_and_its_figures_from_the_split(dataset
 
 
 def test_the_busy_variants_are_registered():
-    for uid in (BUSY_ENV, BUSY_STRICT_ENV):
+    for uid in (BUSY_ENV, BUSY_STRICT_ENV, RL_BUSY_ENV):
         assert uid in gym.registry and VARIANTS[uid].people == 4
         assert VARIANTS[uid].default_split == "busy_val"
     assert VARIANTS[BUSY_STRICT_ENV].success_measure == "strict_success"
+    # each variant's counterpart with people differs from it in its people and default split only
+    for plain, busy in WITH_PEOPLE.items():
+        assert (
+            replace(VARIANTS[busy], people=0, default_split=VARIANTS[plain].default_split) == VARIANTS[plain]
+        ), busy
+    assert WITH_PEOPLE[RL_ENV] == RL_BUSY_ENV
 
 
 def test_people_zero_runs_the_busy_episodes_in_an_empty_lab(dataset):
