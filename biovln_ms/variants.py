@@ -46,6 +46,14 @@ _RL = NavTaskConfig(
     default_split="train",
 )
 
+_STRICT = NavTaskConfig(success_measure="strict_success", fail_measure="strict_failed_stop")
+
+
+def _busy(cfg: NavTaskConfig) -> NavTaskConfig:
+    """``cfg`` with people in the lab: BUSY_PEOPLE figures, the busy_val split by default."""
+    return replace(cfg, people=BUSY_PEOPLE, default_split="busy_val")
+
+
 #: the env ids, each defined here once
 BENCHMARK_ENV = "BioVLN-OpFace-v0"
 CENTROID_ENV = "BioVLN-Centroid-v0"
@@ -65,21 +73,16 @@ VARIANTS: dict[str, NavTaskConfig] = {
     # the paper's ablation (Table 9): the goal is the floor projection of the bounding-box centre
     CENTROID_ENV: NavTaskConfig(goal_mode="centroid"),
     # operational success: STOP within r in Zone 3, facing the face within 30 deg (strict_success)
-    STRICT_ENV: NavTaskConfig(success_measure="strict_success", fail_measure="strict_failed_stop"),
+    STRICT_ENV: _STRICT,
     # the paper's Gym variant for RL (above)
     RL_ENV: _RL,
     # people in the lab (docs/guides/people.md): the busy splits, each episode with its own crowd of 1-4
     # technicians (up to 4 figures; a split or scene without crowds gets 4 people)
-    BUSY_ENV: NavTaskConfig(people=BUSY_PEOPLE, default_split="busy_val"),
+    BUSY_ENV: _busy(NavTaskConfig()),
     # ... and operational success, which with people also needs the goal's Zone 3 free of them
-    BUSY_STRICT_ENV: NavTaskConfig(
-        success_measure="strict_success",
-        fail_measure="strict_failed_stop",
-        people=BUSY_PEOPLE,
-        default_split="busy_val",
-    ),
+    BUSY_STRICT_ENV: _busy(_STRICT),
     # ... and the RL variant with them (its state vector has no people: a policy trained on RL-v0 runs blind)
-    RL_BUSY_ENV: replace(_RL, people=BUSY_PEOPLE, default_split="busy_val"),
+    RL_BUSY_ENV: _busy(_RL),
     # lab protocols: a correct STOP is within the current goal's success radius r
     PROTOCOL_ENV: _PROTOCOL,
     # ... and also in its Zone 3, facing its operational face within 30 deg (strict_success's rule)

@@ -113,8 +113,7 @@ class EnvPeople:
         return out
 
     def _view(self, wait: np.ndarray) -> PeopleStep:
-        crowds = self.crowds
-        positions = crowds[0].pos[None].copy() if len(crowds) == 1 else np.stack([c.pos for c in crowds])
+        positions = np.array([c.pos for c in self.crowds])  # (N, P, 2), a copy
         return PeopleStep(positions, self.hit.copy(), wait, self.env._footprint, self.seconds)
 
     def sync(self) -> None:

@@ -22,7 +22,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from biovln_ms.variants import BENCHMARK_ENV, CENTROID_ENV, PROTOCOL_ENV, RL_ENV, WITH_PEOPLE
+from biovln_ms.variants import BENCHMARK_ENV, CENTROID_ENV, PROTOCOL_ENV, WITH_PEOPLE
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.harness import EvalConfig, evaluate
 from biovln_ms.eval.methods import METHODS, method_spec
@@ -104,8 +104,8 @@ def plan(
                 runs += [SuiteRun(m, s, "ideal", why, WITH_PEOPLE[PROTOCOL_ENV]) for s in PROTOCOL_SPLITS]
             continue
         runs += [SuiteRun(m, s, n, why) for n in noises for s in splits]
-        if people and METHODS[m].env_id in (None, RL_ENV):  # the RL methods on their variant with people
-            busy = WITH_PEOPLE[METHODS[m].env_id or BENCHMARK_ENV]
+        busy = WITH_PEOPLE.get(METHODS[m].env_id or BENCHMARK_ENV)  # its variant with people
+        if people and busy:
             runs += [SuiteRun(m, s, n, why, busy) for n in noises for s in BUSY_SPLITS]
         if paper_tables:
             runs.append(SuiteRun(m, PAPER_SPLIT, "ideal", why))
