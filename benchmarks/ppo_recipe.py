@@ -25,10 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.io_utils import atomic_write_text, save_figure
+from biovln_ms.learning.rl import CURVE_WINDOW as WINDOW, success_curve
 from biovln_ms.measured import docs_data_dir, machine, write_table
 from biovln_ms.variants import RL_ENV
 
-WINDOW = 5_000  # env steps per point of a curve (default)
 IMAGE = docs_data_dir().parent / "images" / "ppo_recipe.png"
 
 
@@ -107,21 +107,10 @@ def read_run(folder: Path) -> dict:
     }
 
 
-def curve(episodes: list[tuple[int, float]], end: int, window: int) -> list[list]:
-    """[window end, success rate, episodes] per ``window`` steps up to ``end``."""
-    steps = np.array([e[0] for e in episodes])
-    success = np.array([e[1] for e in episodes], float)
-    out = []
-    for hi in range(window, end + 1, window):
-        sel = (steps > hi - window) & (steps <= hi)
-        out.append([hi, round(float(success[sel].mean()), 4) if sel.any() else None, int(sel.sum())])
-    return out
-
-
 def report(a: argparse.Namespace) -> None:
     runs = [read_run(Path(f)) for f in a.runs]
     for r in runs:
-        r["curve"] = curve(r.pop("episodes"), a.steps, a.window)
+        r["curve"] = success_curve(r.pop("episodes"), a.steps, a.window)
     data = a.data_out
     head = {"window_steps": a.window, "machine": machine(), "written": datetime.date.today().isoformat()}
     lines = ",\n  ".join(json.dumps(r, ensure_ascii=False) for r in runs)  # one line per run

@@ -94,6 +94,9 @@ class NavTaskConfig:
     shuffle_episodes: bool = (
         False  # RL variant: shuffle once (scene order, and episodes within a scene), then cycle
     )
+    #: with shuffle_episodes: at most this many of a scene's episodes in a row, then the next scene's, so
+    #: training meets more scenes per step (ManiSkill's reconfiguration_freq in spirit); 0: all of them
+    scene_visit_episodes: int = 0
     position_scale: float = 4.0  # RL variant observation normalisation (m)
     measures: tuple[str, ...] = STEP_MEASURES + END_MEASURES
     reward_measure: str = "nav_reward"

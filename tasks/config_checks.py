@@ -142,6 +142,7 @@ CONFIG_LIMITS = {
     "position_scale": Bound(0.01, 1000, "m", closed=True),
     "steps_per_goal": Bound(1, 100_000, integer=True, closed=True),
     "people": Bound(0, MAX_PEOPLE, integer=True, closed=True),
+    "scene_visit_episodes": Bound(0, 1_000_000, integer=True, closed=True),
 }
 BOOL_FIELDS = ("proportional_safety", "shuffle_episodes", "agent_obs", "person_collision_ends")
 VIEW_LIMITS = {

@@ -60,7 +60,8 @@ class BioVLNNavEnv(BaseEnv):
 
     **Randomizations:**
     - the episode (scene, start pose, goal category) comes from the episode source in order, or in a fixed
-      shuffle (``shuffle_episodes``); ``reset(seed=k)`` jumps to position ``k mod n``
+      shuffle (``shuffle_episodes``, a scene's episodes in visits of ``scene_visit_episodes``);
+      ``reset(seed=k)`` jumps to position ``k mod n``
     - with a noise config (:mod:`biovln_ms.noise`): actuation noise, RGB and depth noise, keyed by each
       sub-env's episode seed and step so that a recorded episode replays exactly
 
@@ -91,7 +92,7 @@ class BioVLNNavEnv(BaseEnv):
         self._footprint = robot_spec(robot_uids).footprint_radius  # the swept checks' disc
         check_episode_kind(self.cfg, episodes, self._footprint)
         self.source = episodes
-        self.cursor = EpisodeCursor(self.source, self.cfg.shuffle_episodes)
+        self.cursor = EpisodeCursor(self.source, self.cfg.shuffle_episodes, self.cfg.scene_visit_episodes)
         self.category_names = load_catalog().goal_categories()
         n = int(kwargs.get("num_envs", 1))
         self._episode_index: list[int] = [self.cursor.first] * n  # per sub-env, into source.episodes
@@ -119,9 +120,7 @@ class BioVLNNavEnv(BaseEnv):
         ]
 
     def _setup_sensors(self, options: dict) -> None:
-        """ManiSkill's, with the picture format of the depth-only pack set first: the head camera (the task's
-        sensor) is the first camera made, and SAPIEN fixes its format then."""
-        use_depth_only_format()
+        use_depth_only_format()  # the depth-only pack's format, set before the head camera (the first made)
         super()._setup_sensors(options)
 
     @property

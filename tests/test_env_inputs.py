@@ -89,6 +89,8 @@ BAD_ARGUMENTS = [
     ({"position_scale": 0}, "position_scale"),
     ({"proportional_safety": "x"}, "proportional_safety"),
     ({"shuffle_episodes": "x"}, "shuffle_episodes"),
+    ({"scene_visit_episodes": -1}, "scene_visit_episodes"),
+    ({"scene_visit_episodes": 1.5}, "scene_visit_episodes"),
     ({"agent_obs": "x"}, "agent_obs"),
     ({"measures": ("bogus",)}, "measures"),
     ({"measures": "success"}, "measures"),

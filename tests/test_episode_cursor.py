@@ -17,6 +17,21 @@ def test_shuffle_keeps_each_scenes_episodes_together_and_is_fixed():
     assert sorted(runs) == ["a", "b", "c"]  # each scene once: rebuilt once per pass
 
 
+def test_visits_take_that_many_of_each_scenes_episodes_in_turn_in_the_same_shuffle():
+    source = _Episodes({"a": 3, "b": 4, "c": 2})
+    together = EpisodeCursor(source, shuffle=True).order
+    order = EpisodeCursor(source, shuffle=True, visit=2).order
+    assert sorted(order) == list(range(9))
+    scenes = [source.episodes[i]["scene_id"] for i in order]
+    runs = [s for k, s in enumerate(scenes) if k == 0 or s != scenes[k - 1]]
+    first = [s for k, s in enumerate(runs) if s not in runs[:k]]
+    assert runs == first + [s for s in first if s != "c"]  # two visits each; c has only 2 episodes
+    for s in "abc":  # each scene's episodes in the same order as without visits
+        assert [i for i in order if scenes[order.index(i)] == s] == [
+            i for i in together if source.episodes[i]["scene_id"] == s
+        ]
+
+
 def test_next_in_scene_cycles_through_that_scenes_episodes_in_the_cursors_order():
     source = _Episodes({"a": 3, "b": 4})
     cursor = EpisodeCursor(source, shuffle=True)

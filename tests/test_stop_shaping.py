@@ -114,11 +114,14 @@ def test_sb3_training_applies_the_penalty_and_can_end_it_early(dataset):
 
     from biovln_ms.learning.rl import EndStopPenalty, RLConfig, make_vec_env
 
-    venv = make_vec_env(RLConfig(n_envs=1, dataset=dataset, stop_penalty=10.0))
+    venv = make_vec_env(RLConfig(n_envs=1, dataset=dataset, stop_penalty=10.0, scene_visit_episodes=2))
     plain = make_vec_env(RLConfig(n_envs=1, dataset=dataset))
     try:
         assert venv.env_is_wrapped(StopShaping) == [True] and venv.get_attr("penalty") == [10.0]
         assert plain.env_is_wrapped(StopShaping) == [False]
+        # the config's scene visits reach the env (its cursor), the default leaves them out
+        assert [c.scene_visit_episodes for c in venv.get_attr("cfg")] == [2]
+        assert [c.scene_visit_episodes for c in plain.get_attr("cfg")] == [0]
         model = PPO("MlpPolicy", venv, n_steps=32, batch_size=32, n_epochs=1, device="cpu")
         model.learn(64, callback=EndStopPenalty(40))  # penalised early only: off from the 40th step
         assert venv.get_attr("penalty") == [0.0]

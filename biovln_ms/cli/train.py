@@ -76,6 +76,7 @@ def _train_rl(
     sim_backend: Optional[str] = None,
     stop_penalty: float = 0.0,
     stop_penalty_steps: Optional[int] = None,
+    scene_visit_episodes: int = 0,
 ) -> None:
     from biovln_ms.eval.learned import train_and_evaluate
     from biovln_ms.eval.tables import headline
@@ -94,6 +95,7 @@ def _train_rl(
         dataset=str(dataset) if dataset else None,
         stop_penalty=stop_penalty,
         stop_penalty_steps=stop_penalty_steps,
+        scene_visit_episodes=scene_visit_episodes,
     )
     r = train_and_evaluate(cfg, out or Path(f"runs/{algo}"), echo=typer.echo)
     if r.eval_summary:
@@ -128,6 +130,11 @@ def _rl_command(algo: str):
         stop_penalty_steps: Optional[int] = typer.Option(
             None, help="The STOP penalty applies in the first N timesteps only (default: throughout)."
         ),
+        scene_visit_episodes: int = typer.Option(
+            0,
+            help="At most N of a scene's episodes in a row, then the next scene's (0: all of them), so "
+            "training meets more scenes of a large split.",
+        ),
     ) -> None:
         _train_rl(
             algo,
@@ -143,6 +150,7 @@ def _rl_command(algo: str):
             sim_backend,
             stop_penalty,
             stop_penalty_steps,
+            scene_visit_episodes,
         )
 
     command.__doc__ = (

@@ -47,26 +47,30 @@ EPISODE_OPTIONS = frozenset({"episode_index", "episode_id"})
 class EpisodeCursor:
     """Which episode a reset starts (Habitat's episode iterator): dataset order, or (``shuffle``) a fixed
     shuffle that keeps each scene's episodes together, so a scene is rebuilt once per pass, not per
-    episode."""
+    episode. ``visit`` > 0 takes at most that many of a scene's episodes in a row: the scenes' first
+    ``visit`` episodes in the shuffled scene order, then their next ``visit``, and so on."""
 
-    def __init__(self, source: EpisodeSource, shuffle: bool = False) -> None:
+    def __init__(self, source: EpisodeSource, shuffle: bool = False, visit: int = 0) -> None:
         self.source = source
-        self.order = self._shuffled() if shuffle else list(range(len(source)))
+        self.order = self._shuffled(visit) if shuffle else list(range(len(source)))
         self.position = -1
         self._scene_order: dict[str, list[int]] = {}  # scene -> its episodes, in this cursor's order
         self._scene_position: dict[str, int] = {}
 
-    def _shuffled(self) -> list[int]:
+    def _shuffled(self, visit: int) -> list[int]:
         rng = np.random.default_rng(0)
         by_scene: dict[str, list[int]] = {}
         for i, ep in enumerate(self.source.episodes):
             by_scene.setdefault(ep["scene_id"], []).append(i)
         scenes = sorted(by_scene)
-        order: list[int] = []
+        runs: list[list[int]] = []
         for k in rng.permutation(len(scenes)):
             episodes = by_scene[scenes[k]]
-            order += [episodes[j] for j in rng.permutation(len(episodes))]
-        return order
+            runs.append([episodes[j] for j in rng.permutation(len(episodes))])
+        if not visit:
+            return [i for run in runs for i in run]
+        longest = max(len(run) for run in runs)
+        return [i for start in range(0, longest, visit) for run in runs for i in run[start : start + visit]]
 
     @property
     def first(self) -> int:

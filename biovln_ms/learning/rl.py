@@ -55,6 +55,8 @@ class RLConfig:
     #: the penalty applies in the first this many timesteps only (None: throughout), so that the policy's
     #: STOP is learnt from the env's own reward in the rest of training
     stop_penalty_steps: int | None = None
+    #: the RL env's ``scene_visit_episodes``: at most this many of a scene's episodes in a row (0: all)
+    scene_visit_episodes: int = 0
 
     def defaults(self) -> dict:
         """Our defaults per algorithm (SB3's otherwise); ``hyperparams`` override them."""
@@ -76,12 +78,13 @@ class EpisodeLog(BaseCallback):
         self.t0 = time.perf_counter()
 
     def _on_step(self) -> bool:
-        for info in self.locals["infos"]:
+        for env, info in enumerate(self.locals["infos"]):
             ep = info.get("episode")
             if ep is not None:
                 self.rows.append(
                     {
                         "timesteps": self.num_timesteps,
+                        "env": env,
                         "return": float(ep["r"]),
                         "length": int(ep["l"]),
                         "success": float(info.get("success", 0.0)),
@@ -132,6 +135,8 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
     env_kwargs = dict(
         split=cfg.split, dataset=cfg.dataset, control_mode=SB3_CONTROL_MODES[cfg.algo], obs_mode="state"
     )
+    if cfg.scene_visit_episodes:
+        env_kwargs["scene_visit_episodes"] = cfg.scene_visit_episodes
     factory = partial(make_gym_env, cfg.env_id, stop_penalty=cfg.stop_penalty, **env_kwargs)
     if cfg.sim_backend:
         import gymnasium as gym
@@ -241,9 +246,25 @@ def train_rl(
     )
 
 
+#: env steps per point of the learning guide's success curves
+CURVE_WINDOW = 5_000
+
+
+def success_curve(episodes: list[tuple[int, float]], end: int, window: int) -> list[list]:
+    """[window end, success rate or None, episodes] per ``window`` env steps up to ``end``, from (the step an
+    episode ended at, its success) pairs: a learning curve that counts each finished episode once."""
+    steps = np.array([e[0] for e in episodes])
+    success = np.array([e[1] for e in episodes], float)
+    out = []
+    for hi in range(window, end + 1, window):
+        sel = (steps > hi - window) & (steps <= hi)
+        out.append([hi, round(float(success[sel].mean()), 4) if sel.any() else None, int(sel.sum())])
+    return out
+
+
 def write_episode_log(rows: list[dict], path: Path) -> None:
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=["timesteps", "return", "length", "success", "seconds"])
+    w = csv.DictWriter(buf, fieldnames=["timesteps", "env", "return", "length", "success", "seconds"])
     w.writeheader()
     w.writerows(rows)
     atomic_write_text(path, buf.getvalue())
