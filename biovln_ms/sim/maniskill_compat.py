@@ -12,6 +12,8 @@ the env's smoke tests against the nightly.
   refuses them); the task's ``sensor_configs`` never asks for one.
 * :func:`maniskill_task_id`: the registered id of one of ManiSkill's own tasks (``PickCube`` ->
   ``PickCube-v1``; ManiSkill 4 announces ``-v4`` ids).
+* :func:`freeze_live_objects`: ``BaseEnv._clear`` (every scene change) ends in a full ``gc.collect()``;
+  the env freezes the objects alive when it is made, so that collection walks only the scenes.
 * the physics rates are the task's own (``biovln_ms.tasks.config_checks.SIM_FREQUENCIES``), set by every
   env of the package, never ManiSkill's default (ManiSkill 4 announces 120 Hz physics).
 """
@@ -19,6 +21,7 @@ the env's smoke tests against the nightly.
 from __future__ import annotations
 
 import functools
+import gc
 import importlib.util
 import re
 from importlib import metadata
@@ -86,3 +89,23 @@ def maniskill_task_id(name: str) -> str:
             fix=f"name one of its tasks without the -vN suffix (near: {', '.join(near) or 'none'})",
         )
     return versions[max(versions)]
+
+
+
+#: an episode source of more episodes than this is frozen at every env made with it, not only the first
+FREEZE_EPISODES = 10_000
+_frozen = False  # whether this process froze its live objects yet
+
+
+def freeze_live_objects(episodes: int) -> None:
+    """Collect, then freeze what is alive (``gc.freeze``): the imported libraries and the episodes.
+    ManiSkill's ``BaseEnv._clear`` ends every scene change with a full ``gc.collect()`` (to free GPU
+    memory), which would otherwise walk all of them each time; frozen, it walks only the scenes and what
+    came after. Done by the first env of a process, and again by an env handed over ``FREEZE_EPISODES``
+    episodes. What is frozen is still freed by reference counting; only its reference cycles outlive it."""
+    global _frozen
+    if _frozen and episodes <= FREEZE_EPISODES:
+        return
+    gc.collect()
+    gc.freeze()
+    _frozen = True
