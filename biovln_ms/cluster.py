@@ -1,4 +1,5 @@
-"""Ray, the way this package's work leaves one machine: the address rule and starting or joining a cluster.
+"""Ray, the way this package's work leaves one machine: the address rule and starting or joining a cluster;
+and how a process with workers of its own ends on SIGTERM.
 
 Evaluation actors, training env actors and training-split builds all start Ray here, so an address is
 checked, a silent head node refused and Ray's own errors turned into one line in one place. Ray is an
@@ -8,7 +9,10 @@ optional dependency (``pip install 'biovln-ms[cluster]'``) and is imported only 
 from __future__ import annotations
 
 import re
+import signal
 import socket
+import sys
+import threading
 from types import ModuleType
 
 from biovln_ms.errors import BioVLNError
@@ -75,3 +79,14 @@ def start_ray(
             fix=f"start the cluster first (ray start --head) or use {RAY_ADDRESS_RULE}",
         ) from None
     return ray, True
+
+
+def exit_on_sigterm():
+    """While worker processes run (an evaluation's pool, a training's envs), a SIGTERM (``kill``'s default)
+    ends this process as ^C does, so that its cleanup stops them rather than leaving them running on their
+    own; returns what puts the previous handler back."""
+    if threading.current_thread() is not threading.main_thread():  # only the main thread may set one
+        return lambda: None
+    previous = signal.getsignal(signal.SIGTERM)  # None: set outside Python, restored as the default
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+    return lambda: signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)

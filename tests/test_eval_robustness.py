@@ -305,6 +305,36 @@ def test_a_terminated_run_stops_its_workers(held_out_dataset, tmp_path):
     assert proc.returncode == 128 + signal.SIGTERM
 
 
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the process table from /proc")
+def test_a_terminated_training_stops_its_env_processes(held_out_dataset, tmp_path):
+    """``kill`` of ``train ppo`` with two env processes (SB3's SubprocVecEnv) ends them too."""
+    data = held_out_dataset(train=10)
+    cmd = [sys.executable, "-m", "biovln_ms.cli", "train", "ppo", "--timesteps", "100000", "--n-envs", "2"]
+    proc = subprocess.Popen(
+        [*cmd, "--dataset", data, "--eval-split", "", "-o", str(tmp_path / "run")],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + 180
+        while not (tmp_path / "run" / "tb").exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)  # SB3 makes tb/ once the envs are up
+        assert proc.poll() is None and len(_workers_of_group(proc.pid)) == 2
+        os.kill(proc.pid, signal.SIGTERM)
+        proc.wait(timeout=60)
+        assert _workers_of_group(proc.pid) == []
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    assert proc.returncode == 128 + signal.SIGTERM
+
+
 def test_duplicate_records_of_an_older_version_are_repaired_and_named(ds, tmp_path):
     from biovln_ms.eval.report import load_runs
 

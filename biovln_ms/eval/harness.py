@@ -23,9 +23,6 @@ import json
 import math
 import os
 import re
-import signal
-import sys
-import threading
 import time
 from dataclasses import asdict, dataclass, field
 from importlib import metadata
@@ -34,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.variants import BENCHMARK_ENV
-from biovln_ms.cluster import check_address, start_ray
+from biovln_ms.cluster import check_address, exit_on_sigterm, start_ray
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import method_spec
 from biovln_ms.eval.aggregate import aggregate_all, record_error
@@ -562,7 +559,7 @@ def _run_on_pool(wcfg: dict, todo: list[int], workers: int, write) -> None:
     pool = ProcessPoolExecutor(
         workers, mp_context=mp.get_context("spawn"), initializer=_keep_config, initargs=(wcfg,)
     )
-    restore, finished = _exit_on_sigterm(), False
+    restore, finished = exit_on_sigterm(), False
     try:
         pending = {pool.submit(_run_pooled, i) for i in todo}
         while pending:
@@ -582,16 +579,6 @@ def _run_on_pool(wcfg: dict, todo: list[int], workers: int, write) -> None:
         else:
             _stop_pool(pool)
         restore()
-
-
-def _exit_on_sigterm():
-    """While workers run, a SIGTERM (``kill``'s default) ends the run as ^C does, so that the workers are
-    stopped rather than left running on their own; returns what puts the previous handler back."""
-    if threading.current_thread() is not threading.main_thread():  # only the main thread may set one
-        return lambda: None
-    previous = signal.getsignal(signal.SIGTERM)  # None: set outside Python, restored as the default
-    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
-    return lambda: signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
 
 
 def _stop_pool(pool) -> None:

@@ -21,7 +21,7 @@ from typing import Callable
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
-from biovln_ms.cluster import check_address
+from biovln_ms.cluster import check_address, exit_on_sigterm
 from biovln_ms.errors import BioVLNError
 from biovln_ms.learning.algorithms import SB3_CONTROL_MODES, algo_class
 from biovln_ms.variants import RL_ENV
@@ -195,6 +195,7 @@ def train_rl(
             field="sim_backend",
             fix="drop --ray-address, or --sim-backend",
         )
+    restore = exit_on_sigterm()  # a kill ends the env processes too (venv.close below)
     venv = make_vec_env(cfg)
     device = str(venv.venv.base.device) if cfg.sim_backend else "cpu"  # where the batched env steps
     try:
@@ -216,6 +217,7 @@ def train_rl(
         seconds = time.perf_counter() - t0
     finally:
         venv.close()
+        restore()
     model_path = save_model(model, out / "model.zip")
     write_episode_log(log.rows, out / "episodes.csv")
     plot_learning_curve(

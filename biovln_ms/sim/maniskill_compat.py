@@ -91,7 +91,6 @@ def maniskill_task_id(name: str) -> str:
     return versions[max(versions)]
 
 
-
 #: an episode source of more episodes than this is frozen at every env made with it, not only the first
 FREEZE_EPISODES = 10_000
 _frozen = False  # whether this process froze its live objects yet
