@@ -1,0 +1,224 @@
+"""Training data at scale: PPO trained for the same steps on the paper's 39 train scenes and on a generated
+split of 10,000 scenes, evaluated on MS TEST and the Hard track under both noise presets.
+
+    biovln-ms dataset build --template single_room --scenes 10000 --episodes-per-scene 20 -o data/gen10k
+    biovln-ms train ppo --timesteps 100000 --n-envs 2 --stop-penalty 10 --stop-penalty-steps 50000 \\
+        --scene-visit-episodes 2 --eval-split '' -o runs/scenes39
+    biovln-ms train ppo ... (the same) --dataset data/gen10k -o runs/scenes10k
+    biovln-ms eval -m ppo --checkpoint runs/scenes39/model.zip -s ms_test --noise ideal \\
+        -o runs/scenes39/eval/ideal        # and hard_test; --noise realistic --max-episodes 40 into
+                                           # .../realistic
+    python benchmarks/ppo_scenes.py report runs/scenes39 runs/scenes10k
+
+Both runs use the learning guide's SB3 recipe (2 envs, STOP penalty in the first half) and take two
+episodes of a scene in a row (``--scene-visit-episodes 2``), so the only difference is the training split.
+A run folder's ``eval/<preset>/`` holds ``biovln-ms eval`` results folders of any splits. ``report`` writes
+``docs/data/learning/ppo_scenes.json`` (the table), ``docs/data/learning/ppo_scenes_curves.json`` and
+``docs/images/ppo_scenes.png`` (training success per window of steps, both runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import datetime
+import json
+from pathlib import Path
+
+import numpy as np
+
+from biovln_ms.episodes.source import DatasetEpisodes, EpisodeCursor
+from biovln_ms.eval.harness import episode_key, load_records
+from biovln_ms.eval.stats import mcnemar, wilson_interval
+from biovln_ms.io_utils import atomic_write_text, save_figure
+from biovln_ms.learning.rl import CURVE_WINDOW as WINDOW, success_curve
+from biovln_ms.measured import docs_data_dir, machine, write_table
+from biovln_ms.splits import default_dataset_dir
+from biovln_ms.variants import RL_ENV
+
+IMAGE = docs_data_dir().parent / "images" / "ppo_scenes.png"
+SPLITS = {"ms_test": "MS TEST", "hard_test": "Hard TEST"}
+PRESETS = ("ideal", "realistic")
+
+
+def scenes_seen(cfg: dict, played: list[int]) -> tuple[int, int]:
+    """(scenes in the training split, distinct scenes the run played), ``played[i]`` the episodes env ``i``
+    finished: SB3 seeds env ``i`` with ``seed + i``, which starts it at that position of the env's shuffled
+    order, and each later reset takes the next."""
+    source = DatasetEpisodes(cfg["split"], cfg["dataset"] or default_dataset_dir())
+    order = EpisodeCursor(source, shuffle=True, visit=cfg.get("scene_visit_episodes", 0)).order
+    scenes = {
+        source.episodes[order[(cfg["seed"] + i + k) % len(order)]]["scene_id"]
+        for i, n in enumerate(played)
+        for k in range(n)
+    }
+    return len({e["scene_id"] for e in source.episodes}), len(scenes)
+
+
+def evaluation(folder: Path) -> dict:
+    """{preset: {split: {episode: (success, spl, truncated)}}} from the run's ``eval/<preset>/`` results
+    (``biovln-ms eval``'s records)."""
+    out: dict = {}
+    for preset in PRESETS:
+        for records in sorted((folder / "eval" / preset).glob("*/*/episodes.jsonl")):
+            out.setdefault(preset, {})[records.parent.name] = {
+                episode_key(r): (bool(r["success"]), float(r["spl"]), bool(r["truncated"]))
+                for r in load_records(records)
+            }
+    return out
+
+
+def summaries(runs: list[dict]) -> dict:
+    """{preset: {split: [each run's summary]}}: SR (Wilson 95 % interval), SPL and timeouts on the episodes
+    every run played, and in the first run's McNemar's p against the second (the same episodes: paired)."""
+    out: dict = {}
+    for preset in PRESETS:
+        for split in SPLITS:
+            played = [r["eval"].get(preset, {}).get(split) for r in runs]
+            if not all(played):
+                continue
+            keys = sorted(set.intersection(*(set(p) for p in played)))
+            cells = []
+            for p in played:
+                k = sum(p[e][0] for e in keys)
+                cells.append(
+                    {
+                        "episodes": len(keys),
+                        "sr": round(100 * k / len(keys), 1),
+                        "sr_ci95": [round(100 * v, 1) for v in wilson_interval(k, len(keys))],
+                        "spl": round(float(np.mean([p[e][1] for e in keys])), 3),
+                        "timeouts": int(sum(p[e][2] for e in keys)),
+                    }
+                )
+            if len(played) > 1:
+                first, second = ([p[e][0] for e in keys] for p in played[:2])
+                cells[0]["mcnemar_p"] = round(mcnemar(first, second).p_value, 4)
+            out.setdefault(preset, {})[split] = cells
+    return out
+
+
+def read_run(folder: Path, end: int, window: int) -> dict:
+    train = json.loads((folder / "train.json").read_text())
+    cfg = train["config"]
+    with (folder / "episodes.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    episodes = [(int(r["timesteps"]), float(r["success"])) for r in rows]
+    total, seen = scenes_seen(cfg, [sum(int(r["env"]) == i for r in rows) for i in range(cfg["n_envs"])])
+    return {
+        "run": folder.name,
+        "split": f"{cfg['dataset'] and Path(cfg['dataset']).name or 'paper'}:{cfg['split']}",
+        "scenes": total,
+        "scenes_seen": seen,
+        "episodes": len(episodes),
+        "steps": train["timesteps"],
+        "steps_per_second": train["steps_per_second"],
+        "seed": cfg["seed"],
+        "curve": success_curve(episodes, end, window),
+        "eval": evaluation(folder),
+    }
+
+
+def report(a: argparse.Namespace) -> None:
+    runs = [read_run(Path(f), a.steps, a.window) for f in a.runs]
+    summary = summaries(runs)
+    for k, r in enumerate(runs):
+        r["eval"] = {p: {s: cells[k] for s, cells in d.items()} for p, d in summary.items()}
+    head = {"window_steps": a.window, "machine": machine(), "written": datetime.date.today().isoformat()}
+    lines = ",\n  ".join(json.dumps(r, ensure_ascii=False) for r in runs)
+    atomic_write_text(
+        a.data_out / "ppo_scenes_curves.json", json.dumps(head)[:-1] + f', "runs": [\n  {lines}\n]}}\n'
+    )
+
+    def cell(r: dict, preset: str, split: str) -> str:
+        e = r["eval"].get(preset, {}).get(split)
+        if e is None:
+            return "–"
+        low, high = e["sr_ci95"]
+        return f"{e['sr']:.1f} [{low:.0f}, {high:.0f}] / {e['spl']:.2f} (n {e['episodes']})"
+
+    def p_cell(preset: str, split: str) -> str:
+        p = runs[0]["eval"].get(preset, {}).get(split, {}).get("mcnemar_p")
+        return "–" if p is None else f"p = {p:.2g}"
+
+    def late(r: dict) -> str:  # training success over the last quarter of the steps
+        pts = [p for p in r["curve"] if p[0] > 3 * a.steps // 4 and p[1] is not None]
+        n = sum(p[2] for p in pts)
+        return "–" if not n else f"{100 * sum(p[1] * p[2] for p in pts) / n:.0f}"
+
+    write_table(
+        a.data_out / "ppo_scenes.json",
+        f"PPO on {RL_ENV}: the paper's 39 train scenes against 10,000 generated scenes, same steps",
+        [
+            "training scenes",
+            "scenes met in training",
+            "episodes",
+            "training success % (last quarter)",
+            "steps/s",
+            *(f"{SPLITS[s]} {p}: SR % [95 % CI] / SPL" for p in PRESETS for s in SPLITS),
+        ],
+        [
+            [
+                f"{r['scenes']:,}",
+                f"{r['scenes_seen']:,}",
+                f"{r['episodes']:,}",
+                late(r),
+                f"{r['steps_per_second']:.0f}",
+                *(cell(r, p, s) for p in PRESETS for s in SPLITS),
+            ]
+            for r in runs
+        ]
+        + [["McNemar (paired episodes)", "", "", "", "", *(p_cell(p, s) for p in PRESETS for s in SPLITS)]],
+        notes=[
+            f"Seed {', '.join(sorted({str(r['seed']) for r in runs}))}, one run per row, "
+            f"{runs[0]['steps']:,} steps each, the SB3 recipe of the learning guide, two episodes of a scene "
+            "in a row. The 39 scenes: 32 single_room and 7 two_room; the 10,000: single_room "
+            "(dataset build --template single_room, held-out scenes skipped).",
+            "MS TEST (120 episodes, single_room) and Hard TEST (160 episodes: single_room, open_plan, "
+            "suite), the greedy policy in the env as registered through biovln-ms eval; realistic: the "
+            "policy's own pose estimate instead of GPS+compass, on the first 40 episodes of each split "
+            "(its depth-matching odometry renders every step: the full splits take hours here). n: the "
+            "episodes both runs played.",
+            "McNemar: the two runs' outcomes on the same episodes (two-sided; exact under 10 discordant "
+            "pairs).",
+            "steps/s: each run's own, the two runs sharing the 2 cores.",
+        ],
+    )
+    plot(runs, a.image, a.window)
+    print(f"wrote {a.data_out / 'ppo_scenes.json'} and {a.image}")
+
+
+def plot(runs: list[dict], path: Path, window: int) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    for r in runs:
+        pts = [(p[0] / 1000, 100 * p[1]) for p in r["curve"] if p[1] is not None]
+        label = f"{r['scenes']:,} training scenes ({r['scenes_seen']:,} met)"
+        ax.plot(*zip(*pts), marker=".", label=label)
+    ax.set(xlabel="env steps (thousands)", ylabel=f"training success % (per {window:,} steps)")
+    ax.set_ylim(-2, 102)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right", fontsize=8)
+    ax.set_title(f"PPO on {RL_ENV}: training scenes", fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="command", required=True)
+    rp = sub.add_parser("report", help="run folders -> the learning guide's table, curves and figure")
+    rp.add_argument("runs", nargs="+", type=Path)
+    rp.add_argument("--steps", type=int, default=100_000, help="the curves end here")
+    rp.add_argument("--window", type=int, default=WINDOW, help="env steps per point of a curve")
+    rp.add_argument("--data-out", type=Path, default=docs_data_dir() / "learning")
+    rp.add_argument("--image", type=Path, default=IMAGE)
+    a = ap.parse_args()
+    report(a)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,50 @@
+"""The learning guide's scene-count comparison (``benchmarks/ppo_scenes.py report``): run folders of
+``biovln-ms train ppo`` and ``biovln-ms eval`` become a table whose cells are computed on the episodes
+every run played, with McNemar's test on those pairs, and the curves and figure."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _run(folder: Path, dataset: str, outcomes: dict[str, list[bool]]) -> None:
+    """A run folder as train ppo and eval write it: 2 envs, episodes ending every 100 steps."""
+    folder.mkdir()
+    config = {"split": "train", "dataset": dataset, "seed": 0, "n_envs": 2, "scene_visit_episodes": 2}
+    train = {"config": config, "timesteps": 2000, "steps_per_second": 50.0}
+    (folder / "train.json").write_text(json.dumps(train))
+    rows = ["timesteps,env,return,length,success,seconds"]
+    rows += [f"{100 * (k + 1)},{k % 2},1.0,100,{float(k >= 10)},1.0" for k in range(20)]
+    (folder / "episodes.csv").write_text("\n".join(rows) + "\n")
+    for split, successes in outcomes.items():
+        out = folder / "eval" / "ideal" / "ppo@opface-rl" / split
+        out.mkdir(parents=True)
+        records = [
+            {"scene_id": "s", "episode_id": str(k), "success": ok, "spl": 0.5 * ok, "truncated": not ok}
+            for k, ok in enumerate(successes)
+        ]
+        (out / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
+
+
+def test_report_pairs_the_runs_episodes(held_out_dataset, tmp_path):
+    dataset = held_out_dataset(train=6)
+    # run a plays 12 episodes of ms_test, run b 10 (a killed eval): the cells use the 10 both played
+    _run(tmp_path / "a", dataset, {"ms_test": [True] * 12})
+    _run(tmp_path / "b", dataset, {"ms_test": [False] * 2 + [True] * 8})
+    data, image = tmp_path / "data", tmp_path / "scenes.png"
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "ppo_scenes.py"), "report", "--steps", "2000"]
+    cmd += ["--window", "500", "--data-out", str(data), "--image", str(image)]
+    subprocess.run([*cmd, str(tmp_path / "a"), str(tmp_path / "b")], check=True, capture_output=True)
+    table = json.loads((data / "ppo_scenes.json").read_text())
+    a, b, p = table["rows"]
+    assert a[:5] == ["1", "1", "20", "100", "50"]  # one scene in the split, met; last quarter all successes
+    assert a[5] == "100.0 [72, 100] / 0.50 (n 10)" and b[5] == "80.0 [49, 94] / 0.40 (n 10)"
+    assert p[5] == "p = 0.5"  # 2 discordant pairs: the exact test
+    assert set(a[6:]) == {"–"}  # no hard_test, no realistic runs
+    curves = json.loads((data / "ppo_scenes_curves.json").read_text())["runs"]
+    assert [pt[0] for pt in curves[0]["curve"]] == [500, 1000, 1500, 2000]
+    assert curves[0]["eval"]["ideal"]["ms_test"]["mcnemar_p"] == 0.5
+    assert image.read_bytes()[:4] == b"\x89PNG"
