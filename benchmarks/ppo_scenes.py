@@ -23,6 +23,7 @@ import argparse
 import csv
 import datetime
 import json
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -41,10 +42,10 @@ SPLITS = {"ms_test": "MS TEST", "hard_test": "Hard TEST"}
 PRESETS = ("ideal", "realistic")
 
 
-def scenes_seen(cfg: dict, played: list[int]) -> tuple[int, int]:
-    """(scenes in the training split, distinct scenes the run played), ``played[i]`` the episodes env ``i``
-    finished: SB3 seeds env ``i`` with ``seed + i``, which starts it at that position of the env's shuffled
-    order, and each later reset takes the next."""
+def scenes_seen(cfg: dict, played: list[int]) -> tuple[int, int, str]:
+    """(scenes in the training split, distinct scenes the run played, its templates), ``played[i]`` the
+    episodes env ``i`` finished: SB3 seeds env ``i`` with ``seed + i``, which starts it at that position
+    of the env's shuffled order, and each later reset takes the next."""
     source = DatasetEpisodes(cfg["split"], cfg["dataset"] or default_dataset_dir())
     order = EpisodeCursor(source, shuffle=True, visit=cfg.get("scene_visit_episodes", 0)).order
     scenes = {
@@ -52,7 +53,9 @@ def scenes_seen(cfg: dict, played: list[int]) -> tuple[int, int]:
         for i, n in enumerate(played)
         for k in range(n)
     }
-    return len({e["scene_id"] for e in source.episodes}), len(scenes)
+    ids = {e["scene_id"] for e in source.episodes}
+    templates = Counter(source.dataset.manifest["scenes"][s]["template"] for s in ids)
+    return len(ids), len(scenes), ", ".join(f"{n:,} {t}" for t, n in templates.most_common())
 
 
 def evaluation(folder: Path) -> dict:
@@ -103,12 +106,16 @@ def read_run(folder: Path, end: int, window: int) -> dict:
     with (folder / "episodes.csv").open() as f:
         rows = list(csv.DictReader(f))
     episodes = [(int(r["timesteps"]), float(r["success"])) for r in rows]
-    total, seen = scenes_seen(cfg, [sum(int(r["env"]) == i for r in rows) for i in range(cfg["n_envs"])])
+    total, seen, templates = scenes_seen(
+        cfg, [sum(int(r["env"]) == i for r in rows) for i in range(cfg["n_envs"])]
+    )
     return {
         "run": folder.name,
         "split": f"{cfg['dataset'] and Path(cfg['dataset']).name or 'paper'}:{cfg['split']}",
         "scenes": total,
         "scenes_seen": seen,
+        "templates": templates,
+        "scene_visit_episodes": cfg.get("scene_visit_episodes", 0),
         "episodes": len(episodes),
         "steps": train["timesteps"],
         "steps_per_second": train["steps_per_second"],
@@ -147,9 +154,9 @@ def report(a: argparse.Namespace) -> None:
 
     write_table(
         a.data_out / "ppo_scenes.json",
-        f"PPO on {RL_ENV}: the paper's 39 train scenes against 10,000 generated scenes, same steps",
+        f"PPO on {RL_ENV}: training scenes, the same steps",
         [
-            "training scenes",
+            "training scenes (templates)",
             "scenes met in training",
             "episodes",
             "training success % (last quarter)",
@@ -158,7 +165,7 @@ def report(a: argparse.Namespace) -> None:
         ],
         [
             [
-                f"{r['scenes']:,}",
+                f"{r['scenes']:,} ({r['templates']})",
                 f"{r['scenes_seen']:,}",
                 f"{r['episodes']:,}",
                 late(r),
@@ -170,17 +177,14 @@ def report(a: argparse.Namespace) -> None:
         + [["McNemar (paired episodes)", "", "", "", "", *(p_cell(p, s) for p in PRESETS for s in SPLITS)]],
         notes=[
             f"Seed {', '.join(sorted({str(r['seed']) for r in runs}))}, one run per row, "
-            f"{runs[0]['steps']:,} steps each, the SB3 recipe of the learning guide, two episodes of a scene "
-            "in a row. The 39 scenes: 32 single_room and 7 two_room; the 10,000: single_room "
-            "(dataset build --template single_room, held-out scenes skipped).",
-            "MS TEST (120 episodes, single_room) and Hard TEST (160 episodes: single_room, open_plan, "
-            "suite), the greedy policy in the env as registered through biovln-ms eval; realistic: the "
-            "policy's own pose estimate instead of GPS+compass, on the first 40 episodes of each split "
-            "(its depth-matching odometry renders every step: the full splits take hours here). n: the "
-            "episodes both runs played.",
-            "McNemar: the two runs' outcomes on the same episodes (two-sided; exact under 10 discordant "
-            "pairs).",
-            "steps/s: each run's own, the two runs sharing the 2 cores.",
+            f"{runs[0]['steps']:,} steps each, the SB3 recipe of the learning guide, "
+            f"{', '.join(sorted({str(r['scene_visit_episodes']) for r in runs}))} episodes of a scene per "
+            "pass (scene_visit_episodes).",
+            "The greedy policy in the env as registered through biovln-ms eval; realistic: the policy's own "
+            "pose estimate instead of GPS+compass. n: the episodes every run played (the first of the split "
+            "where an evaluation was cut short).",
+            "McNemar: the first two runs' outcomes on the same episodes (biovln_ms.eval.stats.mcnemar).",
+            "steps/s: each run's own on this machine at the time.",
         ],
     )
     plot(runs, a.image, a.window)

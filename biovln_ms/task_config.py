@@ -94,8 +94,8 @@ class NavTaskConfig:
     shuffle_episodes: bool = (
         False  # RL variant: shuffle once (scene order, and episodes within a scene), then cycle
     )
-    #: with shuffle_episodes: at most this many of a scene's episodes in a row, then the next scene's, so
-    #: training meets more scenes per step (ManiSkill's reconfiguration_freq in spirit); 0: all of them
+    #: with shuffle_episodes: this many of each scene's episodes per pass over the scenes, so training meets
+    #: more scenes per step (ManiSkill's reconfiguration_freq in spirit); 0: all of a scene's at once
     scene_visit_episodes: int = 0
     position_scale: float = 4.0  # RL variant observation normalisation (m)
     measures: tuple[str, ...] = STEP_MEASURES + END_MEASURES

@@ -181,6 +181,12 @@ def task_config(
         kwargs.setdefault("max_episode_steps", limit)
     cfg = replace(base, **{f.name: kwargs.pop(f.name) for f in fields(base) if f.name in kwargs})
     cfg = checked_config(cfg, robot_spec(kwargs.get("robot_uids", robot_uids)).uid)
+    if cfg.scene_visit_episodes and not cfg.shuffle_episodes:
+        raise EnvConfigError(
+            "scene_visit_episodes orders a shuffle, and this env plays its episodes in dataset order",
+            field="scene_visit_episodes",
+            fix="pass shuffle_episodes=True with it (the RL variants shuffle), or leave it at 0",
+        )
     if kwargs.get("obs_mode") is None:  # ManiSkill's None is the default
         kwargs["obs_mode"] = cfg.default_obs_mode
     noise = resolve_noise(cfg.noise)

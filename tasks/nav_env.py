@@ -31,7 +31,7 @@ from biovln_ms.render.progress import first_camera_render
 from biovln_ms.robot_specs import DEFAULT_ROBOT, ROBOTS, robot_spec
 from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
-from biovln_ms.sim.maniskill_compat import freeze_live_objects
+from biovln_ms.sim.maniskill_compat import FreezesLiveObjects
 from biovln_ms.sim.reach import FetchArm, ReachResult, reach_goals
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
 from biovln_ms.tasks.config_checks import SIM_FREQUENCIES, EnvConfigError, check_episode_kind
@@ -49,7 +49,7 @@ FOLLOW_CAMERA_EYE = (-2.2, 0.0, 2.3)
 FOLLOW_CAMERA_TARGET = (1.0, 0.0, 0.3)
 
 
-class BioVLNNavEnv(BaseEnv):
+class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
     """
     **Task Description:**
     Drive a mobile base (the BioVLN cylinder or Fetch) through a generated lab to the operational face of an
@@ -103,7 +103,6 @@ class BioVLNNavEnv(BaseEnv):
         self._arm: FetchArm | None = None  # Fetch's arm model for the reach check, made at the first STOP
         self._head_noise: HeadCameraNoise | None = None  # the image noise models, made once
         first_camera_render(kwargs["obs_mode"], software=not torch.cuda.is_available())  # its first render
-        freeze_live_objects(len(episodes))  # out of the full collection at each scene change
         super().__init__(*args, robot_uids=NAV_AGENTS[self.robot_id].uid, control_mode=control_mode, **kwargs)
 
     @property
@@ -122,7 +121,9 @@ class BioVLNNavEnv(BaseEnv):
         ]
 
     def _setup_sensors(self, options: dict) -> None:
-        use_depth_only_format()  # the depth-only pack's format, set before the head camera (the first made)
+        """ManiSkill's, with the picture format of the depth-only pack set first: the head camera (the task's
+        sensor) is the first camera made, and SAPIEN fixes its format then."""
+        use_depth_only_format()
         super()._setup_sensors(options)
 
     @property

@@ -91,6 +91,7 @@ BAD_ARGUMENTS = [
     ({"shuffle_episodes": "x"}, "shuffle_episodes"),
     ({"scene_visit_episodes": -1}, "scene_visit_episodes"),
     ({"scene_visit_episodes": 1.5}, "scene_visit_episodes"),
+    ({"scene_visit_episodes": 2}, "scene_visit_episodes"),  # without shuffle_episodes
     ({"agent_obs": "x"}, "agent_obs"),
     ({"measures": ("bogus",)}, "measures"),
     ({"measures": "success"}, "measures"),

@@ -40,7 +40,13 @@ def test_report_pairs_the_runs_episodes(held_out_dataset, tmp_path):
     subprocess.run([*cmd, str(tmp_path / "a"), str(tmp_path / "b")], check=True, capture_output=True)
     table = json.loads((data / "ppo_scenes.json").read_text())
     a, b, p = table["rows"]
-    assert a[:5] == ["1", "1", "20", "100", "50"]  # one scene in the split, met; last quarter all successes
+    assert a[:5] == [
+        "1 (1 single_room)",
+        "1",
+        "20",
+        "100",
+        "50",
+    ]  # one scene in the split, met; last quarter all successes
     assert a[5] == "100.0 [72, 100] / 0.50 (n 10)" and b[5] == "80.0 [49, 94] / 0.40 (n 10)"
     assert p[5] == "p = 0.5"  # 2 discordant pairs: the exact test
     assert set(a[6:]) == {"–"}  # no hard_test, no realistic runs

@@ -1,6 +1,6 @@
 """A scene change does not pay for walking the whole process: ManiSkill ends each one with a full garbage
-collection, so the env freezes what is alive when it is made (``freeze_live_objects``). Old scenes are
-still freed. In subprocesses: a freeze is for the whole process."""
+collection, so what is alive before an env is made is frozen (``FreezesLiveObjects``). Old scenes and
+closed envs are still freed. In subprocesses: a freeze is for the whole process."""
 
 from __future__ import annotations
 
@@ -10,28 +10,38 @@ import sys
 import pytest
 
 _SCENE_CHANGES = """
-import gc, resource, time
+import gc, resource, weakref
 import gymnasium as gym
 import biovln_ms
 from biovln_ms.sim import maniskill_compat
+freezes, freeze = [], gc.freeze
+gc.freeze = lambda: (freezes.append(1), freeze())[1]
 env = gym.make("BioVLN-OpFace-RL-v0", split="train", obs_mode="state")
-assert gc.get_freeze_count() > 100_000  # the libraries and the episodes, frozen by the first env
+assert freezes == [1] and gc.get_freeze_count() > 100_000  # the libraries and the episodes
 env.reset(seed=0)
 n = len(env.unwrapped.source)
 peak = []
-for k in range(45):  # a new scene at every reset (the split's scenes hold 30-40 episodes each)
+for k in range(45):  # a new scene at (nearly) every reset
     env.reset(options={"episode_index": (k * 37) % n})
     if k % 15 == 14:
         peak.append(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
 unfrozen = len(gc.get_objects())
 assert unfrozen < 0.5 * gc.get_freeze_count(), unfrozen  # what the collection at a scene change walks
 assert peak[-1] - peak[0] < 0.1 * peak[0], peak  # old scenes freed: peak memory flat
-frozen = gc.get_freeze_count()
+second = gym.make("BioVLN-OpFace-RL-v0", split="ms_val", obs_mode="state")
+assert freezes == [1]  # once per process
+maniskill_compat.FREEZE_EPISODES = 10  # a large split freezes again, but not while another env lives
+second.close()
+third = gym.make("BioVLN-OpFace-RL-v0", split="ms_val", obs_mode="state")
+assert freezes == [1]
+ref = weakref.ref(env.unwrapped)
+for e in (env, second, third):
+    e.close()
+del env, second, third, e
+gc.collect()
+assert ref() is None  # an env is never frozen itself: closed and dropped, it is freed
 gym.make("BioVLN-OpFace-RL-v0", split="ms_val", obs_mode="state").close()
-assert gc.get_freeze_count() == frozen  # once per process
-maniskill_compat.FREEZE_EPISODES = 10  # unless a split is large: then again
-gym.make("BioVLN-OpFace-RL-v0", split="ms_val", obs_mode="state").close()
-assert gc.get_freeze_count() > frozen
+assert freezes == [1, 1]
 """
 
 

@@ -132,8 +132,8 @@ def _rl_command(algo: str):
         ),
         scene_visit_episodes: int = typer.Option(
             0,
-            help="At most N of a scene's episodes in a row, then the next scene's (0: all of them), so "
-            "training meets more scenes of a large split.",
+            help="N of each scene's episodes per pass over the split's scenes (0: all of a scene's at "
+            "once), so training meets more scenes of a large split.",
         ),
     ) -> None:
         _train_rl(

@@ -47,8 +47,9 @@ EPISODE_OPTIONS = frozenset({"episode_index", "episode_id"})
 class EpisodeCursor:
     """Which episode a reset starts (Habitat's episode iterator): dataset order, or (``shuffle``) a fixed
     shuffle that keeps each scene's episodes together, so a scene is rebuilt once per pass, not per
-    episode. ``visit`` > 0 takes at most that many of a scene's episodes in a row: the scenes' first
-    ``visit`` episodes in the shuffled scene order, then their next ``visit``, and so on."""
+    episode. ``visit`` > 0 plays the shuffle in passes: each pass takes the next ``visit`` episodes of every
+    scene that has some left, in the shuffled scene order (a scene with more episodes than the others ends
+    the order with its own)."""
 
     def __init__(self, source: EpisodeSource, shuffle: bool = False, visit: int = 0) -> None:
         self.source = source

@@ -55,7 +55,7 @@ class RLConfig:
     #: the penalty applies in the first this many timesteps only (None: throughout), so that the policy's
     #: STOP is learnt from the env's own reward in the rest of training
     stop_penalty_steps: int | None = None
-    #: the RL env's ``scene_visit_episodes``: at most this many of a scene's episodes in a row (0: all)
+    #: the RL env's ``scene_visit_episodes``: this many of each scene's episodes per pass (0: all at once)
     scene_visit_episodes: int = 0
 
     def defaults(self) -> dict:
@@ -196,27 +196,29 @@ def train_rl(
             fix="drop --ray-address, or --sim-backend",
         )
     restore = exit_on_sigterm()  # a kill ends the env processes too (venv.close below)
-    venv = make_vec_env(cfg)
-    device = str(venv.venv.base.device) if cfg.sim_backend else "cpu"  # where the batched env steps
     try:
-        model = cls(
-            "MlpPolicy",
-            venv,
-            seed=cfg.seed,
-            device=device,
-            verbose=0,
-            tensorboard_log=str(out / "tb"),
-            **cfg.defaults(),
-        )
-        log = EpisodeLog(out, cfg.checkpoint_every)
-        callbacks = [log] + ([EndStopPenalty(cfg.stop_penalty_steps)] if cfg.stop_penalty_steps else [])
-        t0 = time.perf_counter()
-        model.learn(
-            total_timesteps=cfg.timesteps, callback=callbacks, progress_bar=progress, tb_log_name=cfg.algo
-        )
-        seconds = time.perf_counter() - t0
+        venv = make_vec_env(cfg)
+        device = str(venv.venv.base.device) if cfg.sim_backend else "cpu"  # where the batched env steps
+        try:
+            model = cls(
+                "MlpPolicy",
+                venv,
+                seed=cfg.seed,
+                device=device,
+                verbose=0,
+                tensorboard_log=str(out / "tb"),
+                **cfg.defaults(),
+            )
+            log = EpisodeLog(out, cfg.checkpoint_every)
+            callbacks = [log] + ([EndStopPenalty(cfg.stop_penalty_steps)] if cfg.stop_penalty_steps else [])
+            t0 = time.perf_counter()
+            model.learn(
+                total_timesteps=cfg.timesteps, callback=callbacks, progress_bar=progress, tb_log_name=cfg.algo
+            )
+            seconds = time.perf_counter() - t0
+        finally:
+            venv.close()
     finally:
-        venv.close()
         restore()
     model_path = save_model(model, out / "model.zip")
     write_episode_log(log.rows, out / "episodes.csv")

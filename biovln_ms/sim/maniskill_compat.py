@@ -12,8 +12,8 @@ the env's smoke tests against the nightly.
   refuses them); the task's ``sensor_configs`` never asks for one.
 * :func:`maniskill_task_id`: the registered id of one of ManiSkill's own tasks (``PickCube`` ->
   ``PickCube-v1``; ManiSkill 4 announces ``-v4`` ids).
-* :func:`freeze_live_objects`: ``BaseEnv._clear`` (every scene change) ends in a full ``gc.collect()``;
-  the env freezes the objects alive when it is made, so that collection walks only the scenes.
+* :class:`FreezesLiveObjects`: ``BaseEnv._clear`` (every scene change) ends in a full ``gc.collect()``;
+  the objects alive before an env is made are frozen (:func:`freeze_live_objects`), so it walks less.
 * the physics rates are the task's own (``biovln_ms.tasks.config_checks.SIM_FREQUENCIES``), set by every
   env of the package, never ManiSkill's default (ManiSkill 4 announces 120 Hz physics).
 """
@@ -24,6 +24,7 @@ import functools
 import gc
 import importlib.util
 import re
+import weakref
 from importlib import metadata
 from pathlib import Path
 
@@ -91,20 +92,32 @@ def maniskill_task_id(name: str) -> str:
     return versions[max(versions)]
 
 
-#: an episode source of more episodes than this is frozen at every env made with it, not only the first
+#: an episode source of more episodes than this is frozen again at an env made with it
 FREEZE_EPISODES = 10_000
-_frozen = False  # whether this process froze its live objects yet
+_LIVE: weakref.WeakSet = weakref.WeakSet()  # the envs made through FreezesLiveObjects, while they live
 
 
 def freeze_live_objects(episodes: int) -> None:
     """Collect, then freeze what is alive (``gc.freeze``): the imported libraries and the episodes.
     ManiSkill's ``BaseEnv._clear`` ends every scene change with a full ``gc.collect()`` (to free GPU
-    memory), which would otherwise walk all of them each time; frozen, it walks only the scenes and what
-    came after. Done by the first env of a process, and again by an env handed over ``FREEZE_EPISODES``
-    episodes. What is frozen is still freed by reference counting; only its reference cycles outlive it."""
-    global _frozen
-    if _frozen and episodes <= FREEZE_EPISODES:
+    memory), which would otherwise walk all of them each time; frozen, it walks only the envs, their scenes
+    and what came after. Done when nothing is frozen yet (the first env of a process), and for a source of
+    over ``FREEZE_EPISODES`` episodes when no other env lives (a living env would be frozen with it). What is
+    frozen is never collected as a reference cycle: objects the caller holds then and drops later in a
+    cycle stay in memory."""
+    if gc.get_freeze_count() and (episodes <= FREEZE_EPISODES or len(_LIVE)):
         return
     gc.collect()
     gc.freeze()
-    _frozen = True
+
+
+class FreezesLiveObjects:
+    """A ``BaseEnv`` mixin: :func:`freeze_live_objects` runs before the env object is made, so the env, its
+    scenes and their cycles stay collectable."""
+
+    def __new__(cls, *args, **kwargs):
+        episodes = kwargs.get("episodes")  # checked by the env; anything else counts as none here
+        freeze_live_objects(len(episodes) if hasattr(episodes, "__len__") else 0)
+        env = super().__new__(cls)
+        _LIVE.add(env)
+        return env
