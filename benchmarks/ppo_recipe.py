@@ -17,16 +17,14 @@ env steps; its evaluation is the greedy policy on MS VAL in the env as registere
 from __future__ import annotations
 
 import argparse
-import datetime
-import csv
 import json
 from pathlib import Path
 
 import numpy as np
 
 from biovln_ms.io_utils import atomic_write_text, save_figure
-from biovln_ms.learning.rl import CURVE_WINDOW as WINDOW, success_curve
-from biovln_ms.measured import docs_data_dir, machine, write_table
+from biovln_ms.learning.rl import CURVE_WINDOW as WINDOW, read_episode_log, success_curve
+from biovln_ms.measured import docs_data_dir, write_runs, write_table
 from biovln_ms.variants import RL_ENV
 
 IMAGE = docs_data_dir().parent / "images" / "ppo_recipe.png"
@@ -81,8 +79,7 @@ def read_run(folder: Path) -> dict:
         ev = json.loads((folder / "eval.json").read_text()) if (folder / "eval.json").is_file() else None
         evaluation = (ev["success_rate"], ev["timeouts"]) if ev else None
     else:  # biovln-ms train ppo
-        with (folder / "episodes.csv").open() as f:
-            episodes = [(int(r["timesteps"]), float(r["success"])) for r in csv.DictReader(f)]
+        episodes = [(r["timesteps"], r["success"]) for r in read_episode_log(folder / "episodes.csv")]
         loop = f"SB3 ({cfg['n_envs']} env{'s' if cfg['n_envs'] > 1 else ''})"
         runs = sorted((folder / "eval").glob("*/*/episodes.jsonl"))  # biovln-ms eval's records
         rows = [json.loads(line) for line in runs[0].read_text().splitlines()] if runs else []
@@ -112,9 +109,7 @@ def report(a: argparse.Namespace) -> None:
     for r in runs:
         r["curve"] = success_curve(r.pop("episodes"), a.steps, a.window)
     data = a.data_out
-    head = {"window_steps": a.window, "machine": machine(), "written": datetime.date.today().isoformat()}
-    lines = ",\n  ".join(json.dumps(r, ensure_ascii=False) for r in runs)  # one line per run
-    atomic_write_text(data / "ppo_curves.json", json.dumps(head)[:-1] + f', "runs": [\n  {lines}\n]}}\n')
+    write_runs(data / "ppo_curves.json", runs, window_steps=a.window)
 
     def at(r: dict, mark: int) -> str:
         point = next((p for p in r["curve"] if p[0] == mark), None)

@@ -20,8 +20,6 @@ A run folder's ``eval/<preset>/`` holds ``biovln-ms eval`` results folders of an
 from __future__ import annotations
 
 import argparse
-import csv
-import datetime
 import json
 from collections import Counter
 from pathlib import Path
@@ -31,9 +29,9 @@ import numpy as np
 from biovln_ms.episodes.source import DatasetEpisodes, EpisodeCursor
 from biovln_ms.eval.harness import episode_key, load_records
 from biovln_ms.eval.stats import mcnemar, wilson_interval
-from biovln_ms.io_utils import atomic_write_text, save_figure
-from biovln_ms.learning.rl import CURVE_WINDOW as WINDOW, success_curve
-from biovln_ms.measured import docs_data_dir, machine, write_table
+from biovln_ms.io_utils import save_figure
+from biovln_ms.learning.rl import CURVE_WINDOW as WINDOW, read_episode_log, success_curve
+from biovln_ms.measured import docs_data_dir, write_runs, write_table
 from biovln_ms.splits import default_dataset_dir
 from biovln_ms.variants import RL_ENV
 
@@ -103,12 +101,10 @@ def summaries(runs: list[dict]) -> dict:
 def read_run(folder: Path, end: int, window: int) -> dict:
     train = json.loads((folder / "train.json").read_text())
     cfg = train["config"]
-    with (folder / "episodes.csv").open() as f:
-        rows = list(csv.DictReader(f))
-    episodes = [(int(r["timesteps"]), float(r["success"])) for r in rows]
-    total, seen, templates = scenes_seen(
-        cfg, [sum(int(r["env"]) == i for r in rows) for i in range(cfg["n_envs"])]
-    )
+    rows = read_episode_log(folder / "episodes.csv")
+    episodes = [(r["timesteps"], r["success"]) for r in rows]
+    played = [sum(r["env"] == i for r in rows) for i in range(cfg["n_envs"])]
+    total, seen, templates = scenes_seen(cfg, played)
     return {
         "run": folder.name,
         "split": f"{cfg['dataset'] and Path(cfg['dataset']).name or 'paper'}:{cfg['split']}",
@@ -130,11 +126,7 @@ def report(a: argparse.Namespace) -> None:
     summary = summaries(runs)
     for k, r in enumerate(runs):
         r["eval"] = {p: {s: cells[k] for s, cells in d.items()} for p, d in summary.items()}
-    head = {"window_steps": a.window, "machine": machine(), "written": datetime.date.today().isoformat()}
-    lines = ",\n  ".join(json.dumps(r, ensure_ascii=False) for r in runs)
-    atomic_write_text(
-        a.data_out / "ppo_scenes_curves.json", json.dumps(head)[:-1] + f', "runs": [\n  {lines}\n]}}\n'
-    )
+    write_runs(a.data_out / "ppo_scenes_curves.json", runs, window_steps=a.window)
 
     def cell(r: dict, preset: str, split: str) -> str:
         e = r["eval"].get(preset, {}).get(split)

@@ -108,6 +108,15 @@ def write_table(
     return Path(path)
 
 
+def write_runs(path: str | Path, runs: list[dict], **head) -> Path:
+    """Write measured runs (a learning guide's curves) as JSON: ``head`` (with this machine and today's
+    date) and one line per run, so that a re-measured run diffs line by line."""
+    head = {**head, "machine": machine(), "written": datetime.date.today().isoformat()}
+    lines = ",\n  ".join(json.dumps(r, ensure_ascii=False) for r in runs)
+    atomic_write_text(path, json.dumps(head)[:-1] + f', "runs": [\n  {lines}\n]}}\n')
+    return Path(path)
+
+
 def dumps(data: dict) -> str:
     """JSON with one line per field and per row, so that a re-measured table diffs row by row."""
 

@@ -266,35 +266,23 @@ def _workers_of_group(pgid: int) -> list[int]:
     return found
 
 
-@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the process table from /proc")
-def test_a_terminated_run_stops_its_workers(held_out_dataset, tmp_path):
-    """``kill`` (SIGTERM) of a run with worker processes ends them too: none is left running on its own."""
-    data = held_out_dataset(ms_val=40)
-    path = tmp_path / "frontier" / "ms_val" / "episodes.jsonl"
-    cmd = [
-        sys.executable,
-        "-m",
-        "biovln_ms.cli",
-        "eval",
-        "-m",
-        "frontier",
-        "-s",
-        "ms_val",
-    ]  # episodes of seconds
+def _terminated_leaves_no_workers(argv: list[str], ready) -> None:
+    """Start ``biovln-ms argv`` in its own process group (its workers are in it too), wait until
+    ``ready(proc)`` (at most 180 s), SIGTERM it: it exits as ^C does, and none of its workers is left."""
     proc = subprocess.Popen(
-        [*cmd, "--dataset", data, "-o", str(tmp_path), "--workers", "2"],
+        [sys.executable, "-m", "biovln_ms.cli", *argv],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
-        start_new_session=True,  # its own process group: the workers are in it too
+        start_new_session=True,
     )
     try:
         deadline = time.monotonic() + 180
-        while _lines(path) < 2 and proc.poll() is None and time.monotonic() < deadline:
+        while not ready(proc) and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.01)
-        assert proc.poll() is None and _lines(path) >= 2  # the workers are running episodes
+        assert proc.poll() is None and ready(proc)
         os.kill(proc.pid, signal.SIGTERM)
         proc.wait(timeout=60)
-        assert _workers_of_group(proc.pid) == []  # ended before it exited, mid-episode
+        assert _workers_of_group(proc.pid) == []  # ended before it exited
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -303,6 +291,26 @@ def test_a_terminated_run_stops_its_workers(held_out_dataset, tmp_path):
         except ProcessLookupError:
             pass
     assert proc.returncode == 128 + signal.SIGTERM
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the process table from /proc")
+def test_a_terminated_run_stops_its_workers(held_out_dataset, tmp_path):
+    """``kill`` (SIGTERM) of a run with worker processes ends them too: none is left running on its own."""
+    data = held_out_dataset(ms_val=40)
+    path = tmp_path / "frontier" / "ms_val" / "episodes.jsonl"
+    argv = [
+        "eval",
+        "-m",
+        "frontier",
+        "-s",
+        "ms_val",
+        "--dataset",
+        data,
+        "-o",
+        str(tmp_path),
+    ]
+    # episodes of seconds: the workers are mid-episode once two have been written
+    _terminated_leaves_no_workers([*argv, "--workers", "2"], lambda proc: _lines(path) >= 2)
 
 
 @pytest.mark.slow
@@ -310,29 +318,12 @@ def test_a_terminated_run_stops_its_workers(held_out_dataset, tmp_path):
 def test_a_terminated_training_stops_its_env_processes(held_out_dataset, tmp_path):
     """``kill`` of ``train ppo`` with two env processes (SB3's SubprocVecEnv) ends them too."""
     data = held_out_dataset(train=10)
-    cmd = [sys.executable, "-m", "biovln_ms.cli", "train", "ppo", "--timesteps", "100000", "--n-envs", "2"]
-    proc = subprocess.Popen(
-        [*cmd, "--dataset", data, "--eval-split", "", "-o", str(tmp_path / "run")],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        start_new_session=True,
-    )
-    try:
-        deadline = time.monotonic() + 180
-        while not (tmp_path / "run" / "tb").exists() and proc.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.05)  # SB3 makes tb/ once the envs are up
-        assert proc.poll() is None and len(_workers_of_group(proc.pid)) == 2
-        os.kill(proc.pid, signal.SIGTERM)
-        proc.wait(timeout=60)
-        assert _workers_of_group(proc.pid) == []
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-    assert proc.returncode == 128 + signal.SIGTERM
+    argv = ["train", "ppo", "--timesteps", "100000", "--n-envs", "2", "--dataset", data, "--eval-split", ""]
+
+    def ready(proc) -> bool:  # SB3 makes tb/ once the envs are up
+        return (tmp_path / "run" / "tb").exists() and len(_workers_of_group(proc.pid)) == 2
+
+    _terminated_leaves_no_workers([*argv, "-o", str(tmp_path / "run")], ready)
 
 
 def test_duplicate_records_of_an_older_version_are_repaired_and_named(ds, tmp_path):

@@ -266,9 +266,29 @@ def success_curve(episodes: list[tuple[int, float]], end: int, window: int) -> l
     return out
 
 
+#: the columns of a run's ``episodes.csv`` (EpisodeLog's rows)
+EPISODE_LOG_FIELDS = ("timesteps", "env", "return", "length", "success", "seconds")
+
+
+def read_episode_log(path: Path) -> list[dict]:
+    """A run's ``episodes.csv``: the step each episode ended at, its env, return, length and success (a log
+    written before it named the env counts every episode as env 0's)."""
+    with Path(path).open() as f:
+        return [
+            {
+                "timesteps": int(r["timesteps"]),
+                "env": int(r.get("env") or 0),
+                "return": float(r["return"]),
+                "length": int(r["length"]),
+                "success": float(r["success"]),
+            }
+            for r in csv.DictReader(f)
+        ]
+
+
 def write_episode_log(rows: list[dict], path: Path) -> None:
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=["timesteps", "env", "return", "length", "success", "seconds"])
+    w = csv.DictWriter(buf, fieldnames=EPISODE_LOG_FIELDS)
     w.writeheader()
     w.writerows(rows)
     atomic_write_text(path, buf.getvalue())
