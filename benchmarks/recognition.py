@@ -7,13 +7,15 @@ under the lighting presets ``fast`` (unshadowed, that of every released result) 
 frame is scored against the prompts of all goal categories (VLFM's prompt with the catalog's display name,
 as the VLFM baseline asks); a view is recognised at top-k when its own category's prompt is among the k best.
 
-    python benchmarks/recognition.py [--clip DIR] [--sheet PNG] [--data-out JSON]
+    python benchmarks/recognition.py [--clip DIR | --detector trained[:FILE]] [--sheet PNG] [--data-out JSON]
 
 The scorer is the shipped offline one (``ClassifierTextScorer``: EfficientNet-Lite0's ImageNet classes
 projected onto the prompt by MiniLM sentence embeddings), or with ``--clip DIR`` a CLIP model saved in DIR
-(``CLIPScorer``; nothing is downloaded). The table goes to ``docs/data/benchmarks/recognition.json``
-(``recognition_clip.json`` with ``--clip``) and the contact sheet of the renders with their scores to
-``docs/images/recognition_sheet.png`` (``recognition_sheet_clip.png``).
+(``CLIPScorer``; nothing is downloaded), or with ``--detector`` the trained goal-category detector
+(:class:`DetectorRecognizer`: a category's score is how much of the frame's centre its instances cover,
+weighted by their confidence). The table goes to ``docs/data/benchmarks/recognition.json``
+(``_clip`` / ``_detector`` added with ``--clip`` / ``--detector``) and the contact sheet of the renders
+with their scores to ``docs/images/recognition_sheet.png`` (the same suffixes).
 """
 
 from __future__ import annotations
@@ -64,8 +66,34 @@ class FrameCachedScorer(ClassifierTextScorer):
         return self._last[1]
 
 
-def score_all(scorer: ImageTextScorer, rgb: np.ndarray, prompts: list[str]) -> np.ndarray:
-    """Similarity of one frame to each prompt (target names, in category order)."""
+class DetectorRecognizer:
+    """The trained detector as a recogniser: category j's score is the share of the frame's central window
+    (the middle half of its width and height, where the views look) covered by j's instances, each pixel
+    weighted by its instance's score; a view with no instance in the window scores 0 everywhere."""
+
+    def __init__(self, spec: str, categories: list[str]) -> None:
+        from biovln_ms.perception.segmenter import Segmenter
+
+        weights = spec.removeprefix("trained:") if spec.startswith("trained:") else None
+        self.segmenter = Segmenter(weights)
+        self.categories = categories
+        self.name = f"trained detector ({self.segmenter.path.name}, min score {self.segmenter.min_score})"
+
+    def scores(self, rgb: np.ndarray) -> np.ndarray:
+        h, w = rgb.shape[:2]
+        window = (slice(h // 4, h - h // 4), slice(w // 4, w - w // 4))
+        area = (h - 2 * (h // 4)) * (w - 2 * (w // 4))
+        out = np.zeros(len(self.categories))
+        for inst in self.segmenter.instances(rgb):
+            out[self.categories.index(inst.category)] += inst.score * inst.mask[window].sum() / area
+        return out
+
+
+def score_all(scorer, rgb: np.ndarray, prompts: list[str]) -> np.ndarray:
+    """Similarity of one frame to each prompt (target names, in category order); a
+    :class:`DetectorRecognizer` scores the categories directly."""
+    if isinstance(scorer, DetectorRecognizer):
+        return scorer.scores(rgb)
     return np.array([scorer.score(rgb, p) for p in prompts], float)
 
 
@@ -130,9 +158,24 @@ def contact_sheet(results: list[Scored], categories: list[str], path: Path, thum
     print(f"wrote {path}")
 
 
+def face_colours() -> dict[str, int]:
+    """Each category's fewest distinct colours at its Zone-3 views (``instrument_colours.json``, lighting
+    quality), the paper's Table 8 column; empty when that table is absent."""
+    import json
+
+    path = docs_data_dir() / "benchmarks" / "instrument_colours.json"
+    if not path.is_file():
+        return {}
+    table = json.loads(path.read_text())
+    col = table["columns"].index("min")
+    return {row[0]: row[col] for row in table["rows"]}
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--clip", type=Path, metavar="DIR", help="a CLIP model saved with save_pretrained")
+    which = ap.add_mutually_exclusive_group()
+    which.add_argument("--clip", type=Path, metavar="DIR", help="a CLIP model saved with save_pretrained")
+    which.add_argument("--detector", metavar="SPEC", help="'trained' (the shipped weights) or 'trained:FILE'")
     ap.add_argument(
         "--data-out", type=Path, help="the table (default: docs/data/benchmarks/recognition*.json)"
     )
@@ -142,12 +185,20 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     from biovln_ms.perception.scorers import CLIPScorer
 
-    scorer: ImageTextScorer = CLIPScorer(args.clip) if args.clip else FrameCachedScorer()
-    suffix = "_clip" if args.clip else ""
-    data_out = args.data_out or docs_data_dir() / "benchmarks" / f"recognition{suffix}.json"
-    sheet = args.sheet or docs_data_dir().parent / "images" / f"recognition_sheet{suffix}.png"
     catalog = load_catalog()
     categories = catalog.goal_categories()
+    if args.detector is not None and not (args.detector == "trained" or args.detector.startswith("trained:")):
+        ap.error(f"--detector {args.detector}: use 'trained' or 'trained:FILE'")
+    scorer = (
+        CLIPScorer(args.clip)
+        if args.clip
+        else DetectorRecognizer(args.detector, categories)
+        if args.detector
+        else FrameCachedScorer()
+    )
+    suffix = "_clip" if args.clip else "_detector" if args.detector else ""
+    data_out = args.data_out or docs_data_dir() / "benchmarks" / f"recognition{suffix}.json"
+    sheet = args.sheet or docs_data_dir().parent / "images" / f"recognition_sheet{suffix}.png"
     prompts = [catalog.get(c).display_name.lower() for c in categories]
     cfg = NavTaskConfig()
     results = render_and_score(
@@ -159,11 +210,14 @@ def main(argv: list[str] | None = None) -> None:
         hfov_deg=cfg.camera_hfov_deg,
     )
     header = ["category", "prompt's target"]
+    colours = face_colours() if args.detector else {}
+    if colours:
+        header.append("colours at the face (min)")
     for p in PRESETS:
         header += [f"{p}: top-1", f"{p}: top-3", f"{p}: best guess"]
     rows = []
     for c, prompt in zip(categories, prompts):
-        row: list = [c, prompt]
+        row: list = [c, prompt] + ([colours.get(c)] if colours else [])
         for p in PRESETS:
             mine = [r for r in results if r.category == c and r.lighting == p]
             guesses = [categories[int(np.argmax(r.scores))] for r in mine]
@@ -172,7 +226,7 @@ def main(argv: list[str] | None = None) -> None:
             row += [f"{sum(r.rank(categories) <= 3 for r in mine)}/{len(mine)}", common]
         rows.append(row)
         print("  ".join(map(str, row)))
-    total: list = ["all", f"{len(categories)} prompts"]
+    total: list = ["all", f"{len(categories)} prompts"] + ([""] if colours else [])
     for p in PRESETS:
         mine = [r for r in results if r.lighting == p]
         total += [
@@ -193,7 +247,13 @@ def main(argv: list[str] | None = None) -> None:
         "`fast` is the lighting of every released result (flat, no shadows); `quality` has shadowed ceiling "
         "fixtures (both with the PBR textures and per-instance looks).",
     ]
-    if not args.clip:
+    if args.detector:
+        notes.append(
+            "The detector was trained on this project's renders of the train split's scenes (other scenes "
+            "than these views'); a view counts at top-1 when the true category covers the most of the "
+            "frame's central window, confidence-weighted; no instance there ranks every category last."
+        )
+    elif not args.clip:
         notes.append(
             "The offline scorer knows only ImageNet-1k's classes, projected onto each prompt by sentence "
             "similarity: it has 'refrigerator', 'trash can', 'filing cabinet', 'medicine cabinet', 'desk', "

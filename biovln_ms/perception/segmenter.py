@@ -6,7 +6,8 @@ The net: EfficientNet-Lite0's ImageNet-trained feature blocks (the weights ship 
 and 32, joined top-down as in a feature pyramid (1x1 lateral convolutions, upsample and add), two 3x3
 convolutions and a 1x1 classifier over background + the goal categories, upsampled to the input.
 Instances are the connected regions of each category in the label map (``scipy.ndimage.label``), scored
-by their mean softmax probability.
+by their mean softmax probability; regions scoring under the header's ``min_score`` (the operating point
+training chose on its validation frames) are dropped.
 
 The weights file is safetensors (tensors only: nothing is unpickled on load), floating tensors in fp16;
 its ``__metadata__`` holds one JSON header (:func:`header_of`): format, architecture, categories and their
@@ -298,6 +299,7 @@ class Segmenter:
         self.header, self.net = load_net(self.path)
         self.categories: list[str] = list(self.header["categories"])
         self.input_size = tuple(self.header["input_size"])
+        self.min_score = float(self.header.get("min_score", 0.0))
 
     def check_frame(self, rgb: object) -> np.ndarray:
         """``rgb`` as an (H, W, 3) uint8 array of the net's aspect ratio; a one-line error otherwise."""
@@ -330,7 +332,8 @@ class Segmenter:
 
     def instances(self, rgb: np.ndarray, categories: list[str] | None = None) -> list[Instance]:
         """Connected regions of each category (of ``categories``, default all) in the label map with at
-        least :func:`min_pixels` pixels (at the map's size), as masks of the frame's size."""
+        least :func:`min_pixels` pixels (at the map's size) and a score of at least ``min_score``, as masks
+        of the frame's size."""
         from scipy import ndimage
 
         arr = self.check_frame(rgb)
@@ -345,7 +348,8 @@ class Segmenter:
                 continue
             sizes = np.bincount(regions.ravel(), minlength=n + 1)
             scores = np.bincount(regions.ravel(), weights=conf.ravel(), minlength=n + 1)
-            kept = [r for r in np.flatnonzero(sizes >= smallest) if r > 0]
+            good = (sizes >= smallest) & (scores >= self.min_score * np.maximum(sizes, 1))
+            kept = [r for r in np.flatnonzero(good) if r > 0]
             frame_regions = nearest(regions, (w, h)) if kept else None  # one resampling per category
             for r in kept:
                 out.append(Instance(name, frame_regions == r, float(scores[r] / sizes[r])))

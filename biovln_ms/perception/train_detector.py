@@ -6,8 +6,10 @@ learning rate, random horizontal flips. The frozen encoder blocks' outputs (``se
 are computed once per frame and its mirror image. A tenth of the training groups
 (chosen by a hash of the group) is kept aside as validation: its instance precision and recall after each
 epoch go into ``train.json`` and the plot; the held-out parts (``test_scenes``, ``test_looks``) are never
-read here. Everything random comes from the seed; the same seed, data and thread count give the same
-weights.
+read here. After the last epoch the validation frames also choose the operating point: the smallest
+instance score (:data:`SCORE_GRID`) whose mean precision and mean recall have the highest harmonic mean;
+it goes into the weights' header as ``min_score``. Everything random comes from the seed; the same
+seed, data and thread count give the same weights.
 
 Written into ``out`` (each file atomically): ``detector.safetensors`` (see
 :mod:`biovln_ms.perception.segmenter`), ``train.json`` (settings, per-step loss, per-epoch validation,
@@ -34,6 +36,8 @@ VAL_SHARE = 0.1
 #: class-weight clip (relative to the median class)
 WEIGHT_CLIP = (0.05, 10.0)
 MAX_FRAMES_READ = 200_000
+#: instance scores (mean softmax probability) tried as the operating point on the validation frames
+SCORE_GRID = (0.0, 0.4, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95)
 RENDER_FIX = "render the frames again: biovln-ms perception dataset -o DIR"
 
 
@@ -240,6 +244,8 @@ def train_detector(
             break
     bar.close()
     seconds = time.monotonic() - t0
+    points = operating_points(net, cats, val, val_frames, anns) if val else []
+    min_score = max(points, key=lambda p: (p["f1"], -p["min_score"]))["min_score"] if points else 0.0
     header = S.header_of(
         cats,
         seed,
@@ -253,6 +259,7 @@ def train_detector(
                 "validation_frames": len(val),
             },
             "epochs": len(history),
+            "min_score": min_score,
         },
     )
     weights_path = S.save_weights(out / "detector.safetensors", net, header)
@@ -273,6 +280,8 @@ def train_detector(
         "seconds": round(seconds, 1),
         "cpu_seconds": round(time.process_time() - cpu0, 1),
         "history": history,
+        "min_score": min_score,
+        "operating_points": points,
         "loss": losses,
         "header": header,
     }
@@ -281,12 +290,31 @@ def train_detector(
     return data
 
 
+def operating_points(net, cats: list[str], val: list[dict], val_frames: list, anns: dict) -> list[dict]:
+    """Mean precision, mean recall and their harmonic mean on the validation frames for each smallest
+    instance score of :data:`SCORE_GRID` (the instances are found once and filtered)."""
+    net.eval()
+    seg = _InMemorySegmenter(net, cats)
+    found = [(seg.instances(rgb), lab, anns[im["id"]]) for im, (rgb, lab) in zip(val, val_frames)]
+    points = []
+    for t in SCORE_GRID:
+        tally = Tally(cats)
+        for preds, lab, ann in found:
+            match_frame(tally, [p for p in preds if p.score >= t], ann, cats, lab)
+        s = tally.summary()
+        p, r = s["mean_precision"] or 0.0, s["mean_recall"] or 0.0
+        f1 = 2 * p * r / (p + r) if p + r else 0.0
+        points.append({"min_score": t, "mean_precision": p, "mean_recall": r, "f1": round(f1, 4)})
+    return points
+
+
 class _InMemorySegmenter(S.Segmenter):
-    """A :class:`~biovln_ms.perception.segmenter.Segmenter` around a net being trained."""
+    """A :class:`~biovln_ms.perception.segmenter.Segmenter` around a net being trained (every instance
+    kept: ``min_score`` 0)."""
 
     def __init__(self, net, categories: list[str]) -> None:
         self.net, self.categories, self.input_size, self.path = net, categories, S.INPUT_SIZE, None
-        self.header = {}
+        self.header, self.min_score = {}, 0.0
 
 
 def plot_training(data: dict, path: Path) -> None:
