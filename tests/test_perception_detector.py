@@ -159,6 +159,14 @@ def test_training_writes_weights_plot_and_log_reproducibly(trained, tmp_path):
     header, net = S.load_net(run / "detector.safetensors")
     assert header["categories"] == CATS and header["seed"] == 0 and header["input_size"] == list(S.INPUT_SIZE)
     assert header["classes"][0] == "background" and header["epochs"] == 2
+    # the operating point: the grid's score with the best validation F1, in the header the segmenter reads
+    from biovln_ms.perception.train_detector import SCORE_GRID
+
+    points = data["operating_points"]
+    assert [p["min_score"] for p in points] == list(SCORE_GRID)
+    best = max(p["f1"] for p in points)
+    assert data["min_score"] == min(p["min_score"] for p in points if p["f1"] == best)
+    assert header["min_score"] == data["min_score"] == S.Segmenter(run / "detector.safetensors").min_score
     again = train_detector(
         frames, tmp_path / "again", seed=0, epochs=2, batch=3, threads=1, commit=header["git_commit"]
     )
@@ -191,6 +199,20 @@ def test_evaluate_reports_each_held_out_part(trained, tmp_path):
     assert [r[0] for r in rows] == [*CATS, "mean over categories"]
     r = _evaluate(frames, run, "--lighting", "dusk")
     assert r.exit_code != 0 and "unknown lighting 'dusk'" in str(r.exception or r.output)
+
+
+def test_instances_under_the_operating_point_are_dropped(monkeypatch):
+    seg = S.Segmenter()
+    w, h = seg.input_size
+    lab, conf = np.zeros((h, w), int), np.zeros((h, w))
+    lab[10:40, 10:40], conf[10:40, 10:40] = 1, 0.9  # a confident region of the first category
+    lab[60:100, 60:100], conf[60:100, 60:100] = 1, 0.3  # and an unsure one
+    monkeypatch.setattr(seg, "labels", lambda rgb: (lab, conf))
+    frame = np.zeros((h, w, 3), np.uint8)
+    seg.min_score = 0.0
+    assert sorted(round(i.score, 2) for i in seg.instances(frame)) == [0.3, 0.9]
+    seg.min_score = 0.5
+    assert [round(i.score, 2) for i in seg.instances(frame)] == [0.9]
 
 
 def test_bad_weights_and_frames_are_one_line_errors(tmp_path):

@@ -71,3 +71,31 @@ def test_render_and_score_renders_each_view_under_each_preset(tmp_path):
     recognition.contact_sheet(results, ["pipette", "lab_bench"], sheet, thumb=80)
     img = Image.open(sheet)
     assert img.size == (3 * 80, 2 * (60 + 34))
+
+
+class _FixedSegmenter:
+    """Stand-in for the trained segmenter: the same instances for every frame."""
+
+    def __init__(self, instances) -> None:
+        self._instances = instances
+
+    def instances(self, rgb):
+        return self._instances
+
+
+def test_the_detector_recognises_what_covers_the_frame_centre():
+    from biovln_ms.perception.segmenter import Instance
+
+    h, w = 40, 80
+    centre, edge = np.zeros((h, w), bool), np.zeros((h, w), bool)
+    centre[10:30, 20:60] = True  # the whole central window
+    edge[:, :20] = True  # outside it: counts for nothing
+    rec = recognition.DetectorRecognizer.__new__(recognition.DetectorRecognizer)
+    rec.categories = CATS
+    rec.segmenter = _FixedSegmenter([Instance("centrifuge", centre, 0.5), Instance("pipette", edge, 0.99)])
+    scores = rec.scores(np.zeros((h, w, 3), np.uint8))
+    np.testing.assert_allclose(scores, [0.0, 0.0, 0.5, 0.0])
+    assert recognition.Scored("centrifuge", "fast", 0.0, None, scores).rank(CATS) == 1
+    rec.segmenter = _FixedSegmenter([])  # nothing seen: every category last
+    nothing = rec.scores(np.zeros((h, w, 3), np.uint8))
+    assert recognition.Scored("centrifuge", "fast", 0.0, None, nothing).rank(CATS) == len(CATS)

@@ -71,7 +71,7 @@ def perception_train(
     ),
     frames: Path = typer.Option(..., "--frame-data", help="Frame dataset (biovln-ms perception dataset)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the weights' start, data order and augmentation."),
-    epochs: int = typer.Option(6, "--epochs", help="Passes over the training frames."),
+    epochs: int = typer.Option(20, "--epochs", help="Passes over the training frames."),
     batch: int = typer.Option(16, "--batch", help="Frames per step."),
     threads: int = typer.Option(2, "--threads", help="CPU threads of torch."),
     max_minutes: Optional[float] = typer.Option(

@@ -151,7 +151,7 @@ def train_detector(
     frames: str | Path,
     out: str | Path,
     seed: int = 0,
-    epochs: int = 6,
+    epochs: int = 20,
     batch: int = 16,
     lr: float = 2e-3,
     threads: int = 2,
@@ -341,6 +341,11 @@ def plot_training(data: dict, path: Path) -> None:
     ):
         if all(key in h for h in hist):
             b.plot(ep, [h[key] for h in hist], marker="o", label=label)
+    chosen = [p for p in data.get("operating_points", []) if p["min_score"] == data.get("min_score")]
+    if chosen and ep:
+        for key, colour in (("mean_recall", "C0"), ("mean_precision", "C1")):
+            b.plot(ep[-1], chosen[0][key], marker="*", ms=14, color=colour, ls="none")
+        b.plot([], [], marker="*", color="grey", ls="none", label=f"at min score {data['min_score']}")
     b.set(
         xlabel="epoch", ylim=(0, 1), title=f"validation ({data['validation_frames']} training-scene frames)"
     )

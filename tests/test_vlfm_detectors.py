@@ -1,0 +1,59 @@
+"""The VLFM detector comparison (benchmarks/vlfm_detectors.py): each failed episode traced to one outcome,
+and two results folders compared on the episodes they share."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+spec = importlib.util.spec_from_file_location("vlfm_detectors", REPO / "benchmarks" / "vlfm_detectors.py")
+vd = importlib.util.module_from_spec(spec)
+sys.modules["vlfm_detectors"] = vd
+spec.loader.exec_module(vd)
+
+
+def _rec(i: int, success: bool, seen: bool = True, stopped: bool = True, dtg: float = 0.5, steps: int = 40):
+    return {
+        "scene_id": "lab_s1_v0",
+        "episode_id": str(i),
+        "success": success,
+        "stopped": stopped,
+        "dtg": dtg,
+        "steps": steps,
+        "noise": "ideal",
+        "object_category": "centrifuge" if i % 2 else "incubator",
+        "policy_stats": {"object_seen": seen},
+    }
+
+
+def test_each_failure_is_traced_to_one_outcome():
+    assert vd.outcome(_rec(0, True)) == "success"
+    assert vd.outcome(_rec(0, False, seen=False)) == "never detected"
+    assert vd.outcome(_rec(0, False, stopped=False)) == "step limit"
+    assert vd.outcome(_rec(0, False, dtg=vd.FAR + 0.1)) == "STOP far from the target"
+    assert vd.outcome(_rec(0, False, dtg=vd.FAR - 0.1)) == "STOP near the target"
+
+
+def _write(folder: Path, records: list[dict]) -> Path:
+    (folder / "ms_test").mkdir(parents=True)
+    (folder / "ms_test" / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
+    return folder
+
+
+def test_two_runs_are_compared_on_the_episodes_both_played(tmp_path):
+    gt = _write(tmp_path / "gt", [_rec(i, True, steps=40) for i in range(6)])
+    learned = [_rec(0, True, steps=60), _rec(1, True, steps=80), _rec(2, False, seen=False)]
+    learned += [_rec(3, False, dtg=4.0), _rec(4, False, stopped=False)]  # episode 5: not played
+    columns, rows, traces = vd.compare(gt, _write(tmp_path / "learned", learned))
+    gt_row, row = (dict(zip(columns, r)) for r in rows)
+    assert (gt_row["detector"], row["detector"]) == ("GT", "trained") and row["split"] == "ms_test"
+    assert gt_row["n"] == row["n"] == 5
+    assert gt_row["SR %"].startswith("100.0") and row["SR %"].startswith("40.0")
+    assert (row["never detected"], row["STOP far from the target"], row["step limit"]) == (1, 1, 1)
+    assert row["STOP near the target"] == 0 and gt_row["never detected"] == 0
+    assert row["steps / GT's (median)"] == 1.75  # 1.5 and 2.0
+    assert 0 < row["McNemar p"] <= 1 and gt_row["McNemar p"] is None
+    assert set(traces["ms_test"]) == {"lab_s1_v0/2", "lab_s1_v0/3", "lab_s1_v0/4"}
