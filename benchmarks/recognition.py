@@ -118,6 +118,11 @@ def render_and_score(
     return out
 
 
+def best_guess(scores: np.ndarray, categories: list[str]) -> str:
+    """The best-scoring category, or "—" when every category scores the same (nothing told apart)."""
+    return "—" if np.ptp(scores) == 0 else categories[int(np.argmax(scores))]
+
+
 def top_k(results: list[Scored], categories: list[str], k: int) -> float:
     """Fraction of ``results`` whose true category ranks within the top ``k``."""
     return float(np.mean([r.rank(categories) <= k for r in results])) if results else float("nan")
@@ -142,7 +147,7 @@ def contact_sheet(results: list[Scored], categories: list[str], path: Path, thum
         for j, r in enumerate([r for r in results if r.category == c]):
             x, y = j * thumb, i * (th + cap)
             sheet.paste(Image.fromarray(r.rgb).resize((thumb, th), Image.BILINEAR), (x, y))
-            best = categories[int(np.argmax(r.scores))]
+            best = best_guess(r.scores, categories)
             rank = r.rank(categories)
             colour = (0, 120, 40) if rank == 1 else (170, 110, 0) if rank <= 3 else (180, 20, 20)
             draw.text(
@@ -220,8 +225,9 @@ def main(argv: list[str] | None = None) -> None:
         row: list = [c, prompt] + ([colours.get(c)] if colours else [])
         for p in PRESETS:
             mine = [r for r in results if r.category == c and r.lighting == p]
-            guesses = [categories[int(np.argmax(r.scores))] for r in mine]
-            common = max(set(guesses), key=lambda g: (guesses.count(g), -categories.index(g)))
+            guesses = [best_guess(r.scores, categories) for r in mine]
+            order = [*categories, "—"]
+            common = max(set(guesses), key=lambda g: (guesses.count(g), -order.index(g)))
             row += [f"{sum(r.rank(categories) <= 1 for r in mine)}/{len(mine)}"]
             row += [f"{sum(r.rank(categories) <= 3 for r in mine)}/{len(mine)}", common]
         rows.append(row)
@@ -238,8 +244,13 @@ def main(argv: list[str] | None = None) -> None:
     print("  ".join(map(str, total)))
     contact_sheet(results, categories, sheet)
     notes = [
-        f"Scorer {scorer.name}; prompt '{PROMPT}' with each category's catalog display name; each view "
-        f"scored against all {len(categories)} prompts, top-k: its own category among the k best. Views: "
+        (
+            f"Scorer {scorer.name}; each view scored for all {len(categories)} categories"
+            if args.detector
+            else f"Scorer {scorer.name}; prompt '{PROMPT}' with each category's catalog display name; each "
+            f"view scored against all {len(categories)} prompts"
+        )
+        + ", top-k: its own category among the k best. Views: "
         "the Eq. 1 goal and the goal turned ±15° about the object, the head camera's frame "
         f"({cfg.camera_width}×{cfg.camera_height}, 0.88 m high, looking at the object's centre); "
         f"scenes {', '.join(s.name for s, _ in showcase_scenes(categories))}; chance: top-1 "

@@ -235,6 +235,11 @@ def test_bad_weights_and_frames_are_one_line_errors(tmp_path):
     with pytest.raises(PerceptionError, match="not a safetensors|no detector header"):
         S.Segmenter(pickled)
     header, net = S.load_net(path)
+    for score in ("high", 1.5, None):  # the operating point must be a number in [0, 1]
+        odd = tmp_path / "odd_score.safetensors"
+        odd.write_bytes(S.weights_bytes(net, {**header, "min_score": score}))
+        with pytest.raises(PerceptionError, match="min_score .* not a number in \\[0, 1\\]"):
+            S.Segmenter(odd)
     foreign = tmp_path / "foreign.safetensors"
     other = [*CATS[:-1], "flux_capacitor"]
     foreign.write_bytes(

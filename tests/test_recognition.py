@@ -99,3 +99,8 @@ def test_the_detector_recognises_what_covers_the_frame_centre():
     rec.segmenter = _FixedSegmenter([])  # nothing seen: every category last
     nothing = rec.scores(np.zeros((h, w, 3), np.uint8))
     assert recognition.Scored("centrifuge", "fast", 0.0, None, nothing).rank(CATS) == len(CATS)
+
+
+def test_a_view_where_nothing_is_told_apart_has_no_best_guess():
+    assert recognition.best_guess(np.zeros(len(CATS)), CATS) == "—"
+    assert recognition.best_guess(np.array([0.0, 0.2, 0.1, 0.0]), CATS) == "incubator"

@@ -8,6 +8,8 @@ import json
 import sys
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[1]
 spec = importlib.util.spec_from_file_location("vlfm_detectors", REPO / "benchmarks" / "vlfm_detectors.py")
 vd = importlib.util.module_from_spec(spec)
@@ -50,10 +52,43 @@ def test_two_runs_are_compared_on_the_episodes_both_played(tmp_path):
     columns, rows, traces = vd.compare(gt, _write(tmp_path / "learned", learned))
     gt_row, row = (dict(zip(columns, r)) for r in rows)
     assert (gt_row["detector"], row["detector"]) == ("GT", "trained") and row["split"] == "ms_test"
+    assert row["noise"] == "ideal"
     assert gt_row["n"] == row["n"] == 5
     assert gt_row["SR %"].startswith("100.0") and row["SR %"].startswith("40.0")
     assert (row["never detected"], row["STOP far from the target"], row["step limit"]) == (1, 1, 1)
     assert row["STOP near the target"] == 0 and gt_row["never detected"] == 0
     assert row["steps / GT's (median)"] == 1.75  # 1.5 and 2.0
     assert 0 < row["McNemar p"] <= 1 and gt_row["McNemar p"] is None
-    assert set(traces["ms_test"]) == {"lab_s1_v0/2", "lab_s1_v0/3", "lab_s1_v0/4"}
+    assert set(traces["ms_test (ideal)"]) == {"lab_s1_v0/2", "lab_s1_v0/3", "lab_s1_v0/4"}
+
+
+def test_bad_folders_are_one_line_errors(tmp_path, capsys):
+    gt = _write(tmp_path / "gt", [_rec(0, True)])
+    other = _write(tmp_path / "realistic", [{**_rec(0, True), "noise": "realistic"}])
+    with pytest.raises(vd.RunsError, match="under 'ideal'"):
+        vd.compare(gt, other)
+    with pytest.raises(SystemExit):
+        vd.main([str(gt), str(tmp_path / "nowhere")])
+    assert "no such results folder" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        vd.main([str(gt)])
+    assert "in pairs" in capsys.readouterr().err
+
+
+def test_the_changed_episodes_are_written_beside_the_table(tmp_path):
+    gt = _write(tmp_path / "gt", [_rec(0, True, dtg=0.3), _rec(1, True)])
+    learned = _write(tmp_path / "learned", [_rec(0, False, dtg=1.2, steps=50), _rec(1, True)])
+    vd.main([str(gt), str(learned), "--data-out", str(tmp_path / "table.json")])
+    episodes = json.loads((tmp_path / "table_episodes.json").read_text())
+    assert episodes == {
+        "ms_test (ideal)": {
+            "lab_s1_v0/0": {
+                "category": "incubator",
+                "gt": "success",
+                "trained": "STOP near the target",
+                "dtg": [0.3, 1.2],
+                "steps": [40, 50],
+                "trained_detections": None,
+            }
+        }
+    }

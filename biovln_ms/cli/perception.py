@@ -71,8 +71,12 @@ def perception_train(
     ),
     frames: Path = typer.Option(..., "--frame-data", help="Frame dataset (biovln-ms perception dataset)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the weights' start, data order and augmentation."),
-    epochs: int = typer.Option(20, "--epochs", help="Passes over the training frames."),
-    batch: int = typer.Option(16, "--batch", help="Frames per step."),
+    epochs: Optional[int] = typer.Option(
+        None, "--epochs", help="Passes over the training frames (default: the shipped recipe's)."
+    ),
+    batch: Optional[int] = typer.Option(
+        None, "--batch", help="Frames per step (default: the shipped recipe's)."
+    ),
     threads: int = typer.Option(2, "--threads", help="CPU threads of torch."),
     max_minutes: Optional[float] = typer.Option(
         None, "--max-minutes", help="Stop after this many minutes (the result then depends on the machine)."
@@ -93,12 +97,11 @@ def perception_train(
         given_path(frames),
         target,
         seed=seed,
-        epochs=epochs,
-        batch=batch,
         threads=threads,
         max_minutes=max_minutes,
         progress=sys.stderr.isatty(),
         commit=source_commit(),
+        **{k: v for k, v in (("epochs", epochs), ("batch", batch)) if v is not None},
     )
     last = data["history"][-1]
     typer.echo(

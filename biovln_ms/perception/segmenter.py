@@ -244,6 +244,9 @@ def read_weights(path: str | Path) -> tuple[dict, dict]:
             field="categories",
             fix="train weights for this catalog: biovln-ms perception train -o DIR",
         )
+    score = header.get("min_score", 0.0)
+    if isinstance(score, bool) or not isinstance(score, (int, float)) or not 0.0 <= score <= 1.0:
+        raise _bad(path, f"min_score {score!r} is not a number in [0, 1]", "min_score")
     try:
         from safetensors.torch import load
 
@@ -348,11 +351,11 @@ class Segmenter:
                 continue
             sizes = np.bincount(regions.ravel(), minlength=n + 1)
             scores = np.bincount(regions.ravel(), weights=conf.ravel(), minlength=n + 1)
-            good = (sizes >= smallest) & (scores >= self.min_score * np.maximum(sizes, 1))
-            kept = [r for r in np.flatnonzero(good) if r > 0]
+            mean = scores / np.maximum(sizes, 1)
+            kept = [r for r in np.flatnonzero((sizes >= smallest) & (mean >= self.min_score)) if r > 0]
             frame_regions = nearest(regions, (w, h)) if kept else None  # one resampling per category
             for r in kept:
-                out.append(Instance(name, frame_regions == r, float(scores[r] / sizes[r])))
+                out.append(Instance(name, frame_regions == r, float(mean[r])))
         return out
 
     def target_mask(self, rgb: np.ndarray, target: str) -> np.ndarray:

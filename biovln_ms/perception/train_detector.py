@@ -13,7 +13,7 @@ seed, data and thread count give the same weights.
 
 Written into ``out`` (each file atomically): ``detector.safetensors`` (see
 :mod:`biovln_ms.perception.segmenter`), ``train.json`` (settings, per-step loss, per-epoch validation,
-seconds) and ``train.png`` (loss and validation curves).
+operating points, seconds) and ``train.png`` (loss and validation curves, the chosen point).
 """
 
 from __future__ import annotations
@@ -36,6 +36,8 @@ VAL_SHARE = 0.1
 #: class-weight clip (relative to the median class)
 WEIGHT_CLIP = (0.05, 10.0)
 MAX_FRAMES_READ = 200_000
+#: the shipped recipe's passes over the training frames and frames per step (the CLI's defaults)
+EPOCHS, BATCH = 20, 16
 #: instance scores (mean softmax probability) tried as the operating point on the validation frames
 SCORE_GRID = (0.0, 0.4, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95)
 RENDER_FIX = "render the frames again: biovln-ms perception dataset -o DIR"
@@ -151,8 +153,8 @@ def train_detector(
     frames: str | Path,
     out: str | Path,
     seed: int = 0,
-    epochs: int = 20,
-    batch: int = 16,
+    epochs: int = EPOCHS,
+    batch: int = BATCH,
     lr: float = 2e-3,
     threads: int = 2,
     max_minutes: float | None = None,
@@ -292,7 +294,8 @@ def train_detector(
 
 def operating_points(net, cats: list[str], val: list[dict], val_frames: list, anns: dict) -> list[dict]:
     """Mean precision, mean recall and their harmonic mean on the validation frames for each smallest
-    instance score of :data:`SCORE_GRID` (the instances are found once and filtered)."""
+    instance score of :data:`SCORE_GRID` (the instances are found once and filtered with the segmenter's
+    rule: an instance's score, its mean probability, at least the threshold)."""
     net.eval()
     seg = _InMemorySegmenter(net, cats)
     found = [(seg.instances(rgb), lab, anns[im["id"]]) for im, (rgb, lab) in zip(val, val_frames)]
@@ -302,7 +305,11 @@ def operating_points(net, cats: list[str], val: list[dict], val_frames: list, an
         for preds, lab, ann in found:
             match_frame(tally, [p for p in preds if p.score >= t], ann, cats, lab)
         s = tally.summary()
-        p, r = s["mean_precision"] or 0.0, s["mean_recall"] or 0.0
+        # a category with instances but no detection left counts as precision 0, so a high score cannot
+        # look precise by silencing the hard categories
+        rows = s["categories"].values()
+        prec = [r["precision"] if r["precision"] is not None else 0.0 for r in rows if r["instances"]]
+        p, r = round(float(np.mean(prec)), 4) if prec else 0.0, s["mean_recall"] or 0.0
         f1 = 2 * p * r / (p + r) if p + r else 0.0
         points.append({"min_score": t, "mean_precision": p, "mean_recall": r, "f1": round(f1, 4)})
     return points
