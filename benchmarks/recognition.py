@@ -27,8 +27,9 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.catalog import load_catalog
-from biovln_ms.measured import docs_data_dir, write_table
-from biovln_ms.perception.scorers import PROMPT, ClassifierTextScorer, ImageTextScorer
+from biovln_ms.measured import docs_data_dir, load_table, write_table
+from biovln_ms.perception.detectors import TrainedDetector, make_detector
+from biovln_ms.perception.scorers import PROMPT, ClassifierTextScorer, ImageTextScorer, PerceptionError
 from biovln_ms.render.goal_views import GoalViewRenderer, goal_views, showcase_scenes
 from biovln_ms.render.sapien_utils import vulkan_device_label
 from biovln_ms.task_config import NavTaskConfig
@@ -71,11 +72,8 @@ class DetectorRecognizer:
     (the middle half of its width and height, where the views look) covered by j's instances, each pixel
     weighted by its instance's score; a view with no instance in the window scores 0 everywhere."""
 
-    def __init__(self, spec: str, categories: list[str]) -> None:
-        from biovln_ms.perception.segmenter import Segmenter
-
-        weights = spec.removeprefix("trained:") if spec.startswith("trained:") else None
-        self.segmenter = Segmenter(weights)
+    def __init__(self, detector: TrainedDetector, categories: list[str]) -> None:
+        self.segmenter = detector.segmenter
         self.categories = categories
         self.name = f"trained detector ({self.segmenter.path.name}, min score {self.segmenter.min_score})"
 
@@ -166,12 +164,10 @@ def contact_sheet(results: list[Scored], categories: list[str], path: Path, thum
 def face_colours() -> dict[str, int]:
     """Each category's fewest distinct colours at its Zone-3 views (``instrument_colours.json``, lighting
     quality), the paper's Table 8 column; empty when that table is absent."""
-    import json
-
     path = docs_data_dir() / "benchmarks" / "instrument_colours.json"
     if not path.is_file():
         return {}
-    table = json.loads(path.read_text())
+    table = load_table(path)
     col = table["columns"].index("min")
     return {row[0]: row[col] for row in table["rows"]}
 
@@ -192,13 +188,17 @@ def main(argv: list[str] | None = None) -> None:
 
     catalog = load_catalog()
     categories = catalog.goal_categories()
-    if args.detector is not None and not (args.detector == "trained" or args.detector.startswith("trained:")):
+    try:
+        detector = make_detector(args.detector) if args.detector else None  # the spec grammar's one home
+    except PerceptionError as e:
+        ap.error(str(e))
+    if args.detector and not isinstance(detector, TrainedDetector):
         ap.error(f"--detector {args.detector}: use 'trained' or 'trained:FILE'")
     scorer = (
         CLIPScorer(args.clip)
         if args.clip
-        else DetectorRecognizer(args.detector, categories)
-        if args.detector
+        else DetectorRecognizer(detector, categories)
+        if detector
         else FrameCachedScorer()
     )
     suffix = "_clip" if args.clip else "_detector" if args.detector else ""

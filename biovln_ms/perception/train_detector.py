@@ -235,18 +235,14 @@ def train_detector(
             }
         )
         if val:
-            net.eval()
-            tally = Tally(cats)
-            seg = _InMemorySegmenter(net, cats)
-            for im, (rgb, lab) in zip(val, val_frames):
-                match_frame(tally, seg.instances(rgb), anns[im["id"]], cats, lab)
-            summary = tally.summary()
+            found = validation_instances(net, cats, val, val_frames, anns)
+            summary = tally_at(found, cats, 0.0).summary()
             history[-1].update({k: summary[k] for k in ("mean_precision", "mean_recall", "mean_pixel_iou")})
         if stopped:
             break
     bar.close()
     seconds = time.monotonic() - t0
-    points = operating_points(net, cats, val, val_frames, anns) if val else []
+    points = operating_points(found, cats) if val else []  # the last epoch's instances: the final net
     min_score = max(points, key=lambda p: (p["f1"], -p["min_score"]))["min_score"] if points else 0.0
     header = S.header_of(
         cats,
@@ -292,19 +288,28 @@ def train_detector(
     return data
 
 
-def operating_points(net, cats: list[str], val: list[dict], val_frames: list, anns: dict) -> list[dict]:
-    """Mean precision, mean recall and their harmonic mean on the validation frames for each smallest
-    instance score of :data:`SCORE_GRID` (the instances are found once and filtered with the segmenter's
-    rule: an instance's score, its mean probability, at least the threshold)."""
+def validation_instances(net, cats: list[str], val: list[dict], val_frames: list, anns: dict) -> list:
+    """(instances, semantic labels, annotations) of each validation frame, every instance kept."""
     net.eval()
     seg = _InMemorySegmenter(net, cats)
-    found = [(seg.instances(rgb), lab, anns[im["id"]]) for im, (rgb, lab) in zip(val, val_frames)]
+    return [(seg.instances(rgb), lab, anns[im["id"]]) for im, (rgb, lab) in zip(val, val_frames)]
+
+
+def tally_at(found: list, cats: list[str], min_score: float) -> Tally:
+    """The validation tally of the instances scoring at least ``min_score`` (the segmenter's rule: an
+    instance's score, its mean probability, at least the threshold)."""
+    tally = Tally(cats)
+    for preds, lab, ann in found:
+        match_frame(tally, [p for p in preds if p.score >= min_score], ann, cats, lab)
+    return tally
+
+
+def operating_points(found: list, cats: list[str]) -> list[dict]:
+    """Mean precision, mean recall and their harmonic mean on the validation frames'
+    :func:`validation_instances` for each smallest instance score of :data:`SCORE_GRID`."""
     points = []
     for t in SCORE_GRID:
-        tally = Tally(cats)
-        for preds, lab, ann in found:
-            match_frame(tally, [p for p in preds if p.score >= t], ann, cats, lab)
-        s = tally.summary()
+        s = tally_at(found, cats, t).summary()
         # a category with instances but no detection left counts as precision 0, so a high score cannot
         # look precise by silencing the hard categories
         rows = s["categories"].values()
