@@ -1,13 +1,16 @@
-"""VLFM with the trained detector beside VLFM with the GT detector (the simulator's segmentation), on the
-same episodes, and where the difference comes from.
+"""VLFM with the learned detector (``vlfm``) beside VLFM with the GT detector (``vlfm_gt``, the
+simulator's segmentation) and the paper's VLFM, split by split, and where the difference comes from.
 
-    biovln-ms eval -m vlfm -s ms_test --name vlfm@gt -o runs/vlfm_detectors
-    biovln-ms eval -m vlfm -s ms_test --detector trained --name vlfm@trained -o runs/vlfm_detectors
-    python benchmarks/vlfm_detectors.py runs/vlfm_detectors/vlfm@gt runs/vlfm_detectors/vlfm@trained \
-        [GT_RUN TRAINED_RUN ...]        # more pairs, e.g. the same under --noise realistic
+    biovln-ms eval -m vlfm -s SPLIT [--noise realistic] --name vlfm -o runs           # every split
+    biovln-ms eval -m vlfm_gt -s SPLIT [--noise realistic] --name vlfm_gt -o runs     # where you can
+    python benchmarks/vlfm_detectors.py --learned runs/vlfm [...] --gt runs/vlfm_gt [...]
 
-Any splits the two run folders share are compared, episode by episode (McNemar's test on the episodes
-both played). Each episode of the trained-detector run is traced to one outcome:
+Every split of a ``--learned`` folder is a row. Where a ``--gt`` folder holds the same split under the
+same noise, the two are compared episode by episode (McNemar's test on the episodes both played; the
+GT detector's records are the same on every run, so a re-run is the published run); elsewhere the GT
+detector's row is the published run's SR (``docs/data/reproduction.json``, ``vlfm_gt``). The paper's
+VLFM SR (its Table 5) sits beside where the paper has the split. Each failed episode is traced to one
+outcome:
 
 | outcome | rule |
 |---|---|
@@ -19,10 +22,10 @@ both played). Each episode of the trained-detector run is traced to one outcome:
 | STOP near the target | failed after a detection, stopped within ``FAR`` m: seen, but not reached |
 | step limit | failed after a detection without stopping |
 
-Writes ``docs/data/perception/vlfm_detectors.json`` (the table; its notes count the episodes whose outcome
-differs, by target category) and beside it ``vlfm_detectors_episodes.json`` (each such episode: category,
-both outcomes, both distances to the goal, both step counts, the trained run's detections);
-``--data-out`` elsewhere.
+Writes ``docs/data/perception/vlfm_detectors.json`` (the table; its notes count, per paired split, the
+episodes whose outcome differs by target category) and beside it ``vlfm_detectors_episodes.json`` (each
+such episode: category, both outcomes, both distances to the goal, both step counts, the learned run's
+detections); ``--data-out`` elsewhere.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from biovln_ms.eval import paper
 from biovln_ms.eval.harness import episode_key, load_records
 from biovln_ms.eval.stats import mcnemar, wilson_interval
 from biovln_ms.io_utils import atomic_write_text
@@ -77,82 +81,107 @@ def sr(recs: list[dict]) -> str:
     return f"{100 * k / n:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
 
 
-def compare(gt_dir: Path, learned_dir: Path) -> tuple[list[str], list[list], dict]:
-    """Columns and rows (per shared split: the GT run, then the trained run with McNemar's p and the median
-    step ratio of the episodes both solved), and the episodes whose outcome differs."""
-    gt, learned = runs_by_split(gt_dir), runs_by_split(learned_dir)
-    columns = ["split", "noise", "detector", "n", "SR %", *OUTCOMES[1:], "McNemar p"]
-    columns += ["steps / GT's (median)"]
+#: the published GT-detector runs, by noise preset (their records are not kept: SR only)
+PUBLISHED = {"ideal": "vlfm_gt", "realistic": "vlfm_gt+realistic"}
+COLUMNS = ["split", "noise", "detector", "n", "SR %", *OUTCOMES[1:], "McNemar p", "steps / GT's (median)"]
+COLUMNS += ["paper SR %"]
+
+
+def _noise(recs: list[dict]) -> str:
+    return recs[0].get("noise", "ideal")
+
+
+def _traced(split: str, noise: str, name: str, recs: list[dict]) -> list:
+    counts = Counter(outcome(r) for r in recs)
+    return [split, noise, name, len(recs), sr(recs), *[counts.get(o, 0) for o in OUTCOMES[1:]]]
+
+
+def compare(learned_dir: Path, gt_dirs: list[Path], published: dict) -> tuple[list[list], dict]:
+    """Rows (per split of ``learned_dir``: the GT detector's, then the learned one's) and the episodes whose
+    outcome differs where a GT run of the same split and noise is among ``gt_dirs``; ``published``: the
+    reproduction data's runs."""
+    learned = runs_by_split(learned_dir)
+    gts = [(d, runs_by_split(d)) for d in gt_dirs]
     rows, traces = [], {}
-    for split in sorted(set(gt) & set(learned)):
-        keys = sorted(set(gt[split]) & set(learned[split]))
-        if not keys:
+    for split in sorted(learned):
+        b_all = list(learned[split].values())
+        noise = _noise(b_all)
+        paper_sr = paper.TABLE5.get("VLFM", {}).get(split, {}).get("sr") if noise == "ideal" else None
+        pair = next(
+            ((d, g[split]) for d, g in gts if split in g and _noise(list(g[split].values())) == noise), None
+        )
+        if pair is None:  # the published run: its SR only
+            o = published.get(PUBLISHED.get(noise, ""), {}).get(split, {}).get("overall")
+            if o:
+                lo, hi = o["sr_ci95"]
+                cell = f"{o['sr']:.1f} [{lo:.1f}, {hi:.1f}]"
+                rows.append([split, noise, "GT (published run)", o["episodes"], cell, *[None] * 6, None])
+            rows.append(_traced(split, noise, "learned", b_all) + [None, None, paper_sr])
             continue
-        a, b = [gt[split][k] for k in keys], [learned[split][k] for k in keys]
+        gt_dir, gt = pair
+        keys = sorted(set(gt) & set(learned[split]))
+        if not keys:
+            raise RunsError(f"{gt_dir} and {learned_dir} share no episodes of {split}")
+        a, b = [gt[k] for k in keys], [learned[split][k] for k in keys]
         p = mcnemar([r["success"] for r in a], [r["success"] for r in b]).p_value
         both = [(x["steps"], y["steps"]) for x, y in zip(a, b) if x["success"] and y["success"]]
         ratio = round(float(np.median([y / x for x, y in both])), 2) if both else None
-        noise = b[0].get("noise", "ideal")
-        if a[0].get("noise", "ideal") != noise:
-            raise RunsError(f"{gt_dir} ran under {a[0].get('noise')!r}, {learned_dir} under {noise!r}")
-        for name, recs, extra in (("GT", a, [None, None]), ("trained", b, [round(p, 4), ratio])):
-            counts = Counter(outcome(r) for r in recs)
-            row = [split, noise, name, len(keys), sr(recs), *[counts.get(o, 0) for o in OUTCOMES[1:]]]
-            rows.append(row + extra)
+        rows.append(_traced(split, noise, "GT", a) + [None, None, None])
+        rows.append(_traced(split, noise, "learned", b) + [round(p, 4), ratio, paper_sr])
         traces[f"{split} ({noise})"] = {
             k: {
                 "category": y["object_category"],
                 "gt": outcome(x),
-                "trained": outcome(y),
+                "learned": outcome(y),
                 "dtg": [round(x["dtg"], 2), round(y["dtg"], 2)],
                 "steps": [x["steps"], y["steps"]],
-                "trained_detections": y.get("policy_stats", {}).get("detections"),
+                "learned_detections": y.get("policy_stats", {}).get("detections"),
             }
             for k, x, y in zip(keys, a, b)
             if outcome(x) != outcome(y)
         }
-    return columns, rows, traces
+    return rows, traces
 
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument(
-        "runs",
-        type=Path,
-        nargs="+",
-        help="results folders in pairs: VLFM with the GT detector, then with "
-        "the trained detector (one pair per noise preset)",
-    )
+    ap.add_argument("--learned", type=Path, nargs="+", required=True, help="results folders of vlfm")
+    ap.add_argument("--gt", type=Path, nargs="*", default=[], help="results folders of vlfm_gt")
+    ap.add_argument("--published", type=Path, help="default: docs/data/reproduction.json")
     ap.add_argument("--data-out", type=Path, help="default: docs/data/perception/vlfm_detectors.json")
     args = ap.parse_args(argv)
-    if len(args.runs) % 2:
-        ap.error("give the results folders in pairs: GT_RUN TRAINED_RUN [GT_RUN TRAINED_RUN ...]")
+    published_file = args.published or docs_data_dir() / "reproduction.json"
+    try:
+        published = json.loads(published_file.read_text())["runs"]
+    except (OSError, ValueError, KeyError) as e:
+        ap.error(f"{published_file}: not the reproduction data ({type(e).__name__}); give --published FILE")
     rows, traces = [], {}
-    for gt, learned in zip(args.runs[::2], args.runs[1::2]):
+    for learned in args.learned:
         try:
-            columns, more, more_traces = compare(gt, learned)
+            more, more_traces = compare(learned, args.gt, published)
         except RunsError as e:
             ap.error(str(e))
         if not more:
-            ap.error(f"{gt} and {learned} share no episodes")
+            ap.error(f"{learned} holds no split's episodes")
         rows += more
         traces.update(more_traces)
     for r in rows:
         print("  ".join(map(str, r)))
     notes = [
-        "Each pair of runs: the same episodes and noise; SR with Wilson 95 % intervals; McNemar's test on "
-        "the paired outcomes. The outcome columns trace each run's failures: never detected; a STOP more "
-        f"than {FAR} m from the goal after a detection (a false positive it went to); a STOP nearer (seen, "
-        "not reached); the step limit.",
+        "SR with Wilson 95 % intervals. GT: a vlfm_gt run on the same episodes (McNemar's test on the "
+        "paired outcomes); GT (published run): the reproduction page's vlfm_gt run (SR only). The outcome "
+        f"columns trace each run's failures: never detected; a STOP more than {FAR} m from the goal after "
+        "a detection (a false positive it went to); a STOP nearer (seen, not reached); the step limit. "
+        "Paper SR: the paper's VLFM (Grounding DINO + SAM + GPT-4o), its Table 5, under ideal sensing.",
     ]
     for key, differs in traces.items():
         changed = Counter(t["category"] for t in differs.values())
         notes.append(
             f"{key}: episodes whose outcome differs, by target category: "
-            + ", ".join(f"{c} {n}" for c, n in changed.most_common())
+            + (", ".join(f"{c} {n}" for c, n in changed.most_common()) or "none")
         )
     out = args.data_out or docs_data_dir() / "perception" / "vlfm_detectors.json"
-    write_table(out, "VLFM: the GT detector against the trained detector", columns, rows, notes=notes)
+    write_table(out, "VLFM: the learned detector against the GT detector", COLUMNS, rows, notes=notes)
     episodes = out.with_name(out.stem + "_episodes.json")
     atomic_write_text(episodes, json.dumps(traces, indent=1, sort_keys=True) + "\n")
     print(f"wrote {episodes}")

@@ -10,6 +10,9 @@ code under test, and writes one canonical file: the dataset's file digests and e
 
 ``docs/data/records/reference.json.gz`` is the reference: the records of the code before the architecture
 rework. Replace it only with a change that means to change behaviour, and say so in the commit.
+VLFM's reference records are the GT detector's, under that method's current name (``vlfm_gt``,
+``protocol_vlfm_gt``); the learned detector's ``vlfm`` and ``protocol_vlfm`` have none yet (run them with
+``--methods`` and keep the file as their reference).
 
 ``--quick`` runs one episode per cell (a smoke check). The PPO checkpoint is trained here, seeded, so
 training is compared too (its weights' digest is in the file). Images are 160x120 to keep the run short;
@@ -29,9 +32,9 @@ import time
 import zipfile
 from pathlib import Path
 
-SINGLE_GOAL = ("random", "oracle", "zone3_oracle", "frontier", "vlfm", "ppo")
+SINGLE_GOAL = ("random", "oracle", "zone3_oracle", "frontier", "vlfm", "vlfm_gt", "ppo")
 SINGLE_GOAL_SPLITS = ("ms_val", "ms_test", "two_room", "lsat_target", "hard_val", "molbio_val")
-PROTOCOL = ("protocol_oracle", "protocol_frontier", "protocol_vlfm", "protocol_language")
+PROTOCOL = ("protocol_oracle", "protocol_frontier", "protocol_vlfm", "protocol_vlfm_gt", "protocol_language")
 PROTOCOL_SPLITS = ("protocol_val",)
 PRESETS = ("ideal", "realistic")
 EPISODES = 2
@@ -48,7 +51,8 @@ for cell in json.loads(sys.argv[1]):
 """
 
 
-def _cells(out: Path, episodes: int, checkpoint: Path) -> list[dict]:
+def _cells(out: Path, episodes: int, checkpoint: Path, methods: set[str] | None = None) -> list[dict]:
+    """The matrix's runs (only ``methods``' when given)."""
     cells = []
     for noise in PRESETS:
         for method in SINGLE_GOAL:
@@ -58,6 +62,7 @@ def _cells(out: Path, episodes: int, checkpoint: Path) -> list[dict]:
         for method in PROTOCOL:
             for split in PROTOCOL_SPLITS:
                 cells.append(dict(method=method, split=split, noise=noise, method_kwargs={}))
+    cells = [c for c in cells if methods is None or c["method"] in methods]
     for c in cells:
         c.update(out=str(out / "results"), max_episodes=episodes, camera=list(CAMERA), workers=1)
     return cells
@@ -93,8 +98,9 @@ def _sh(args: list[str], env: dict) -> None:
     subprocess.run(args, env=env, check=True)
 
 
-def run(out: Path, quick: bool, jobs: int) -> Path:
-    """Build the dataset, train the PPO checkpoint, run the matrix; write ``out/records.json.gz``."""
+def run(out: Path, quick: bool, jobs: int, methods: set[str] | None = None) -> Path:
+    """Build the dataset, train the PPO checkpoint, run the matrix (``methods``' cells only when given);
+    write ``out/records.json.gz``."""
     out.mkdir(parents=True, exist_ok=True)
     env = {**os.environ, "BIOVLN_DATA_DIR": str(out / "dataset")}
     py = sys.executable
@@ -122,7 +128,7 @@ def run(out: Path, quick: bool, jobs: int) -> Path:
             ],
             env,
         )
-    cells = _cells(out, 1 if quick else EPISODES, ckpt_dir / "model.zip")
+    cells = _cells(out, 1 if quick else EPISODES, ckpt_dir / "model.zip", methods)
     groups = [cells[i::jobs] for i in range(jobs)]  # one process per job, each running its cells in turn
     procs = [subprocess.Popen([py, "-c", _RUNNER, json.dumps(g)], env=env) for g in groups if g]
     if any(p.wait() for p in procs):
@@ -207,12 +213,23 @@ def main() -> None:
     r.add_argument("--out", type=Path, required=True)
     r.add_argument("--quick", action="store_true", help="one episode per cell")
     r.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="runner processes")
+    r.add_argument(
+        "--methods",
+        help="comma-separated: run only these methods' cells (compare: the others "
+        "show as 'only in the first')",
+    )
     c = sub.add_parser("compare", help="compare two records files")
     c.add_argument("a", type=Path)
     c.add_argument("b", type=Path)
     args = p.parse_args()
     if args.cmd == "run":
-        run(args.out, args.quick, args.jobs)
+        unknown = set(args.methods.split(",")) - {*SINGLE_GOAL, *PROTOCOL} if args.methods else set()
+        if unknown:
+            p.error(
+                f"--methods: unknown {', '.join(sorted(unknown))}; "
+                f"use some of {', '.join(SINGLE_GOAL + PROTOCOL)}"
+            )
+        run(args.out, args.quick, args.jobs, set(args.methods.split(",")) if args.methods else None)
     else:
         sys.exit(1 if compare(args.a, args.b) else 0)
 

@@ -95,7 +95,8 @@ def test_registry_fields_are_consistent():
     assert len({s.report_order for s in METHODS.values()}) == len(METHODS)
     assert len({s.label for s in METHODS.values()}) == len(METHODS)
     assert {m for m, s in METHODS.items() if s.privileged} == {"oracle", "zone3_oracle", "protocol_oracle"}
-    assert METHODS["vlfm"].label == "VLFM (GT detector)" and METHODS["vlfm"].paper_key == "VLFM"
+    assert METHODS["vlfm"].label == "VLFM (learned detector)" and METHODS["vlfm"].paper_key == "VLFM"
+    assert METHODS["vlfm_gt"].label == "VLFM (GT detector)" and METHODS["vlfm_gt"].paper_key is None
     assert [METHODS[m].paper_key for m in ("ppo", "a2c", "sac")] == [None, None, None]
     # every row of the paper's tables belongs to a registered method, and no two methods claim one row
     keys = [s.paper_key for s in METHODS.values() if s.paper_key]
@@ -176,7 +177,7 @@ def test_learned_policies_appear_in_the_report_when_their_results_exist(dataset,
     ):
         assert f"| {label} | 4 | {sr} |" in t5
         assert f"| {label} | 4 | {sr} |" in t10
-    order = [t5.index(f"| {label} |") for label in ("VLFM (GT detector)", "PPO", "A2C", "SAC")]
+    order = [t5.index(f"| {label} |") for label in ("VLFM (learned detector)", "PPO", "A2C", "SAC")]
     assert order == sorted(order)  # report_order
     mc = _section(md, "Pairwise McNemar")
     for pair in (

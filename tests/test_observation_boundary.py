@@ -108,10 +108,12 @@ def _policies(tmp_path, dataset):
         "frontier": FrontierPolicy(),
         "llm_frontier": LLMFrontierPolicy(client=_Answer()),
         "vlfm": VLFMPolicy(),
+        "vlfm_gt": VLFMPolicy(detector="gt"),
         "bc": BCPolicy(str(bc)),
         "ppo": SB3Policy(str(tmp_path / "ppo.zip")),
         "protocol_frontier": ProtocolFrontierPolicy(),
         "protocol_vlfm": ProtocolVLFMPolicy(),
+        "protocol_vlfm_gt": ProtocolVLFMPolicy(detector="gt"),
         "protocol_language": ProtocolLanguagePolicy(),
     }
 

@@ -187,15 +187,63 @@ def dataset(held_out_dataset):
     return held_out_dataset(ms_val=3)
 
 
+def test_the_gt_detector_is_its_own_method_not_a_vlfm_option():
+    from biovln_ms.baselines.vlfm import VLFMPolicy
+    from biovln_ms.errors import BioVLNError
+    from biovln_ms.eval.methods import METHODS
+
+    assert VLFMPolicy().obs_mode == METHODS["vlfm"].obs_mode == "rgb+depth"  # no segmentation sensor
+    assert VLFMPolicy(detector="gt").obs_mode == METHODS["vlfm_gt"].obs_mode == "rgb+depth+segmentation"
+    assert VLFMPolicy().label == "VLFM (learned detector)"
+    for name in ("vlfm", "protocol_vlfm"):
+        with pytest.raises(BioVLNError, match="vlfm_gt") as err:
+            METHODS[name].preflight(detector="gt")
+        assert err.value.field == "detector"
+        METHODS[name].preflight(detector="trained:/some/weights.safetensors")  # the others are its own
+    assert "detector" not in METHODS["vlfm_gt"].options
+
+
 @pytest.mark.slow
-def test_vlfm_with_the_gt_detector_through_the_harness(dataset, tmp_path):
-    cfg = EvalConfig("vlfm", "ms_val", str(tmp_path), dataset, workers=1, camera=(320, 240))
-    summary = evaluate(cfg, progress=False)
-    recs = load_records(tmp_path / "vlfm" / "ms_val" / "episodes.jsonl")
-    assert summary["overall"]["episodes"] == 3 and not any(r.get("error") for r in recs)
-    stats = [r["policy_stats"] for r in recs]
-    assert all(s["detector"] == "gt-segmentation" for s in stats)
-    assert all(s["scorer"] == "efficientnet-lite0+minilm" for s in stats)
-    assert {s["label"] for s in stats} == {"VLFM (GT detector)"}
-    assert any(s["object_seen"] for s in stats)  # the target is found in this small room
-    assert summary["overall"]["sr"] > 0
+def test_vlfm_with_either_detector_through_the_harness(dataset, tmp_path):
+    """The learned detector (the default) on RGB alone, and the GT ablation, on the same episodes."""
+    for method, detector, label in (
+        ("vlfm", "trained", "VLFM (learned detector)"),
+        ("vlfm_gt", "gt-segmentation", "VLFM (GT detector)"),
+    ):
+        cfg = EvalConfig(method, "ms_val", str(tmp_path), dataset, workers=1, camera=(320, 240))
+        summary = evaluate(cfg, progress=False)
+        recs = load_records(tmp_path / method / "ms_val" / "episodes.jsonl")
+        assert summary["overall"]["episodes"] == 3 and not any(r.get("error") for r in recs)
+        stats = [r["policy_stats"] for r in recs]
+        assert all(s["detector"] == detector for s in stats)
+        assert all(s["scorer"] == "efficientnet-lite0+minilm" for s in stats)
+        assert {s["label"] for s in stats} == {label}
+        assert any(s["object_seen"] for s in stats), method  # the target is found in this small room
+
+
+def test_image_detectors_drop_the_floor_at_an_objects_base():
+    """A mask that bleeds past an object's outline onto the floor keeps the object's pixels only."""
+    from biovln_ms.perception.detectors import FLOOR_BAND, drop_floor
+
+    h, w, f = 120, 160, 100.0
+    k = np.array([[f, 0, w / 2], [0, f, h / 2], [0, 0, 1]])
+    # camera 1 m above the floor looking along world x (world z up; OpenCV: x right, y down, z forward)
+    r = np.array([[0.0, -1, 0], [0, 0, -1], [1, 0, 0]])
+    e = np.hstack([r, -r @ np.array([[0.0], [0], [1]])])
+    v = np.arange(h)[:, None].repeat(w, 1).astype(float)
+    depth = np.where(v > h / 2, f / np.maximum(v - h / 2, 1e-9), 0.0)  # the floor, below the horizon
+    face = np.zeros((h, w), bool)
+    face[30:90, 60:100] = True  # an object's face 2 m ahead, from 1.6 m down to 0.42 m above the floor
+    depth[face] = 2.0
+    obs = {
+        "sensor_data": {"head": {"depth": np.round(depth * 1000).astype(np.int16)[None, ..., None]}},
+        "sensor_param": {"head": {"intrinsic_cv": k[None], "extrinsic_cv": e[None]}},
+    }
+    mask = face.copy()
+    mask[90:110, 55:105] = True  # a halo that bleeds onto the floor below and beside it
+    mask[5, 5] = True  # no depth reading there (above the horizon): kept
+    kept = drop_floor(mask, obs)
+    heights = 1.0 - (v - h / 2) / f * depth  # each pixel's height above the floor
+    assert np.all(heights[90:110, 55:105] < FLOOR_BAND) and np.all(heights[face] > 0.4)
+    assert np.array_equal(kept, face | (np.arange(h)[:, None] == 5) & (np.arange(w) == 5))
+    assert not drop_floor(np.zeros((h, w), bool), obs).any()

@@ -45,13 +45,18 @@ def _write(folder: Path, records: list[dict]) -> Path:
     return folder
 
 
+PUBLISHED = {
+    "vlfm_gt": {"ms_val": {"overall": {"episodes": 50, "sr": 92.0, "sr_ci95": [81.2, 96.8]}}},
+}
+
+
 def test_two_runs_are_compared_on_the_episodes_both_played(tmp_path):
     gt = _write(tmp_path / "gt", [_rec(i, True, steps=40) for i in range(6)])
     learned = [_rec(0, True, steps=60), _rec(1, True, steps=80), _rec(2, False, seen=False)]
     learned += [_rec(3, False, dtg=4.0), _rec(4, False, stopped=False)]  # episode 5: not played
-    columns, rows, traces = vd.compare(gt, _write(tmp_path / "learned", learned))
-    gt_row, row = (dict(zip(columns, r)) for r in rows)
-    assert (gt_row["detector"], row["detector"]) == ("GT", "trained") and row["split"] == "ms_test"
+    rows, traces = vd.compare(_write(tmp_path / "learned", learned), [gt], PUBLISHED)
+    gt_row, row = (dict(zip(vd.COLUMNS, r)) for r in rows)
+    assert (gt_row["detector"], row["detector"]) == ("GT", "learned") and row["split"] == "ms_test"
     assert row["noise"] == "ideal"
     assert gt_row["n"] == row["n"] == 5
     assert gt_row["SR %"].startswith("100.0") and row["SR %"].startswith("40.0")
@@ -59,36 +64,55 @@ def test_two_runs_are_compared_on_the_episodes_both_played(tmp_path):
     assert row["STOP near the target"] == 0 and gt_row["never detected"] == 0
     assert row["steps / GT's (median)"] == 1.75  # 1.5 and 2.0
     assert 0 < row["McNemar p"] <= 1 and gt_row["McNemar p"] is None
+    assert row["paper SR %"] is gt_row["paper SR %"] is None  # the paper's VLFM has no MS TEST row
     assert set(traces["ms_test (ideal)"]) == {"lab_s1_v0/2", "lab_s1_v0/3", "lab_s1_v0/4"}
+
+
+def test_a_split_without_a_gt_run_stands_beside_the_published_one(tmp_path):
+    learned = tmp_path / "learned"
+    (learned / "ms_val").mkdir(parents=True)
+    recs = [_rec(i, i < 3) for i in range(4)]
+    (learned / "ms_val" / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
+    gt = _write(tmp_path / "gt", [_rec(0, True)])  # another split: no pair
+    rows, traces = vd.compare(learned, [gt], PUBLISHED)
+    published, row = (dict(zip(vd.COLUMNS, r)) for r in rows)
+    assert published["detector"] == "GT (published run)" and published["SR %"] == "92.0 [81.2, 96.8]"
+    assert published["n"] == 50 and published["never detected"] is None
+    assert row["detector"] == "learned" and row["SR %"].startswith("75.0") and row["McNemar p"] is None
+    assert row["paper SR %"] == 38.0  # the paper's VLFM on MS VAL (its Table 5)
+    assert traces == {}
 
 
 def test_bad_folders_are_one_line_errors(tmp_path, capsys):
     gt = _write(tmp_path / "gt", [_rec(0, True)])
     other = _write(tmp_path / "realistic", [{**_rec(0, True), "noise": "realistic"}])
-    with pytest.raises(vd.RunsError, match="under 'ideal'"):
-        vd.compare(gt, other)
+    rows, _ = vd.compare(other, [gt], PUBLISHED)  # another preset: not its pair
+    assert [r[2] for r in rows] == ["learned"]
+    elsewhere = _write(tmp_path / "elsewhere", [{**_rec(0, True), "episode_id": "99"}])
+    with pytest.raises(vd.RunsError, match="share no episodes"):
+        vd.compare(elsewhere, [gt], PUBLISHED)
     with pytest.raises(SystemExit):
-        vd.main([str(gt), str(tmp_path / "nowhere")])
+        vd.main(["--learned", str(tmp_path / "nowhere")])
     assert "no such results folder" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        vd.main([str(gt)])
-    assert "in pairs" in capsys.readouterr().err
+        vd.main(["--learned", str(gt), "--published", str(tmp_path / "none.json")])
+    assert "not the reproduction data" in capsys.readouterr().err
 
 
 def test_the_changed_episodes_are_written_beside_the_table(tmp_path):
     gt = _write(tmp_path / "gt", [_rec(0, True, dtg=0.3), _rec(1, True)])
     learned = _write(tmp_path / "learned", [_rec(0, False, dtg=1.2, steps=50), _rec(1, True)])
-    vd.main([str(gt), str(learned), "--data-out", str(tmp_path / "table.json")])
+    vd.main(["--learned", str(learned), "--gt", str(gt), "--data-out", str(tmp_path / "table.json")])
     episodes = json.loads((tmp_path / "table_episodes.json").read_text())
     assert episodes == {
         "ms_test (ideal)": {
             "lab_s1_v0/0": {
                 "category": "incubator",
                 "gt": "success",
-                "trained": "STOP near the target",
+                "learned": "STOP near the target",
                 "dtg": [0.3, 1.2],
                 "steps": [40, 50],
-                "trained_detections": None,
+                "learned_detections": None,
             }
         }
     }

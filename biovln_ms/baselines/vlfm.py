@@ -22,11 +22,12 @@ The structure of VLFM, with pluggable components:
    to that cloud and stops there (VLFM's PointNav-to-object stage).
 
 Unlike the frontier baseline, VLFM is never told the goal position: it only knows the target
-category, as in ObjectNav (it reads the head camera's images, the odometry, and the GT detector the
-``semantic_category`` sensor, never ``pointgoal_with_gps_compass``; without GPS+compass it localises as
-the frontier baseline does, see :mod:`~biovln_ms.baselines.frontier`). It early-stops after 100
-consecutive steps without progress (paper Table 15): progress = the known free area grew, or the
-distance to the current target shrank.
+category, as in ObjectNav (it reads the head camera's images and the odometry, never
+``pointgoal_with_gps_compass``; without GPS+compass it localises as the frontier baseline does, see
+:mod:`~biovln_ms.baselines.frontier`). Its default detector is the shipped trained one; the GT detector
+(``detector="gt"``, the ablation ``vlfm_gt``) also reads the ``semantic_category`` sensor. It
+early-stops after 100 consecutive steps without progress (paper Table 15): progress = the known free
+area grew, or the distance to the current target shrank.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from biovln_ms.baselines.frontier.occupancy import FREE, Scan, backproject
 from biovln_ms.baselines.frontier.planner import Candidate, PlanField
 from biovln_ms.baselines.policy import STOP, EpisodeInfo
 from biovln_ms.catalog import load_catalog
+from biovln_ms.perception import detector_specs
 from biovln_ms.perception.detectors import make_detector
 from biovln_ms.perception.scorers import make_scorer
 
@@ -62,11 +64,10 @@ def largest_cluster(points: np.ndarray, eps: float) -> np.ndarray:
 
 class VLFMPolicy(FrontierPolicy):
     name = "vlfm"
-    obs_mode = "rgb+depth+segmentation"
 
     def __init__(
         self,
-        detector="gt",
+        detector=detector_specs.DEFAULT_DETECTOR,
         scorer="default",
         detect_every: int = 5,
         score_every: int = 1,
@@ -78,7 +79,7 @@ class VLFMPolicy(FrontierPolicy):
     ) -> None:
         super().__init__(params)
 
-        self.detector_spec = detector  # "gt", "owlvit:<dir>", or a Detector object
+        self.detector_spec = detector  # a make_detector spec ("trained", "gt", ...) or a Detector object
         self.scorer = make_scorer(scorer) if isinstance(scorer, str) else scorer  # or any ImageTextScorer
         self.detect_every, self.score_every = detect_every, score_every
         self.no_progress_limit = no_progress_limit
@@ -87,10 +88,16 @@ class VLFMPolicy(FrontierPolicy):
         self._detector = None
 
     @property
+    def obs_mode(self) -> str:
+        """RGB and depth; the GT detector also reads the simulator's segmentation."""
+        return detector_specs.obs_mode(self.detector_spec)
+
+    @property
     def label(self) -> str:
-        """The name results should carry ("VLFM (GT detector)" with the simulator's segmentation)."""
+        """The name results carry: "VLFM (learned detector)" with the shipped weights, "VLFM (GT detector)"
+        with the simulator's segmentation."""
         name = self.detector_spec if isinstance(self.detector_spec, str) else self.detector_spec.name
-        return "VLFM (GT detector)" if name == "gt" else f"VLFM ({name})"
+        return detector_specs.label(name)
 
     def reset(self, episode_info: EpisodeInfo) -> None:
         super().reset(episode_info)

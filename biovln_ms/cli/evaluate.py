@@ -133,7 +133,9 @@ def eval_cmd(
         parser=given_path,
     ),
     detector: Optional[str] = typer.Option(
-        None, help="vlfm: 'gt' (default, simulator segmentation) or 'owlvit:/local/dir'."
+        None,
+        help="vlfm: 'trained' (default, the shipped weights), 'trained:FILE' or 'owlvit:/local/dir'; "
+        "the GT detector (simulator segmentation) is the method vlfm_gt.",
     ),
     scorer: Optional[str] = typer.Option(
         None, help="vlfm: 'default' (packaged EfficientNet-Lite0 + MiniLM) or 'clip:/local/dir'."

@@ -12,6 +12,7 @@ from biovln_ms.variants import PROTOCOL_ENV, RL_ENV
 from biovln_ms.errors import BioVLNError
 from biovln_ms.learning.algorithms import SB3_CONTROL_MODES
 from biovln_ms.llm.client import LLMConfig
+from biovln_ms.perception.detector_specs import GT_OBS, IMAGE_OBS, LABELS
 
 
 @dataclass(frozen=True)
@@ -70,6 +71,20 @@ def _language_preflight(parser: str = "rule", **_) -> None:
         _llm_preflight()
 
 
+def _image_detector_preflight(detector: str | None = None, **_) -> None:
+    """The GT detector reads a sensor these methods' observation leaves out: it has its own method."""
+    if detector == "gt":
+        raise BioVLNError(
+            "the GT detector is the ablation method, not a detector option",
+            field="detector",
+            fix="run -m vlfm_gt (or protocol_vlfm_gt) for VLFM on the simulator's segmentation",
+        )
+
+
+_VLFM_OPTIONS = ("detector", "scorer", "detect_every", "score_every", "erode_px", "cluster_eps")
+_PROTOCOL_VLFM_OPTIONS = ("detector", "scorer", "detect_every", "score_every")
+
+
 def _lazy(module: str, cls: str, **fixed) -> Callable:
     """A factory of ``<module>.<cls>`` (``module`` a full module path), imported only when a worker builds
     the policy (so the driver never loads torch, SB3 or the perception models)."""
@@ -114,12 +129,16 @@ def _sb3_spec(algo: str, control_mode: str, report_order: int) -> MethodSpec:
 
 
 _VLFM_NOTE = (
-    "VLFM here uses the simulator's segmentation as its detector (\"VLFM (GT detector)\": a "
-    "perfect Grounding-DINO + SAM stage) and a packaged-weights scorer instead of "
-    "BLIP-2/GPT-4o, so it never misses a visible target; the paper's VLM stack failed on "
-    "rendered assets (its Table 8). It still fails where the target's visible side is not its "
-    "operational face (it stops next to the object's point cloud: the bench from behind), and "
-    "stands closer to instruments than the other methods (lower MCR, higher VRT)."
+    "VLFM here detects with the segmentation net trained on this project's renders (\"VLFM (learned "
+    "detector)\", weights shipped, the perception guide) instead of Grounding DINO + SAM, and scores frames "
+    "with a packaged-weights scorer instead of BLIP-2/GPT-4o. It stops next to the object's point cloud, "
+    "so it fails where the target's visible side is not its operational face."
+)
+_VLFM_GT_NOTE = (
+    "The GT detector is the simulator's segmentation (a perfect Grounding-DINO + SAM stage): an upper "
+    "bound on VLFM's detection, not what a deployed detector gives (the paper's VLM stack failed on "
+    "rendered assets, its Table 8). It still fails where the target's visible side is not its operational "
+    "face, and stands closer to instruments than the other methods (lower MCR, higher VRT)."
 )
 _BC_NOTE = (
     "BC: trained from scratch on the CPU (no ImageNet ResNet-18 weights ship offline; `--pretrained` "
@@ -177,13 +196,23 @@ METHODS: dict[str, MethodSpec] = {
     ),
     "vlfm": MethodSpec(
         _lazy("biovln_ms.baselines.vlfm", "VLFMPolicy"),
-        "rgb+depth+segmentation",
-        "frontier + image-text value map + detector (default: GT segmentation)",
-        label="VLFM (GT detector)",
+        IMAGE_OBS,
+        "frontier + image-text value map + the shipped trained detector",
+        label=LABELS["trained"],
         report_order=60,
         paper_key="VLFM",
-        options=("detector", "scorer", "detect_every", "score_every", "erode_px", "cluster_eps"),
+        preflight=_image_detector_preflight,
+        options=_VLFM_OPTIONS,
         report_note=_VLFM_NOTE,
+    ),
+    "vlfm_gt": MethodSpec(
+        _lazy("biovln_ms.baselines.vlfm", "VLFMPolicy", detector="gt"),
+        GT_OBS,
+        "VLFM with the simulator's segmentation as its detector (the GT ablation)",
+        label=LABELS["gt"],
+        report_order=65,
+        options=tuple(o for o in _VLFM_OPTIONS if o != "detector"),
+        report_note=_VLFM_GT_NOTE,
     ),
     "bc": MethodSpec(
         _lazy("biovln_ms.baselines.bc_policy", "BCPolicy"),
@@ -217,11 +246,21 @@ METHODS: dict[str, MethodSpec] = {
     ),
     "protocol_vlfm": MethodSpec(
         _lazy("biovln_ms.baselines.protocol.vlfm", "ProtocolVLFMPolicy"),
-        "rgb+depth+segmentation",
-        "VLFM (GT detector), given each sub-goal's category in turn",
-        label="Protocol VLFM (GT detector)",
+        IMAGE_OBS,
+        "VLFM (learned detector), given each sub-goal's category in turn",
+        label="Protocol " + LABELS["trained"],
         report_order=130,
-        options=("detector", "scorer", "detect_every", "score_every"),
+        preflight=_image_detector_preflight,
+        options=_PROTOCOL_VLFM_OPTIONS,
+        env_id=PROTOCOL_ENV,
+    ),
+    "protocol_vlfm_gt": MethodSpec(
+        _lazy("biovln_ms.baselines.protocol.vlfm", "ProtocolVLFMPolicy", detector="gt"),
+        GT_OBS,
+        "VLFM (GT detector), given each sub-goal's category in turn (the GT ablation)",
+        label="Protocol " + LABELS["gt"],
+        report_order=135,
+        options=tuple(o for o in _PROTOCOL_VLFM_OPTIONS if o != "detector"),
         env_id=PROTOCOL_ENV,
     ),
     "protocol_language": MethodSpec(

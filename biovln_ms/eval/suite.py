@@ -36,7 +36,7 @@ SUITE_SPLITS = ("ms_val", "ms_test", "two_room", "lsat_target", "hard_val", "har
 SUITE_NOISE = ("ideal", "realistic")
 #: geometric methods first (the suite's time budget is theirs), then the slower and the learned ones
 GEOMETRIC = ("oracle", "zone3_oracle", "frontier", "random")  # the methods of the 60-minute budget
-SUITE_METHODS = (*GEOMETRIC, "llm_frontier", "ppo", "vlfm", "bc")
+SUITE_METHODS = (*GEOMETRIC, "llm_frontier", "ppo", "vlfm", "vlfm_gt", "bc")
 LEARNED = ("ppo", "bc")
 PPO_TIMESTEPS = 300_000  # benchmarks/rl_learning.py's budget
 BC_EPISODES = 200  # frontier recordings of the train split for BC
@@ -47,7 +47,13 @@ BC_IMAGE_SIZE = 128
 #: lab protocols: the protocol methods run on these splits under the ideal preset only, whatever
 #: the splits and presets asked for the others (a new task: its baselines are compared with one another)
 PROTOCOL_SPLITS = ("protocol_val", "protocol_test")
-PROTOCOL_METHODS = ("protocol_oracle", "protocol_frontier", "protocol_vlfm", "protocol_language")
+PROTOCOL_METHODS = (
+    "protocol_oracle",
+    "protocol_frontier",
+    "protocol_vlfm",
+    "protocol_vlfm_gt",
+    "protocol_language",
+)
 
 #: the paper's tables also need MS DEV (Tables 5, 6, 10, 11) and the centroid ablation (Table 9, frontier)
 PAPER_SPLIT = "ms_dev"

@@ -9,6 +9,10 @@
   its instances of the target's category.
 - ``OwlViTDetector``: an open-vocabulary detector (Hugging Face OWL-ViT / OWLv2) from a local directory;
   its boxes (score >= threshold) become masks over the depth pixels inside them.
+
+The image detectors drop the pixels of their masks that depth places on the floor (:func:`drop_floor`):
+a mask that bleeds past an object's outline takes floor at its base, and floor points in VLFM's object
+cloud move the free cell it stops at off the operational face. The GT detector's masks hold none.
 """
 
 from __future__ import annotations
@@ -33,8 +37,29 @@ class Detector(Protocol):
         """A boolean (H, W) mask of the target's pixels in the head camera frame (all False: not seen)."""
 
 
+#: a pixel whose depth point lies less than this (m) above the floor is floor: instruments stand on it
+FLOOR_BAND = 0.05
+
+
 def head_camera(obs: dict) -> dict:
     return obs["sensor_data"]["head"]
+
+
+def drop_floor(mask: np.ndarray, obs: dict, band: float = FLOOR_BAND) -> np.ndarray:
+    """``mask`` without the pixels whose depth point lies within ``band`` of the floor (z = 0 in the
+    frame of the head camera's ``extrinsic_cv``: the world's, or the robot base's under a noise preset
+    that gives base-frame extrinsics). Pixels without a depth reading stay."""
+    v, u = np.nonzero(mask)
+    if not len(v):
+        return mask
+    params = obs["sensor_param"]["head"]
+    z = _numpy(head_camera(obs)["depth"][0, ..., 0])[v, u].astype(np.float64) / 1000.0
+    k, e = _numpy(params["intrinsic_cv"][0]), _numpy(params["extrinsic_cv"][0])
+    cam = np.stack([(u - k[0, 2]) * z / k[0, 0], (v - k[1, 2]) * z / k[1, 1], z], axis=-1)
+    height = (cam - e[:3, 3]) @ e[:3, 2]  # the world z of R^T (p - t): column 2 of R
+    out = mask.copy()
+    out[v[(z > 0) & (height < band)], u[(z > 0) & (height < band)]] = False
+    return out
 
 
 class GTSegmentationDetector:
@@ -86,7 +111,7 @@ class TrainedDetector:
             )
 
     def detect(self, obs: dict, target: str) -> np.ndarray:
-        return self.segmenter.target_mask(_numpy(head_camera(obs)["rgb"][0]), target)
+        return drop_floor(self.segmenter.target_mask(_numpy(head_camera(obs)["rgb"][0]), target), obs)
 
 
 class OwlViTDetector:
@@ -118,7 +143,7 @@ class OwlViTDetector:
         for box in res["boxes"].numpy():
             x0, y0, x1, y1 = np.clip(np.round(box).astype(int), 0, [w, h, w, h])
             mask[y0:y1, x0:x1] = True
-        return mask
+        return drop_floor(mask, obs)
 
 
 def _numpy(x) -> np.ndarray:

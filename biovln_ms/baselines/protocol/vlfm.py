@@ -1,5 +1,5 @@
-"""Protocol VLFM: VLFM (:class:`~biovln_ms.baselines.vlfm.VLFMPolicy`, GT detector by default) given each
-sub-goal's category in turn.
+"""Protocol VLFM: VLFM (:class:`~biovln_ms.baselines.vlfm.VLFMPolicy`, the shipped trained detector by
+default) given each sub-goal's category in turn.
 
 At each sub-goal the agent starts over (empty frontier, value and object maps) with the category the
 ``objectgoal`` sensor now names, as if a new episode began where the last goal was found; see
@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from biovln_ms.baselines.protocol.chain import SubgoalChain
 from biovln_ms.baselines.vlfm import VLFMPolicy
+from biovln_ms.perception.detector_specs import DEFAULT_DETECTOR
 
 
 class ProtocolVLFMPolicy(SubgoalChain):
@@ -19,6 +20,8 @@ class ProtocolVLFMPolicy(SubgoalChain):
 
     name = "protocol_vlfm"
 
-    def __init__(self, detector="gt", scorer="default", detect_every: int = 5, score_every: int = 1) -> None:
+    def __init__(
+        self, detector=DEFAULT_DETECTOR, scorer="default", detect_every: int = 5, score_every: int = 1
+    ) -> None:
         every = dict(detect_every=detect_every, score_every=score_every)
         super().__init__(VLFMPolicy(detector=detector, scorer=scorer, **every))
