@@ -10,9 +10,9 @@ code under test, and writes one canonical file: the dataset's file digests and e
 
 ``docs/data/records/reference.json.gz`` is the reference: the records of the code before the architecture
 rework. Replace it only with a change that means to change behaviour, and say so in the commit.
-VLFM's reference records are the GT detector's, under that method's current name (``vlfm_gt``,
-``protocol_vlfm_gt``); the learned detector's ``vlfm`` and ``protocol_vlfm`` have none yet (run them with
-``--methods`` and keep the file as their reference).
+VLFM's reference records from that run are the GT detector's, under that method's current name
+(``vlfm_gt``, ``protocol_vlfm_gt``); the learned detector's (``vlfm``, ``protocol_vlfm``) come from a
+``run --methods vlfm,protocol_vlfm --jobs 1`` of the code that made it VLFM's default.
 
 ``--quick`` runs one episode per cell (a smoke check). The PPO checkpoint is trained here, seeded, so
 training is compared too (its weights' digest is in the file). Images are 160x120 to keep the run short;
