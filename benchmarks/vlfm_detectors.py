@@ -1,16 +1,17 @@
 """VLFM with the learned detector (``vlfm``) beside VLFM with the GT detector (``vlfm_gt``, the
 simulator's segmentation) and the paper's VLFM, split by split, and where the difference comes from.
 
-    biovln-ms eval -m vlfm -s SPLIT [--noise realistic] --name vlfm -o runs           # every split
-    biovln-ms eval -m vlfm_gt -s SPLIT [--noise realistic] --name vlfm_gt -o runs     # where you can
-    python benchmarks/vlfm_detectors.py --learned runs/vlfm [...] --gt runs/vlfm_gt [...]
+    biovln-ms eval -m vlfm -s SPLIT [--noise realistic] -o runs      # every split: runs/vlfm[+realistic]
+    biovln-ms eval -m vlfm_gt -s SPLIT [--noise realistic] -o runs   # where you can
+    python benchmarks/vlfm_detectors.py --learned runs/vlfm runs/vlfm+realistic \
+        --gt runs/vlfm_gt runs/vlfm_gt+realistic
 
 Every split of a ``--learned`` folder is a row. Where a ``--gt`` folder holds the same split under the
-same noise, the two are compared episode by episode (McNemar's test on the episodes both played; the
-GT detector's records are the same on every run, so a re-run is the published run); elsewhere the GT
-detector's row is the published run's SR (``docs/data/reproduction.json``, ``vlfm_gt``). The paper's
-VLFM SR (its Table 5) sits beside where the paper has the split. Each failed episode is traced to one
-outcome:
+same noise, the two are compared episode by episode (McNemar's test on the episodes both played);
+elsewhere the GT detector's row is the published ``vlfm_gt`` run's SR (``docs/data/reproduction.json``),
+another draw of the same episodes (contacts depend on what a worker ran before, the noise presets
+guide), so SR only. The paper's VLFM SR (its Table 5) sits beside where the paper has the split. Each
+failed episode is traced to one outcome:
 
 | outcome | rule |
 |---|---|
@@ -38,7 +39,8 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.eval import paper
-from biovln_ms.eval.harness import episode_key, load_records
+from biovln_ms.eval.harness import episode_key, load_records, run_name
+from biovln_ms.eval.methods import METHODS
 from biovln_ms.eval.stats import mcnemar, wilson_interval
 from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.measured import docs_data_dir, write_table
@@ -81,8 +83,8 @@ def sr(recs: list[dict]) -> str:
     return f"{100 * k / n:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
 
 
-#: the published GT-detector runs, by noise preset (their records are not kept: SR only)
-PUBLISHED = {"ideal": "vlfm_gt", "realistic": "vlfm_gt+realistic"}
+#: the two methods compared
+LEARNED, GT = "vlfm", "vlfm_gt"
 COLUMNS = ["split", "noise", "detector", "n", "SR %", *OUTCOMES[1:], "McNemar p", "steps / GT's (median)"]
 COLUMNS += ["paper SR %"]
 
@@ -106,12 +108,13 @@ def compare(learned_dir: Path, gt_dirs: list[Path], published: dict) -> tuple[li
     for split in sorted(learned):
         b_all = list(learned[split].values())
         noise = _noise(b_all)
-        paper_sr = paper.TABLE5.get("VLFM", {}).get(split, {}).get("sr") if noise == "ideal" else None
+        paper_row = paper.TABLE5.get(METHODS[LEARNED].paper_key, {})
+        paper_sr = paper_row.get(split, {}).get("sr") if noise == "ideal" else None
         pair = next(
             ((d, g[split]) for d, g in gts if split in g and _noise(list(g[split].values())) == noise), None
         )
         if pair is None:  # the published run: its SR only
-            o = published.get(PUBLISHED.get(noise, ""), {}).get(split, {}).get("overall")
+            o = published.get(run_name(GT, noise=noise), {}).get(split, {}).get("overall")
             if o:
                 lo, hi = o["sr_ci95"]
                 cell = f"{o['sr']:.1f} [{lo:.1f}, {hi:.1f}]"

@@ -327,7 +327,7 @@ class ConstantScorer:
 def test_vlfm_runs_from_synthetic_observations_without_the_goal_sensor():
     from biovln_ms.baselines.vlfm import VLFMPolicy
 
-    pol = VLFMPolicy(scorer=ConstantScorer())
+    pol = VLFMPolicy(detector="gt", scorer=ConstantScorer())  # the synthetic frames carry the segmentation
     actions, pose = _drive(pol, (0.0, 0.0, 0.0), None, wall_x=3.0)
     assert actions[-1] == STOP and pol.detections > 0 and pol.episode_stats()["object_seen"]
     assert 2.3 < pose[0] < 3.0 - PARAMS.robot_radius and abs(pose[1]) < 0.3  # before the target

@@ -191,7 +191,13 @@ def test_method_specs_and_the_parser_option(monkeypatch):
     from biovln_ms.variants import PROTOCOL_ENV
 
     protocol = {m for m, s in METHODS.items() if s.env_id == PROTOCOL_ENV}
-    assert protocol == {"protocol_oracle", "protocol_frontier", "protocol_vlfm", "protocol_language"}
+    assert protocol == {
+        "protocol_oracle",
+        "protocol_frontier",
+        "protocol_vlfm",
+        "protocol_vlfm_gt",
+        "protocol_language",
+    }
     assert [m for m in protocol if METHODS[m].privileged] == ["protocol_oracle"]
     spec = method_spec("protocol_language", {"parser": "rule"})
     spec.preflight(parser="rule")

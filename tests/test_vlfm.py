@@ -195,6 +195,9 @@ def test_the_gt_detector_is_its_own_method_not_a_vlfm_option():
     assert VLFMPolicy().obs_mode == METHODS["vlfm"].obs_mode == "rgb+depth"  # no segmentation sensor
     assert VLFMPolicy(detector="gt").obs_mode == METHODS["vlfm_gt"].obs_mode == "rgb+depth+segmentation"
     assert VLFMPolicy().label == "VLFM (learned detector)"
+    gt = GTSegmentationDetector()  # a built detector object tells the same as its spec
+    assert VLFMPolicy(detector=gt).obs_mode == "rgb+depth+segmentation"
+    assert VLFMPolicy(detector=gt).label == "VLFM (GT detector)"
     for name in ("vlfm", "protocol_vlfm"):
         with pytest.raises(BioVLNError, match="vlfm_gt") as err:
             METHODS[name].preflight(detector="gt")
@@ -223,7 +226,8 @@ def test_vlfm_with_either_detector_through_the_harness(dataset, tmp_path):
 
 def test_image_detectors_drop_the_floor_at_an_objects_base():
     """A mask that bleeds past an object's outline onto the floor keeps the object's pixels only."""
-    from biovln_ms.perception.detectors import FLOOR_BAND, drop_floor
+    from biovln_ms.constants import FLOOR_HEIGHT
+    from biovln_ms.perception.detectors import drop_floor
 
     h, w, f = 120, 160, 100.0
     k = np.array([[f, 0, w / 2], [0, f, h / 2], [0, 0, 1]])
@@ -244,6 +248,26 @@ def test_image_detectors_drop_the_floor_at_an_objects_base():
     mask[5, 5] = True  # no depth reading there (above the horizon): kept
     kept = drop_floor(mask, obs)
     heights = 1.0 - (v - h / 2) / f * depth  # each pixel's height above the floor
-    assert np.all(heights[90:110, 55:105] < FLOOR_BAND) and np.all(heights[face] > 0.4)
+    assert np.all(heights[90:110, 55:105] < FLOOR_HEIGHT) and np.all(heights[face] > 0.4)
     assert np.array_equal(kept, face | (np.arange(h)[:, None] == 5) & (np.arange(w) == 5))
     assert not drop_floor(np.zeros((h, w), bool), obs).any()
+
+
+def test_a_run_folder_of_the_gt_detector_is_not_resumed_by_the_learned_one(tmp_path):
+    """A ``vlfm`` folder made when the GT detector was VLFM's default (no label in its manifest, its
+    records naming their maker) is refused; one of the learned detector resumes."""
+    from biovln_ms.errors import BioVLNError
+    from biovln_ms.eval.harness import check_resume
+
+    old = {"method": "vlfm", "noise": "ideal", "robot": "biovln_base", "env_id": "BioVLN-OpFace-v0"}
+    old["arguments"] = {"method_kwargs": {}}
+    recs = [{"policy_stats": {"label": "VLFM (GT detector)"}}]
+    cfg = EvalConfig("vlfm", "ms_val", str(tmp_path), env_id="BioVLN-OpFace-v0")
+    made_by = r"label 'VLFM \(GT detector\)', not 'VLFM \(learned detector\)'"
+    with pytest.raises(BioVLNError, match=made_by):
+        check_resume(cfg, old, recs)
+    check_resume(cfg, old, [{"policy_stats": {"label": "VLFM (learned detector)"}}])
+    check_resume(cfg, old, [])  # nothing to resume: a fresh start
+    kwargs = EvalConfig("vlfm", "ms_val", str(tmp_path), env_id="BioVLN-OpFace-v0", method_kwargs={"x": 1})
+    with pytest.raises(BioVLNError, match="method options"):
+        check_resume(kwargs, {**old, "label": "VLFM (learned detector)"}, recs)

@@ -96,8 +96,7 @@ class VLFMPolicy(FrontierPolicy):
     def label(self) -> str:
         """The name results carry: "VLFM (learned detector)" with the shipped weights, "VLFM (GT detector)"
         with the simulator's segmentation."""
-        name = self.detector_spec if isinstance(self.detector_spec, str) else self.detector_spec.name
-        return detector_specs.label(name)
+        return detector_specs.label(self.detector_spec)
 
     def reset(self, episode_info: EpisodeInfo) -> None:
         super().reset(episode_info)

@@ -476,10 +476,11 @@ def _evaluate_locked(cfg: EvalConfig, obs_mode: str, progress: bool, echo) -> di
             fix="run the protocol_* methods on the protocol_* splits, the others on the single-goal ones",
         )
     run_dir = cfg.run_dir
-    write_manifest(cfg, root)
+    manifest = write_manifest(cfg, root)
     path = run_dir / "episodes.jsonl"
     raw = load_records(path)
     previous, dups = unique_records(raw)
+    check_resume(cfg, manifest, previous)
     wanted = {episode_key(e) for e in episodes}
     retry = {episode_key(r) for r in previous if record_error(r) and episode_key(r) in wanted}
     previous = [r for r in previous if episode_key(r) not in retry]
@@ -654,6 +655,7 @@ def write_manifest(cfg: EvalConfig, root: Path) -> dict:
         version = None
     manifest = {
         "method": cfg.method,
+        "label": method_spec(cfg.method).label,
         "env_id": cfg.env_id,
         "robot": cfg.robot,
         "noise": cfg.noise,
@@ -673,6 +675,44 @@ def write_manifest(cfg: EvalConfig, root: Path) -> dict:
     }
     atomic_write_text(path, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     return manifest
+
+
+def check_resume(cfg: EvalConfig, manifest: dict, previous: list[dict]) -> None:
+    """A run folder is resumed only by the method that made it: the same method, label, noise, robot, env
+    and method options (a folder of a method whose default changed, e.g. ``vlfm`` before its learned
+    detector, is refused: its records' ``policy_stats.label`` names the other). One-line error."""
+    if not previous:
+        return
+    args = manifest.get("arguments", {})
+    label = method_spec(cfg.method).label
+    made = {
+        "method": manifest.get("method"),
+        "noise": manifest.get("noise"),
+        "robot": manifest.get("robot"),
+        "env_id": manifest.get("env_id"),
+        "method options": args.get("method_kwargs", cfg.method_kwargs),
+        "label": manifest.get("label", label),
+    }
+    now = {
+        "method": cfg.method,
+        "noise": cfg.noise,
+        "robot": cfg.robot,
+        "env_id": cfg.env_id,
+        "method options": cfg.method_kwargs,
+        "label": label,
+    }
+    if not cfg.method_kwargs:  # a folder from before labels were kept: its records may name their maker
+        seen = {r["policy_stats"]["label"] for r in previous if "label" in r.get("policy_stats", {})}
+        if len(seen) == 1 and made["label"] == label:
+            made["label"] = seen.pop()
+    differs = [k for k in now if made[k] != now[k]]
+    if differs:
+        k = differs[0]
+        raise BioVLNError(
+            f"{cfg.run_dir} holds {len(previous)} episodes of another run ({k} {made[k]!r}, not {now[k]!r})",
+            field="name",
+            fix="give another --name or --out; or resume it with the method and options that made it",
+        )
 
 
 def read_manifest(run_dir: Path, records: list[dict]) -> dict:

@@ -135,10 +135,10 @@ _VLFM_NOTE = (
     "so it fails where the target's visible side is not its operational face."
 )
 _VLFM_GT_NOTE = (
-    "The GT detector is the simulator's segmentation (a perfect Grounding-DINO + SAM stage): an upper "
-    "bound on VLFM's detection, not what a deployed detector gives (the paper's VLM stack failed on "
-    "rendered assets, its Table 8). It still fails where the target's visible side is not its operational "
-    "face, and stands closer to instruments than the other methods (lower MCR, higher VRT)."
+    "The GT-detector ablation is not compared with the paper: its detector is the simulator's segmentation "
+    "(a perfect Grounding-DINO + SAM stage), an upper bound on VLFM's detection. It still fails where the "
+    "target's visible side is not its operational face, and stands closer to instruments than the other "
+    "methods (lower MCR, higher VRT)."
 )
 _BC_NOTE = (
     "BC: trained from scratch on the CPU (no ImageNet ResNet-18 weights ship offline; `--pretrained` "
@@ -247,7 +247,7 @@ METHODS: dict[str, MethodSpec] = {
     "protocol_vlfm": MethodSpec(
         _lazy("biovln_ms.baselines.protocol.vlfm", "ProtocolVLFMPolicy"),
         IMAGE_OBS,
-        "VLFM (learned detector), given each sub-goal's category in turn",
+        "VLFM, given each sub-goal's category in turn",
         label="Protocol " + LABELS["trained"],
         report_order=130,
         preflight=_image_detector_preflight,
@@ -257,7 +257,7 @@ METHODS: dict[str, MethodSpec] = {
     "protocol_vlfm_gt": MethodSpec(
         _lazy("biovln_ms.baselines.protocol.vlfm", "ProtocolVLFMPolicy", detector="gt"),
         GT_OBS,
-        "VLFM (GT detector), given each sub-goal's category in turn (the GT ablation)",
+        "VLFM on the simulator's segmentation, given each sub-goal's category in turn (the GT ablation)",
         label="Protocol " + LABELS["gt"],
         report_order=135,
         options=tuple(o for o in _PROTOCOL_VLFM_OPTIONS if o != "detector"),

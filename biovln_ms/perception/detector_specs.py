@@ -10,15 +10,23 @@ from __future__ import annotations
 DEFAULT_DETECTOR = "trained"
 #: what VLFM reads with an image detector, and with the GT detector (the segmentation sensor besides)
 IMAGE_OBS, GT_OBS = "rgb+depth", "rgb+depth+segmentation"
-#: result labels of the shipped detector specs
-LABELS = {"trained": "VLFM (learned detector)", "gt": "VLFM (GT detector)"}
+#: the GT detector's spec, and the name the built detector carries (records' ``policy_stats.detector``)
+GT_SPEC, GT_NAME = "gt", "gt-segmentation"
+#: result labels of the shipped detectors, by spec and by built name
+LABELS = {"trained": "VLFM (learned detector)", GT_SPEC: "VLFM (GT detector)", GT_NAME: "VLFM (GT detector)"}
 
 
-def obs_mode(spec: str) -> str:
-    """The observation mode VLFM needs with detector ``spec``."""
-    return GT_OBS if spec == "gt" else IMAGE_OBS
+def name_of(detector) -> str:
+    """A detector spec as given, or a built detector's ``name``."""
+    return detector if isinstance(detector, str) else getattr(detector, "name", type(detector).__name__)
 
 
-def label(name: str) -> str:
-    """The result label of VLFM with the detector named ``name`` ("VLFM (owlvit:DIR)" for others)."""
+def obs_mode(detector) -> str:
+    """The observation mode VLFM needs with ``detector`` (a spec or a built detector)."""
+    return GT_OBS if name_of(detector) in (GT_SPEC, GT_NAME) else IMAGE_OBS
+
+
+def label(detector) -> str:
+    """The result label of VLFM with ``detector`` ("VLFM (owlvit:DIR)" for others)."""
+    name = name_of(detector)
     return LABELS.get(name, f"VLFM ({name})")

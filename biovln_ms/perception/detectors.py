@@ -1,6 +1,6 @@
 """Object detectors for VLFM: which pixels of this frame show an instance of the target category?
 
-- ``GTSegmentationDetector`` (the offline default): the simulator's ``semantic_category`` sensor (per
+- ``GTSegmentationDetector``: the simulator's ``semantic_category`` sensor (per
   pixel, 1 + the goal category index of the object seen), a perfect detector. Results with it are
   labelled "VLFM (GT detector)": they bound what a perfect Grounding-DINO + SAM stage would give, not
   what the paper's VLM stack gives.
@@ -22,6 +22,8 @@ from typing import Protocol
 
 import numpy as np
 
+from biovln_ms.constants import FLOOR_HEIGHT
+from biovln_ms.perception.detector_specs import GT_NAME, GT_OBS
 from biovln_ms.perception.scorers import PerceptionError, load_local_model
 from biovln_ms.perception.segmenter import MIN_PIXELS, Segmenter
 from biovln_ms.task_config import TaskSpec
@@ -37,15 +39,11 @@ class Detector(Protocol):
         """A boolean (H, W) mask of the target's pixels in the head camera frame (all False: not seen)."""
 
 
-#: a pixel whose depth point lies less than this (m) above the floor is floor: instruments stand on it
-FLOOR_BAND = 0.05
-
-
 def head_camera(obs: dict) -> dict:
     return obs["sensor_data"]["head"]
 
 
-def drop_floor(mask: np.ndarray, obs: dict, band: float = FLOOR_BAND) -> np.ndarray:
+def drop_floor(mask: np.ndarray, obs: dict, band: float = FLOOR_HEIGHT) -> np.ndarray:
     """``mask`` without the pixels whose depth point lies within ``band`` of the floor (z = 0 in the
     frame of the head camera's ``extrinsic_cv``: the world's, or the robot base's under a noise preset
     that gives base-frame extrinsics). Pixels without a depth reading stay."""
@@ -65,7 +63,7 @@ def drop_floor(mask: np.ndarray, obs: dict, band: float = FLOOR_BAND) -> np.ndar
 class GTSegmentationDetector:
     """The target's pixels are those the ``semantic_category`` sensor labels with its goal category."""
 
-    name = "gt-segmentation"
+    name = GT_NAME
 
     def __init__(self, min_pixels: int = MIN_PIXELS) -> None:
         """``min_pixels`` at 640x480 (scaled with the image area) for a detection to count."""
@@ -81,7 +79,7 @@ class GTSegmentationDetector:
             raise PerceptionError(
                 "the GT detector needs the semantic_category sensor",
                 field="obs_mode",
-                fix="make the env with obs_mode='rgb+depth+segmentation'",
+                fix=f"make the env with obs_mode='{GT_OBS}'",
             )
         semantic = _numpy(obs["extra"]["semantic_category"][0, ..., 0])
         mask = semantic == 1 + self.goal_categories.index(target)

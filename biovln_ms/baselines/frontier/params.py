@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from biovln_ms.constants import FLOOR_HEIGHT
+
 
 @dataclass(frozen=True)
 class FrontierParams:
@@ -15,7 +17,7 @@ class FrontierParams:
     extent: float = 100.0  # m, side of the square grid centred on the start
     depth_clip: float = 10.0  # m: farther depth is "nothing seen up to here" (Table 15)
     pixel_stride: int = 8  # image rows sampled every this many pixels (Table 15)
-    floor_z: float = 0.05  # m: depth points higher than this ...
+    floor_z: float = FLOOR_HEIGHT  # m: depth points higher than this ...
     top_z: float = 1.0  # m: ... and lower than this are obstacles (the robot is 0.95 m tall)
     forget: bool | None = None  # rays clear obstacle cells (what moves); None: with people (TaskSpec.people)
     # planner
