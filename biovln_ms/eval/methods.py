@@ -132,7 +132,8 @@ _VLFM_NOTE = (
     "VLFM here detects with the segmentation net trained on this project's renders (\"VLFM (learned "
     "detector)\", weights shipped, the perception guide) instead of Grounding DINO + SAM, and scores frames "
     "with a packaged-weights scorer instead of BLIP-2/GPT-4o. It stops next to the object's point cloud, "
-    "so it fails where the target's visible side is not its operational face."
+    "so it fails where the target's visible side is not its operational face, and where its masks' "
+    "looser edges add points on an object's far side (the waste bin; the perception guide)."
 )
 _VLFM_GT_NOTE = (
     "The GT-detector ablation is not compared with the paper: its detector is the simulator's segmentation "
