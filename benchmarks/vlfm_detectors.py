@@ -76,11 +76,16 @@ def runs_by_split(folder: Path) -> dict[str, dict[str, dict]]:
     return out
 
 
+def sr_cell(sr: float, lo: float, hi: float) -> str:
+    """A success rate and its 95 % interval, in %."""
+    return f"{sr:.1f} [{lo:.1f}, {hi:.1f}]"
+
+
 def sr(recs: list[dict]) -> str:
     """Success rate in % with its Wilson 95 % interval."""
     k, n = sum(r["success"] for r in recs), len(recs)
     lo, hi = wilson_interval(k, n)
-    return f"{100 * k / n:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
+    return sr_cell(100 * k / n, 100 * lo, 100 * hi)
 
 
 #: the two methods compared
@@ -104,11 +109,11 @@ def compare(learned_dir: Path, gt_dirs: list[Path], published: dict) -> tuple[li
     reproduction data's runs."""
     learned = runs_by_split(learned_dir)
     gts = [(d, runs_by_split(d)) for d in gt_dirs]
+    paper_row = paper.TABLE5.get(METHODS[LEARNED].paper_key, {})
     rows, traces = [], {}
     for split in sorted(learned):
         b_all = list(learned[split].values())
         noise = _noise(b_all)
-        paper_row = paper.TABLE5.get(METHODS[LEARNED].paper_key, {})
         paper_sr = paper_row.get(split, {}).get("sr") if noise == "ideal" else None
         pair = next(
             ((d, g[split]) for d, g in gts if split in g and _noise(list(g[split].values())) == noise), None
@@ -116,8 +121,7 @@ def compare(learned_dir: Path, gt_dirs: list[Path], published: dict) -> tuple[li
         if pair is None:  # the published run: its SR only
             o = published.get(run_name(GT, noise=noise), {}).get(split, {}).get("overall")
             if o:
-                lo, hi = o["sr_ci95"]
-                cell = f"{o['sr']:.1f} [{lo:.1f}, {hi:.1f}]"
+                cell = sr_cell(o["sr"], *o["sr_ci95"])
                 rows.append([split, noise, "GT (published run)", o["episodes"], cell, *[None] * 6, None])
             rows.append(_traced(split, noise, "learned", b_all) + [None, None, paper_sr])
             continue

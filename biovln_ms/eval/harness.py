@@ -683,24 +683,13 @@ def check_resume(cfg: EvalConfig, manifest: dict, previous: list[dict]) -> None:
     detector, is refused: its records' ``policy_stats.label`` names the other). One-line error."""
     if not previous:
         return
-    args = manifest.get("arguments", {})
     label = method_spec(cfg.method).label
-    made = {
-        "method": manifest.get("method"),
-        "noise": manifest.get("noise"),
-        "robot": manifest.get("robot"),
-        "env_id": manifest.get("env_id"),
-        "method options": args.get("method_kwargs", cfg.method_kwargs),
+    same = ("method", "noise", "robot", "env_id")
+    made = {k: manifest.get(k) for k in same} | {
+        "method options": manifest.get("arguments", {}).get("method_kwargs", cfg.method_kwargs),
         "label": manifest.get("label", label),
     }
-    now = {
-        "method": cfg.method,
-        "noise": cfg.noise,
-        "robot": cfg.robot,
-        "env_id": cfg.env_id,
-        "method options": cfg.method_kwargs,
-        "label": label,
-    }
+    now = {k: getattr(cfg, k) for k in same} | {"method options": cfg.method_kwargs, "label": label}
     if not cfg.method_kwargs:  # a folder from before labels were kept: its records may name their maker
         seen = {r["policy_stats"]["label"] for r in previous if "label" in r.get("policy_stats", {})}
         if len(seen) == 1 and made["label"] == label:

@@ -5,14 +5,15 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 
 from biovln_ms.variants import PROTOCOL_ENV, RL_ENV
 from biovln_ms.errors import BioVLNError
 from biovln_ms.learning.algorithms import SB3_CONTROL_MODES
 from biovln_ms.llm.client import LLMConfig
-from biovln_ms.perception.detector_specs import GT_OBS, IMAGE_OBS, LABELS
+from biovln_ms.perception.detector_specs import GT_OBS, GT_SPEC, IMAGE_OBS, LABELS, TRAINED_SPEC
 
 
 @dataclass(frozen=True)
@@ -73,7 +74,7 @@ def _language_preflight(parser: str = "rule", **_) -> None:
 
 def _image_detector_preflight(detector: str | None = None, **_) -> None:
     """The GT detector reads a sensor these methods' observation leaves out: it has its own method."""
-    if detector == "gt":
+    if detector == GT_SPEC:
         raise BioVLNError(
             "the GT detector is the ablation method, not a detector option",
             field="detector",
@@ -83,6 +84,23 @@ def _image_detector_preflight(detector: str | None = None, **_) -> None:
 
 _VLFM_OPTIONS = ("detector", "scorer", "detect_every", "score_every", "erode_px", "cluster_eps")
 _PROTOCOL_VLFM_OPTIONS = ("detector", "scorer", "detect_every", "score_every")
+
+
+def _gt_ablation(learned: MethodSpec, description: str, report_order: int, note: str = "") -> MethodSpec:
+    """``learned`` (a VLFM method) with the GT detector fixed: the segmentation sensor in its observation,
+    no ``detector`` option, its own label and no paper row."""
+    return replace(
+        learned,
+        factory=partial(learned.factory, detector=GT_SPEC),
+        obs_mode=GT_OBS,
+        description=description,
+        label=learned.label.replace(LABELS[TRAINED_SPEC], LABELS[GT_SPEC]),
+        report_order=report_order,
+        paper_key=None,
+        preflight=None,
+        options=tuple(o for o in learned.options if o != "detector"),
+        report_note=note,
+    )
 
 
 def _lazy(module: str, cls: str, **fixed) -> Callable:
@@ -150,6 +168,29 @@ _BC_NOTE = (
     "template."
 )
 
+# VLFM with the shipped trained detector, and the GT-detector ablation of each
+_VLFM = MethodSpec(
+    _lazy("biovln_ms.baselines.vlfm", "VLFMPolicy"),
+    IMAGE_OBS,
+    "frontier + image-text value map + the shipped trained detector",
+    label=LABELS[TRAINED_SPEC],
+    report_order=60,
+    paper_key="VLFM",
+    preflight=_image_detector_preflight,
+    options=_VLFM_OPTIONS,
+    report_note=_VLFM_NOTE,
+)
+_PROTOCOL_VLFM = MethodSpec(
+    _lazy("biovln_ms.baselines.protocol.vlfm", "ProtocolVLFMPolicy"),
+    IMAGE_OBS,
+    "VLFM, given each sub-goal's category in turn",
+    label="Protocol " + LABELS[TRAINED_SPEC],
+    report_order=130,
+    preflight=_image_detector_preflight,
+    options=_PROTOCOL_VLFM_OPTIONS,
+    env_id=PROTOCOL_ENV,
+)
+
 # The one registry: a shipped method is its policy module plus one entry here; yours, register_method.
 METHODS: dict[str, MethodSpec] = {
     "random": MethodSpec(
@@ -195,25 +236,12 @@ METHODS: dict[str, MethodSpec] = {
         paper_key="LLM-Frontier",
         preflight=_llm_preflight,
     ),
-    "vlfm": MethodSpec(
-        _lazy("biovln_ms.baselines.vlfm", "VLFMPolicy"),
-        IMAGE_OBS,
-        "frontier + image-text value map + the shipped trained detector",
-        label=LABELS["trained"],
-        report_order=60,
-        paper_key="VLFM",
-        preflight=_image_detector_preflight,
-        options=_VLFM_OPTIONS,
-        report_note=_VLFM_NOTE,
-    ),
-    "vlfm_gt": MethodSpec(
-        _lazy("biovln_ms.baselines.vlfm", "VLFMPolicy", detector="gt"),
-        GT_OBS,
+    "vlfm": _VLFM,
+    "vlfm_gt": _gt_ablation(
+        _VLFM,
         "VLFM with the simulator's segmentation as its detector (the GT ablation)",
-        label=LABELS["gt"],
-        report_order=65,
-        options=tuple(o for o in _VLFM_OPTIONS if o != "detector"),
-        report_note=_VLFM_GT_NOTE,
+        65,
+        _VLFM_GT_NOTE,
     ),
     "bc": MethodSpec(
         _lazy("biovln_ms.baselines.bc_policy", "BCPolicy"),
@@ -245,24 +273,11 @@ METHODS: dict[str, MethodSpec] = {
         report_order=120,
         env_id=PROTOCOL_ENV,
     ),
-    "protocol_vlfm": MethodSpec(
-        _lazy("biovln_ms.baselines.protocol.vlfm", "ProtocolVLFMPolicy"),
-        IMAGE_OBS,
-        "VLFM, given each sub-goal's category in turn",
-        label="Protocol " + LABELS["trained"],
-        report_order=130,
-        preflight=_image_detector_preflight,
-        options=_PROTOCOL_VLFM_OPTIONS,
-        env_id=PROTOCOL_ENV,
-    ),
-    "protocol_vlfm_gt": MethodSpec(
-        _lazy("biovln_ms.baselines.protocol.vlfm", "ProtocolVLFMPolicy", detector="gt"),
-        GT_OBS,
+    "protocol_vlfm": _PROTOCOL_VLFM,
+    "protocol_vlfm_gt": _gt_ablation(
+        _PROTOCOL_VLFM,
         "VLFM on the simulator's segmentation, given each sub-goal's category in turn (the GT ablation)",
-        label="Protocol " + LABELS["gt"],
-        report_order=135,
-        options=tuple(o for o in _PROTOCOL_VLFM_OPTIONS if o != "detector"),
-        env_id=PROTOCOL_ENV,
+        135,
     ),
     "protocol_language": MethodSpec(
         _lazy("biovln_ms.baselines.protocol.language", "ProtocolLanguagePolicy"),

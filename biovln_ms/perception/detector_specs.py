@@ -6,14 +6,19 @@ by :func:`biovln_ms.perception.detectors.make_detector`.
 
 from __future__ import annotations
 
-#: the detector VLFM uses unless told otherwise: the segmentation net trained on our renders
-DEFAULT_DETECTOR = "trained"
+#: the spec of the segmentation net trained on our renders (``trained:FILE``: other weights), VLFM's default
+TRAINED_SPEC = "trained"
+DEFAULT_DETECTOR = TRAINED_SPEC
 #: what VLFM reads with an image detector, and with the GT detector (the segmentation sensor besides)
 IMAGE_OBS, GT_OBS = "rgb+depth", "rgb+depth+segmentation"
 #: the GT detector's spec, and the name the built detector carries (records' ``policy_stats.detector``)
 GT_SPEC, GT_NAME = "gt", "gt-segmentation"
 #: result labels of the shipped detectors, by spec and by built name
-LABELS = {"trained": "VLFM (learned detector)", GT_SPEC: "VLFM (GT detector)", GT_NAME: "VLFM (GT detector)"}
+LABELS = {
+    TRAINED_SPEC: "VLFM (learned detector)",
+    GT_SPEC: "VLFM (GT detector)",
+    GT_NAME: "VLFM (GT detector)",
+}
 
 
 def name_of(detector) -> str:

@@ -23,7 +23,7 @@ from typing import Protocol
 import numpy as np
 
 from biovln_ms.constants import FLOOR_HEIGHT
-from biovln_ms.perception.detector_specs import GT_NAME, GT_OBS
+from biovln_ms.perception.detector_specs import GT_NAME, GT_OBS, GT_SPEC, TRAINED_SPEC
 from biovln_ms.perception.scorers import PerceptionError, load_local_model
 from biovln_ms.perception.segmenter import MIN_PIXELS, Segmenter
 from biovln_ms.task_config import TaskSpec
@@ -55,8 +55,9 @@ def drop_floor(mask: np.ndarray, obs: dict, band: float = FLOOR_HEIGHT) -> np.nd
     k, e = _numpy(params["intrinsic_cv"][0]), _numpy(params["extrinsic_cv"][0])
     cam = np.stack([(u - k[0, 2]) * z / k[0, 0], (v - k[1, 2]) * z / k[1, 1], z], axis=-1)
     height = (cam - e[:3, 3]) @ e[:3, 2]  # the world z of R^T (p - t): column 2 of R
+    floor = (z > 0) & (height < band)
     out = mask.copy()
-    out[v[(z > 0) & (height < band)], u[(z > 0) & (height < band)]] = False
+    out[v[floor], u[floor]] = False
     return out
 
 
@@ -95,7 +96,7 @@ class TrainedDetector:
     def __init__(self, weights: str | Path | None = None, threads: int | None = None) -> None:
 
         self.segmenter = Segmenter(weights, threads=threads)
-        self.name = "trained" if weights is None else f"trained:{Path(weights).name}"
+        self.name = TRAINED_SPEC if weights is None else f"{TRAINED_SPEC}:{Path(weights).name}"
 
     def reset(self, task: TaskSpec) -> None:
         """The task's goal categories must be ones the weights know."""
@@ -151,12 +152,12 @@ def _numpy(x) -> np.ndarray:
 def make_detector(spec: str) -> Detector:
     """``"gt"`` (the simulator's semantic sensor), ``"trained"`` (the shipped weights),
     ``"trained:<weights file>"`` or ``"owlvit:<directory>"``."""
-    if spec == "gt":
+    if spec == GT_SPEC:
         return GTSegmentationDetector()
-    if spec == "trained":
+    if spec == TRAINED_SPEC:
         return TrainedDetector()
-    if spec.startswith("trained:"):
-        return TrainedDetector(spec.removeprefix("trained:"))
+    if spec.startswith(f"{TRAINED_SPEC}:"):
+        return TrainedDetector(spec.removeprefix(f"{TRAINED_SPEC}:"))
     if spec.startswith("owlvit:"):
         return OwlViTDetector(spec.removeprefix("owlvit:"))
     raise PerceptionError(
