@@ -62,7 +62,7 @@ class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
     **Randomizations:**
     - the episode (scene, start pose, goal category) comes from the episode source in order, or in a fixed
       shuffle (``shuffle_episodes``, a scene's episodes in visits of ``scene_visit_episodes``);
-      ``reset(seed=k)`` jumps to position ``k mod n``
+      ``reset(seed=k)`` jumps to position ``n · frac(k / φ)`` (seeds ``k, k + 1`` start far apart)
     - with a noise config (:mod:`biovln_ms.noise`): actuation noise, RGB and depth noise, keyed by each
       sub-env's episode seed and step so that a recorded episode replays exactly
 

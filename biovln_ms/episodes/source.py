@@ -40,6 +40,18 @@ class EpisodeSource:
         )
 
 
+#: 2**64 / φ, odd: Fibonacci hashing's multiplier (Knuth, TAOCP vol. 3, §6.4)
+_GOLDEN_64 = 0x9E3779B97F4A7C15
+
+
+def seed_position(seed: int, n: int) -> int:
+    """Where ``reset(seed=...)`` starts in an order of ``n`` episodes: ``n · frac(seed / φ)``, computed
+    exactly in 64-bit fixed point. Vector envs seed env ``i`` with ``seed + i`` (gymnasium's, SB3's); as
+    ``seed mod n`` env ``i + 1`` would replay env ``i``'s episodes one step ahead, while golden-ratio steps
+    start them far apart. Seed 0 is the first episode; every position is some seed's."""
+    return (seed * _GOLDEN_64 % 2**64) * n >> 64
+
+
 #: the reset options that name an episode (``EpisodeCursor.select`` consumes them)
 EPISODE_OPTIONS = frozenset({"episode_index", "episode_id"})
 
@@ -79,8 +91,9 @@ class EpisodeCursor:
 
     def select(self, seed, options: dict) -> int:
         """The episode index a reset starts: ``options["episode_index"]`` or ``["episode_id"]`` (with an
-        optional ``["scene_id"]``), else the next in order; a ``seed`` jumps to position ``seed mod n``, so
-        the same seed gives the same episode and the same ones after it. Consumes those option keys."""
+        optional ``["scene_id"]``), else the next in order; a ``seed`` jumps to position
+        :func:`seed_position`, so the same seed gives the same episode and the
+        same ones after it, and seeds ``s, s + 1, ...`` start far apart. Consumes those option keys."""
         if "episode_index" in options:
             k = options.pop("episode_index")
             if not (
@@ -95,7 +108,7 @@ class EpisodeCursor:
         if "episode_id" in options:
             return self.source.find(options.pop("episode_id"), options.pop("scene_id", None))
         if seed is not None:
-            self.position = int(np.ravel(seed)[0]) % len(self.order)
+            self.position = seed_position(int(np.ravel(seed)[0]), len(self.order))
         else:
             self.position = (self.position + 1) % len(self.order)
         return self.order[self.position]
