@@ -17,7 +17,7 @@ from biovln_ms.cli import app
 from biovln_ms.perception import frames as F
 from biovln_ms.perception import segmenter as S
 from biovln_ms.perception.detectors import TrainedDetector, make_detector
-from biovln_ms.perception.matching import Tally, match_frame, wilson
+from biovln_ms.perception.matching import MISS_CAUSES, Tally, match_frame, wilson
 from biovln_ms.perception.scorers import PerceptionError
 
 runner = CliRunner()
@@ -68,6 +68,44 @@ def test_matching_counts_hits_misses_false_alarms_and_ignores_small_instances():
     match_frame(tally, [_inst(CATS[0], half)], anns, CATS, labels)
     row = tally.summary()["categories"][CATS[0]]
     assert (row["matched"], row["detections"], row["recall"]) == (0, 1, 0.0)
+
+
+def test_each_miss_gets_its_cause():
+    """Six annotated instances of CATS[0], each missed one way (and one of CATS[1] found)."""
+    inst = np.zeros((240, 320), np.uint16)
+    boxes = {1: (0, 40, 0, 40), 2: (0, 40, 42, 82), 3: (60, 100, 0, 40), 4: (60, 100, 60, 100)}
+    boxes |= {5: (120, 160, 0, 40), 6: (120, 160, 60, 100), 7: (180, 220, 0, 40), 8: (180, 220, 100, 140)}
+    for k, (y0, y1, x0, x1) in boxes.items():
+        inst[y0:y1, x0:x1] = k
+    anns = _ann(inst, {**{k: CATS[0] for k in range(1, 8)}, 8: CATS[1]})
+    labels = np.zeros_like(inst, np.uint8)
+    labels[inst > 0] = 1
+    labels[inst == 8] = 2
+
+    def box(y0, y1, x0, x1):
+        m = np.zeros(inst.shape, bool)
+        m[y0:y1, x0:x1] = True
+        return m
+
+    preds = [
+        _inst(CATS[0], box(0, 40, 0, 82)),  # over instances 1 and 2: merged, both
+        _inst(CATS[0], box(50, 110, 0, 60)),  # over instance 3 and beyond: oversized
+        _inst(CATS[0], box(60, 70, 60, 100)),  # a quarter of instance 4: partial
+        _inst(CATS[1], box(180, 220, 100, 140)),  # instance 8, found
+    ]
+    net = np.zeros(inst.shape, np.int64)
+    net[120:160, 0:40] = 1  # instance 5: labelled right, but no detection kept: dropped
+    net[120:160, 60:100] = 3  # instance 6: labelled as CATS[2]
+    # instance 7: background
+    tally = Tally(CATS, causes=True)
+    match_frame(tally, preds, anns, CATS, labels, net)
+    row = tally.summary()["categories"][CATS[0]]
+    assert row["matched"] == 0 and list(row["misses"]) == [c for c in MISS_CAUSES if row["misses"].get(c)]
+    assert row["misses"] == {"merged": 2, "oversized": 1, "partial": 1, "dropped": 1, "other category": 1,
+                             "background": 1}  # fmt: skip
+    assert row["confused_with"] == {CATS[2]: 1}
+    assert tally.summary()["categories"][CATS[1]]["matched"] == 1
+    assert "misses" not in Tally(CATS).summary()["categories"][CATS[0]]  # training's validation: none
 
 
 def test_wilson_interval():

@@ -13,6 +13,7 @@ false positive (VLFM's GT detector drops them too). Per category:
 | recall | matched instances / annotated instances, Wilson 95 % interval |
 | mask IoU | mean IoU of the matched pairs |
 | pixel IoU | the category's pixels, detected vs annotated, over all frames |
+| misses | each unmatched instance by cause (:data:`~.matching.MISS_CAUSES`), and what the net took it for |
 
 The means are over categories: recall over those with annotated instances, precision over those with
 detections. Frames are filtered by their lighting and noise presets.
@@ -23,6 +24,7 @@ from __future__ import annotations
 import datetime
 import hashlib
 import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +33,7 @@ from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.measured import check_table, dumps, machine
 from biovln_ms.perception import segmenter as S
 from biovln_ms.perception.frames import LIGHTING_SHARES, NOISE_SHARES, FramesError
-from biovln_ms.perception.matching import IOU_MATCH, Tally, match_frame
+from biovln_ms.perception.matching import IOU_MATCH, MISS_CAUSES, Tally, match_frame
 from biovln_ms.perception.train_detector import read_frame, read_manifest, read_part
 
 HELD_OUT = ("test_scenes", "test_looks")
@@ -63,7 +65,7 @@ def evaluate_detector(
     cats = seg.categories
     lights = [lighting] if lighting else [*LIGHTINGS, "all"]
     noises = [noise] if noise else [*NOISES, "all"]
-    tallies = {(p, li, no): Tally(cats) for p in HELD_OUT for li in lights for no in noises}
+    tallies = {(p, li, no): Tally(cats, causes=True) for p in HELD_OUT for li in lights for no in noises}
     sample = None
     for part in HELD_OUT:
         images, anns = read_part(frames, part, limit)
@@ -78,9 +80,11 @@ def evaluate_detector(
                 continue
             rgb, lab = read_frame(frames, im, anns[im["id"]])
             sample = rgb if sample is None else sample
-            preds = seg.instances(rgb)
+            net, conf = seg.labels(seg.check_frame(rgb))
+            preds = seg.regions(net, conf, rgb.shape[:2])
+            net = S.nearest(net, rgb.shape[1::-1])
             for key in keys:
-                match_frame(tallies[key], preds, anns[im["id"]], cats, lab)
+                match_frame(tallies[key], preds, anns[im["id"]], cats, lab, net)
     results = {
         f"{li}/{no}": {part: tallies[(part, li, no)].summary() for part in HELD_OUT}
         for li in lights
@@ -127,6 +131,7 @@ def summary_table(result: dict, condition: str = "fast/ideal") -> tuple[list[str
     cols = ["category"]
     for part in HELD_OUT:
         cols += [f"{part}: n", "precision", "recall", "mask IoU"]
+    cols.append(f"{HELD_OUT[0]}: misses by cause")
     res = result["results"][condition]
 
     def fmt(v, ci=None):
@@ -145,7 +150,7 @@ def summary_table(result: dict, condition: str = "fast/ideal") -> tuple[list[str
                 fmt(r["recall"], r["recall_ci"]),
                 fmt(r["mask_iou"]),
             ]
-        rows.append(row)
+        rows.append([*row, misses(res[HELD_OUT[0]]["categories"][c])])
     mean = ["mean over categories"]
     for part in HELD_OUT:
         s = res[part]
@@ -155,7 +160,22 @@ def summary_table(result: dict, condition: str = "fast/ideal") -> tuple[list[str
             fmt(s["mean_recall"]),
             None,
         ]
-    return cols, [*rows, mean]
+    total = sum((Counter(r.get("misses", {})) for r in res[HELD_OUT[0]]["categories"].values()), Counter())
+    return cols, [*rows, [*mean, misses({"misses": dict(total)})]]
+
+
+def misses(row: dict) -> str | None:
+    """A category's misses by cause, e.g. ``merged 37, other category 6 (lab_table 6)``."""
+    if not row.get("misses"):
+        return None
+    out = []
+    for cause in MISS_CAUSES:
+        n = row["misses"].get(cause)
+        if n:
+            taken = row.get("confused_with") if cause == "other category" else None
+            named = f" ({', '.join(f'{c} {k}' for c, k in taken.items())})" if taken else ""
+            out.append(f"{cause} {n}{named}")
+    return ", ".join(out)
 
 
 def write_table(path: str | Path, result: dict, command: str, condition: str = "fast/ideal") -> Path:

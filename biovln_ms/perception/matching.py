@@ -4,6 +4,8 @@ mask IoU is at least :data:`IOU_MATCH`); :mod:`~.evaluate_detector` and training
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 
 from biovln_ms.metrics.intervals import wilson_interval
@@ -12,6 +14,17 @@ from biovln_ms.perception.frames import decode_mask
 
 IOU_MATCH = 0.5
 CONFIDENCE = 0.95
+#: a detection "covers" an annotated instance when it holds at least this share of its pixels
+COVER = 0.5
+#: why an annotated instance went unmatched, tested in this order (:func:`miss_cause`)
+MISS_CAUSES = {
+    "merged": "a detection of its category covers it and another annotated instance of its category",
+    "oversized": "a detection of its category covers it but spills past it (IoU under the match rule)",
+    "partial": "detections of its category cover less than half of it",
+    "dropped": "the net's commonest label on it is its category, in regions under the score or size floor",
+    "other category": "the net's commonest label on it is another category (named in confused_with)",
+    "background": "the net's commonest label on it is background",
+}
 
 
 def wilson(k: int, n: int, confidence: float = CONFIDENCE) -> list[float] | None:
@@ -24,8 +37,12 @@ def wilson(k: int, n: int, confidence: float = CONFIDENCE) -> list[float] | None
 class Tally:
     """Per-category counts of one evaluation."""
 
-    def __init__(self, categories: list[str]) -> None:
+    def __init__(self, categories: list[str], causes: bool = False) -> None:
         self.categories = list(categories)
+        #: per category, the misses by cause and the categories the net took them for (``causes``)
+        self.causes = causes
+        self.misses = {c: Counter() for c in categories}
+        self.confused = {c: Counter() for c in categories}
         z = dict.fromkeys(categories, 0)
         self.gt, self.pred, self.tp = dict(z), dict(z), dict(z)
         self.iou_sum = dict.fromkeys(categories, 0.0)
@@ -47,6 +64,9 @@ class Tally:
                 "mask_iou": round(self.iou_sum[c] / tp, 4) if tp else None,
                 "pixel_iou": round(self.inter[c] / self.union[c], 4) if self.union[c] else None,
             }
+            if self.causes:
+                rows[c]["misses"] = {k: self.misses[c][k] for k in MISS_CAUSES if self.misses[c][k]}
+                rows[c]["confused_with"] = dict(self.confused[c].most_common())
 
         def mean(key: str) -> float | None:
             vals = [r[key] for r in rows.values() if r[key] is not None]
@@ -64,11 +84,41 @@ class Tally:
         }
 
 
+def miss_cause(
+    j: int, gts: list[tuple[str, np.ndarray, bool]], preds: list[S.Instance], net: np.ndarray,
+    categories: list[str],
+) -> tuple[str, str | None]:  # fmt: skip
+    """Why annotated instance ``gts[j]`` went unmatched (a :data:`MISS_CAUSES` key), and the category the
+    net took it for (``other category`` only). ``net``: the net's label map at the frame's size."""
+    c, m, _ = gts[j]
+    area = m.sum()
+    mine = [p for p in preds if p.category == c]
+    covers = [np.logical_and(m, p.mask).sum() / area for p in mine]
+    if covers and max(covers) >= COVER:
+        best = mine[int(np.argmax(covers))].mask
+        others = (o for k, (oc, o, _) in enumerate(gts) if k != j and oc == c)
+        if any(np.logical_and(o, best).sum() >= COVER * o.sum() for o in others):
+            return "merged", None
+        return "oversized", None
+    if any(covers):
+        return "partial", None
+    top = int(np.argmax(np.bincount(net[m], minlength=len(categories) + 1)))
+    if top == categories.index(c) + 1:
+        return "dropped", None
+    return ("background", None) if top == 0 else ("other category", categories[top - 1])
+
+
 def match_frame(
-    tally: Tally, preds: list[S.Instance], anns: list[dict], categories: list[str], labels: np.ndarray
+    tally: Tally,
+    preds: list[S.Instance],
+    anns: list[dict],
+    categories: list[str],
+    labels: np.ndarray,
+    net: np.ndarray | None = None,
 ) -> None:
     """Add one frame: detections ``preds``, its COCO annotations ``anns`` and semantic ``labels`` (0:
-    background, 1 + category index)."""
+    background, 1 + category index); with ``net``, the net's label map at the frame's size, each counted
+    miss's cause (:func:`miss_cause`) for a tally that keeps them."""
     tally.frames += 1
     smallest = S.min_pixels(*labels.shape)
     gts = [
@@ -95,6 +145,13 @@ def match_frame(
                 tally.iou_sum[p.category] += float(best_iou)
         else:
             tally.pred[p.category] += 1
+    if tally.causes and net is not None:
+        for j, (c, _, counted) in enumerate(gts):
+            if counted and not used[j]:
+                cause, taken_for = miss_cause(j, gts, preds, net, categories)
+                tally.misses[c][cause] += 1
+                if taken_for:
+                    tally.confused[c][taken_for] += 1
     for k, c in enumerate(categories):
         mine = np.zeros(labels.shape, bool)
         for p in preds:

@@ -337,12 +337,18 @@ class Segmenter:
         """Connected regions of each category (of ``categories``, default all) in the label map with at
         least :func:`min_pixels` pixels (at the map's size) and a score of at least ``min_score``, as masks
         of the frame's size."""
+        arr = self.check_frame(rgb)
+        return self.regions(*self.labels(arr), arr.shape[:2], categories)
+
+    def regions(
+        self, lab: np.ndarray, conf: np.ndarray, shape: tuple[int, int], categories: list[str] | None = None
+    ) -> list[Instance]:
+        """:meth:`instances` of a label map and its probability (:meth:`labels`), as masks of a frame of
+        ``shape`` (height, width)."""
         from scipy import ndimage
 
-        arr = self.check_frame(rgb)
-        lab, conf = self.labels(arr)
         smallest = min_pixels(*lab.shape)
-        h, w = arr.shape[:2]
+        h, w = shape
         out = []
         for name in categories if categories is not None else self.categories:
             k = self.categories.index(name) + 1
