@@ -1,12 +1,15 @@
-"""Env steps per second with 1 and 2 worker processes on the CPU, the ManiSkill way (one env per process),
-and Stable-Baselines3 PPO end to end.
+"""Env steps per second with 1 and 2 worker processes on the CPU, the ManiSkill way (one env per process)
+and with several envs per process, and Stable-Baselines3 PPO end to end.
 
     python benchmarks/vec_scaling.py [--steps 3000] [--ppo-steps 20480]
 
 Rows: one env in this process (the reference); ``gym.make_vec(..., vectorization_mode="async")`` and SB3's
-``SubprocVecEnv`` with 1 and 2 workers (random actions, state observations of ``BioVLN-OpFace-RL-v0``);
-``biovln-ms train ppo``'s SB3 PPO at its defaults with 1 and 2 envs (rollouts and updates: ``learn``'s
-time, after the worker processes have started). Scaling is the 2-worker rate over the 1-worker rate. Writes
+``SubprocVecEnv`` with 1 and 2 workers, and 8 envs as ``SubprocVecEnv`` (8 processes) and as
+``GroupedSubprocVecEnv`` (2 processes of 4), random actions, state observations of ``BioVLN-OpFace-RL-v0``;
+``biovln-ms train ppo``'s SB3 PPO at its defaults with 1 and 2 envs, and with 8 envs (``n_steps`` 256,
+so an update sees the same 2,048 steps as with 2) in 8 processes and in 2 (rollouts and updates:
+``learn``'s time, after the worker processes have started). The two 8-env PPO runs see the same
+transitions: the note says whether their learning curves are identical. Writes
 ``docs/data/benchmarks/vec_scaling.json``.
 """
 
@@ -83,11 +86,37 @@ def subproc(n: int, steps: int) -> float:
         vec.close()
 
 
-def ppo(n: int, timesteps: int, out: Path) -> float:
-    from biovln_ms.learning.rl import RLConfig, train_rl
+def grouped(n: int, steps: int, processes: int = 2) -> float:
+    from biovln_ms.learning.grouped_vec_env import GroupedSubprocVecEnv
 
-    cfg = RLConfig(timesteps=timesteps, n_envs=n, seed=0, eval_split=None)
-    return train_rl(cfg, out / f"ppo{n}", echo=lambda *_: None, progress=False).steps_per_second
+    vec = GroupedSubprocVecEnv([partial(make_gym_env, RL_ENV, **ENV)] * n, processes)
+    try:
+        vec.seed(0)
+        vec.reset()
+        rng = np.random.default_rng(0)
+        for _ in range(20):
+            vec.step(rng.integers(1, 4, n))
+        t = time.perf_counter()
+        for _ in range(steps // n):
+            vec.step(rng.integers(1, 4, n))
+        return (steps // n) * n / (time.perf_counter() - t)
+    finally:
+        vec.close()
+
+
+def ppo(n: int, timesteps: int, out: Path, envs_per_process: int = 1) -> tuple[float, list[dict]]:
+    """Env steps/s of ``train ppo`` with ``n`` envs, and its episode log (the learning curve's rows, without
+    their wall time)."""
+    from biovln_ms.learning.rl import RLConfig, read_episode_log, train_rl
+
+    hyper = {"n_steps": 2048 // n} if n > 2 else {}  # an update sees 2,048 steps, as with 2 envs
+    cfg = RLConfig(
+        timesteps=timesteps, n_envs=n, seed=0, eval_split=None, hyperparams=hyper,
+        envs_per_process=envs_per_process,
+    )  # fmt: skip
+    run = out / f"ppo{n}x{envs_per_process}"
+    rate = train_rl(cfg, run, echo=lambda *_: None, progress=False).steps_per_second
+    return rate, read_episode_log(run / "episodes.csv")
 
 
 def main() -> None:
@@ -99,24 +128,38 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(1)
     one = single(args.steps)
-    rows = [["one env in this process", "1", f"{one:.0f}", "1.00x"]]
+    rows = [["one env in this process", "1", "1", f"{one:.0f}", "1.00x"]]
+
+    def row(label: str, processes: int, envs: int, rate: float) -> None:
+        rows.append([label, str(processes), str(envs), f"{rate:.0f}", f"{rate / one:.2f}x"])
+
     for label, fn in (("gym.make_vec, async", make_vec), ("SB3 SubprocVecEnv", subproc)):
         rates = [fn(n, args.steps) for n in (1, 2)]
         for n, r in zip((1, 2), rates):
-            rows.append([label, str(n), f"{r:.0f}", f"{r / one:.2f}x"])
+            row(label, n, n, r)
         print(f"{label}: {rates[0]:.0f} -> {rates[1]:.0f} env steps/s ({rates[1] / rates[0]:.2f}x with 2)")
+    row("SB3 SubprocVecEnv", 8, 8, subproc(8, args.steps))
+    row("GroupedSubprocVecEnv", 2, 8, grouped(8, args.steps))
+    print(f"8 envs: SubprocVecEnv {rows[-2][3]}, grouped in 2 processes {rows[-1][3]} env steps/s")
+    label = "SB3 PPO, train ppo's defaults (learn)"
     for n in (1, 2):
-        r = ppo(n, args.ppo_steps, args.work)
-        rows.append(["SB3 PPO, train ppo's defaults (learn)", str(n), f"{r:.0f}", f"{r / one:.2f}x"])
-        print(f"PPO with {n} env(s): {r:.0f} env steps/s")
+        row(label, n, n, ppo(n, args.ppo_steps, args.work)[0])
+        print(f"PPO with {n} env(s): {rows[-1][3]} env steps/s")
+    r8, log8 = ppo(8, args.ppo_steps, args.work)
+    row(label + ", n_steps 256", 8, 8, r8)
+    g8, glog8 = ppo(8, args.ppo_steps, args.work, envs_per_process=4)
+    row(label + ", n_steps 256, --envs-per-process 4", 2, 8, g8)
+    same = "identical" if log8 == glog8 else "different"
+    print(f"PPO with 8 envs: {r8:.0f} (8 processes) and {g8:.0f} (2 processes) env steps/s; curves {same}")
     write_table(
         args.data_out,
         "Parallel envs on the CPU and PPO end to end",
-        ["how", "worker processes", "env steps/s", "over one env in-process"],
+        ["how", "worker processes", "envs", "env steps/s", "over one env in-process"],
         rows,
         [
             f"{args.steps} random steps per row (state observations, {RL_ENV}); "
-            f"PPO {args.ppo_steps} timesteps."
+            f"PPO {args.ppo_steps} timesteps.",
+            f"The two 8-env PPO runs' episode logs (returns, lengths, successes, in order) are {same}.",
         ],
     )
 

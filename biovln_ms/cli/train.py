@@ -77,6 +77,7 @@ def _train_rl(
     stop_penalty: float = 0.0,
     stop_penalty_steps: Optional[int] = None,
     scene_visit_episodes: int = 0,
+    envs_per_process: int = 1,
 ) -> None:
     from biovln_ms.eval.learned import train_and_evaluate
     from biovln_ms.eval.tables import headline
@@ -96,6 +97,7 @@ def _train_rl(
         stop_penalty=stop_penalty,
         stop_penalty_steps=stop_penalty_steps,
         scene_visit_episodes=scene_visit_episodes,
+        envs_per_process=envs_per_process,
     )
     r = train_and_evaluate(cfg, out or Path(f"runs/{algo}"), echo=typer.echo)
     if r.eval_summary:
@@ -106,7 +108,9 @@ def _rl_command(algo: str):
     def command(
         timesteps: int = typer.Option(200_000, "--timesteps", help="Environment steps to train for."),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help=f"Run folder (default runs/{algo})."),
-        n_envs: int = typer.Option(2, help="Parallel envs (one process or Ray actor each)."),
+        n_envs: int = typer.Option(
+            2, help="Parallel envs (one process or Ray actor each; see --envs-per-process)."
+        ),
         split: str = typer.Option("train", help="Training split."),
         eval_split: str = typer.Option(
             "ms_val", help="Split evaluated through the harness afterwards ('' skips)."
@@ -135,6 +139,12 @@ def _rl_command(algo: str):
             help="N of each scene's episodes per pass over the split's scenes (0: all of a scene's at "
             "once), so training meets more scenes of a large split.",
         ),
+        envs_per_process: int = typer.Option(
+            1,
+            min=1,
+            help="Envs per worker process (1: SB3's SubprocVecEnv); more make fewer round trips per "
+            "step, with the same transitions.",
+        ),
     ) -> None:
         _train_rl(
             algo,
@@ -151,6 +161,7 @@ def _rl_command(algo: str):
             stop_penalty,
             stop_penalty_steps,
             scene_visit_episodes,
+            envs_per_process,
         )
 
     command.__doc__ = (

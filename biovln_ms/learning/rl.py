@@ -1,6 +1,7 @@
 """RL with Stable-Baselines3 on ``BioVLN-OpFace-RL-v0`` (appendix "Gym Environment for RL Training").
 
-One env per process (``SubprocVecEnv``, spawn) or, beyond one machine, one env per Ray actor
+One env per process (``SubprocVecEnv``, spawn), several per process (``GroupedSubprocVecEnv``) or,
+beyond one machine, one env per Ray actor
 (``RayVecEnv``); ``VecMonitor`` records each episode's return, length and ``success``. The run folder
 holds TensorBoard logs (``tb/``), atomic checkpoints (``checkpoints/``), ``model.zip``, the episode log
 ``episodes.csv`` and ``learning_curve.png``; the trained policy is then evaluated through the harness
@@ -19,6 +20,7 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
+import torch
 from stable_baselines3.common.callbacks import BaseCallback
 
 from biovln_ms.cluster import check_address, exit_on_sigterm
@@ -57,6 +59,9 @@ class RLConfig:
     stop_penalty_steps: int | None = None
     #: the RL env's ``scene_visit_episodes``: this many of each scene's episodes per pass (0: all at once)
     scene_visit_episodes: int = 0
+    #: envs per worker process (GroupedSubprocVecEnv; 1: SB3's SubprocVecEnv, one env per process): a
+    #: round trip to a worker then carries this many env steps; the transitions are the same
+    envs_per_process: int = 1
 
     def defaults(self) -> dict:
         """Our defaults per algorithm (SB3's otherwise); ``hyperparams`` override them."""
@@ -125,8 +130,9 @@ def save_model(model, path: Path) -> Path:
 
 
 def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
-    """SubprocVecEnv (spawn) of ``n_envs`` single-env processes, a RayVecEnv, or one batched env of
-    ``n_envs`` sub-envs on ``cfg.sim_backend`` (BatchedVecEnv); wrapped in VecMonitor."""
+    """SubprocVecEnv (spawn) of ``n_envs`` single-env processes (``cfg.envs_per_process`` > 1: a
+    GroupedSubprocVecEnv of that many per process), a RayVecEnv, or one batched env of ``n_envs``
+    sub-envs on ``cfg.sim_backend`` (BatchedVecEnv); wrapped in VecMonitor."""
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
     from biovln_ms.wrappers import StopShaping, make_gym_env
@@ -140,7 +146,6 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
     factory = partial(make_gym_env, cfg.env_id, stop_penalty=cfg.stop_penalty, **env_kwargs)
     if cfg.sim_backend:
         import gymnasium as gym
-        import torch
 
         from biovln_ms.learning.batched_vec_env import BatchedVecEnv
 
@@ -156,6 +161,10 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
         venv = RayVecEnv([factory] * n, address=cfg.ray_address)
     elif n == 1:
         venv = DummyVecEnv([factory])
+    elif cfg.envs_per_process > 1:
+        from biovln_ms.learning.grouped_vec_env import GroupedSubprocVecEnv
+
+        venv = GroupedSubprocVecEnv([factory] * n, processes=-(-n // cfg.envs_per_process))
     else:
         venv = SubprocVecEnv([factory] * n, start_method="spawn")
     venv.seed(cfg.seed)
@@ -189,6 +198,12 @@ def train_rl(
         )
     if cfg.ray_address is not None:
         check_address(cfg.ray_address)
+    if cfg.envs_per_process < 1 or (cfg.envs_per_process > 1 and (cfg.sim_backend or cfg.ray_address)):
+        raise BioVLNError(
+            f"envs_per_process {cfg.envs_per_process}: at least 1, and above 1 only for worker processes",
+            field="envs_per_process",
+            fix="1 (one env per process), or drop --sim-backend / --ray-address",
+        )
     if cfg.sim_backend and cfg.ray_address:
         raise BioVLNError(
             "a batched env (sim_backend) runs in this process, not on Ray actors",
@@ -196,6 +211,9 @@ def train_rl(
             fix="drop --ray-address, or --sim-backend",
         )
     restore = exit_on_sigterm()  # a kill ends the env processes too (venv.close below)
+    threads = torch.get_num_threads()
+    if cfg.sim_backend != "physx_cuda":  # the envs step on this machine's cores: an MLP needs one thread,
+        torch.set_num_threads(1)  # and more only contend with the env processes (restored below)
     try:
         venv = make_vec_env(cfg)
         device = str(venv.venv.base.device) if cfg.sim_backend else "cpu"  # where the batched env steps
@@ -220,6 +238,7 @@ def train_rl(
             venv.close()
     finally:
         restore()
+        torch.set_num_threads(threads)
     model_path = save_model(model, out / "model.zip")
     write_episode_log(log.rows, out / "episodes.csv")
     plot_learning_curve(
