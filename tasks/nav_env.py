@@ -140,9 +140,10 @@ class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
 
     def _load_scene(self, options: dict):
         scene_ids = list(dict.fromkeys(self._scene_ids))  # one build config per distinct scene
-        self.scene_builder = LabSceneBuilder(
-            self, [self.scene_specs[self._scene_ids.index(s)] for s in scene_ids], lighting=self.cfg.lighting
-        )
+        specs = [self.scene_specs[self._scene_ids.index(s)] for s in scene_ids]
+        # the instruments' looks only show in a picture: an env that makes none builds scenes without them
+        images = self.obs_mode not in ("state", "state_dict", "none") or self.render_mode is not None
+        self.scene_builder = LabSceneBuilder(self, specs, lighting=self.cfg.lighting, variants=images)
         self.scene_builder.build([scene_ids.index(s) for s in self._scene_ids])
         self._segmentation_lookup = segmentation_lookup(self.scene_builder, self.category_names, self.device)
         self._people = EnvPeople(self) if self.cfg.people else None  # figures, and "person" in segmentation

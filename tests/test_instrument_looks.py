@@ -216,3 +216,25 @@ def test_microscope_shows_ten_thousand_colours_from_its_goal():
     rgb, mask = GoalViewRenderer(spec, "quality").render(scope, goal_views(scope, (0.0,))[0])
     assert 15_000 < mask.sum() < 25_000
     assert distinct_colours(rgb, mask) >= 10_000
+
+
+def _builds_looks(**kwargs) -> bool:
+    import gymnasium as gym
+
+    env = gym.make("BioVLN-OpFace-v0", camera_width=64, camera_height=48, **kwargs)
+    try:
+        env.reset(seed=0)
+        return env.unwrapped.scene_builder.variants
+    finally:
+        env.close()
+
+
+def test_an_env_that_makes_no_picture_builds_no_looks():
+    """Looks only show in a picture: a state-only env's scenes are built without them (faster)."""
+    assert _builds_looks(obs_mode="state") is False
+
+
+@pytest.mark.render
+def test_an_image_observation_or_a_render_mode_keeps_the_looks():
+    assert _builds_looks(obs_mode="rgb") is True
+    assert _builds_looks(obs_mode="state", render_mode="rgb_array") is True

@@ -42,9 +42,11 @@ class LabSceneBuilder(SceneBuilder):
         ceiling: bool = True,
         robot_init_qpos_noise: float = 0.0,
         lighting: str = "fast",
+        variants: bool = True,
     ) -> None:
         super().__init__(env, robot_init_qpos_noise=robot_init_qpos_noise)
         self.build_configs = [as_spec(s) for s in specs]
+        self.variants = variants  # each instrument's own look (add_spec_to_scene's ``variants``)
         self.init_configs = [None]
         self.ceiling = ceiling
         self.lighting = lighting  # a preset of biovln_ms.render.lighting.LIGHTING
@@ -69,7 +71,12 @@ class LabSceneBuilder(SceneBuilder):
             prefix = "" if self.env.num_envs == 1 else f"scs-{bci}_"
             idxs = None if self.env.num_envs == 1 else env_idx
             built = add_spec_to_scene(
-                self.scene, spec, ceiling=self.ceiling, scene_idxs=idxs, name_prefix=prefix
+                self.scene,
+                spec,
+                ceiling=self.ceiling,
+                scene_idxs=idxs,
+                name_prefix=prefix,
+                variants=self.variants,
             )
             add_lights(self.scene, spec, scene_idxs=idxs, lighting=self.lighting)
             self.built[bci] = built
