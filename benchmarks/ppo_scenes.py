@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from biovln_ms.episodes.source import DatasetEpisodes, EpisodeCursor
+from biovln_ms.episodes.source import DatasetEpisodes, EpisodeCursor, seed_position
 from biovln_ms.eval.harness import episode_key, load_records
 from biovln_ms.eval.stats import mcnemar, wilson_interval
 from biovln_ms.io_utils import save_figure
@@ -40,16 +40,21 @@ SPLITS = {"ms_test": "MS TEST", "hard_test": "Hard TEST"}
 PRESETS = ("ideal", "realistic")
 
 
-def scenes_seen(cfg: dict, played: list[int]) -> tuple[int, int, str]:
+def scenes_seen(cfg: dict, played: list[int], seed_rule: str | None = None) -> tuple[int, int, str]:
     """(scenes in the training split, distinct scenes the run played, its templates), ``played[i]`` the
-    episodes env ``i`` finished: SB3 seeds env ``i`` with ``seed + i``, which starts it at that position
-    of the env's shuffled order, and each later reset takes the next."""
+    episodes env ``i`` finished: SB3 seeds env ``i`` with ``seed + i``, which starts it at that seed's
+    position of the env's shuffled order (``seed_rule``, the run's ``train.json``: "golden" for
+    :func:`~biovln_ms.episodes.source.seed_position`; None, a run made before it: ``seed + i``), and each
+    later reset takes the next."""
     source = DatasetEpisodes(cfg["split"], cfg["dataset"] or default_dataset_dir())
     order = EpisodeCursor(source, shuffle=True, visit=cfg.get("scene_visit_episodes", 0)).order
+    n = len(order)
+    starts = [
+        seed_position(cfg["seed"] + i, n) if seed_rule == "golden" else (cfg["seed"] + i) % n
+        for i in range(len(played))
+    ]
     scenes = {
-        source.episodes[order[(cfg["seed"] + i + k) % len(order)]]["scene_id"]
-        for i, n in enumerate(played)
-        for k in range(n)
+        source.episodes[order[(a + k) % n]]["scene_id"] for a, m in zip(starts, played) for k in range(m)
     }
     ids = {e["scene_id"] for e in source.episodes}
     templates = Counter(source.dataset.manifest["scenes"][s]["template"] for s in ids)
@@ -104,7 +109,7 @@ def read_run(folder: Path, end: int, window: int) -> dict:
     rows = read_episode_log(folder / "episodes.csv")
     episodes = [(r["timesteps"], r["success"]) for r in rows]
     played = [sum(r["env"] == i for r in rows) for i in range(cfg["n_envs"])]
-    total, seen, templates = scenes_seen(cfg, played)
+    total, seen, templates = scenes_seen(cfg, played, train.get("seed_rule"))
     return {
         "run": folder.name,
         "split": f"{cfg['dataset'] and Path(cfg['dataset']).name or 'paper'}:{cfg['split']}",

@@ -49,6 +49,16 @@ from biovln_ms.tasks.sensors import SENSORS
 
 GOAL_MODES = ("opface", "centroid")
 SIM_BACKENDS = ("auto", "cpu", "physx_cpu", "gpu", "cuda", "physx_cuda")  # ManiSkill's names
+GPU_BACKENDS = ("gpu", "cuda", "physx_cuda")
+
+
+def is_gpu_backend(backend: str) -> bool:
+    """Whether ``sim_backend`` (optionally ``:<device id>``) simulates on a GPU: ``auto`` does when one is
+    visible, as ManiSkill resolves it."""
+    name = str(backend).split(":")[0]
+    return name in GPU_BACKENDS or (name == "auto" and torch.cuda.is_available())
+
+
 RENDER_BACKENDS = ("auto", "cpu", "sapien_cpu", "gpu", "cuda", "sapien_cuda", "none")
 REWARD_MODES = ("normalized_dense", "dense", "sparse", "none")
 RENDER_MODES = BaseEnv.SUPPORTED_RENDER_MODES
@@ -425,7 +435,7 @@ def check_backends(kwargs: dict) -> None:
                 fix=f"use one of: {', '.join(known)} (optionally ':<device id>')",
             )
     backend = str(kwargs.get("sim_backend", "auto"))
-    gpu_backend = backend.split(":")[0] in ("gpu", "cuda", "physx_cuda")
+    gpu_backend = backend.split(":")[0] in GPU_BACKENDS
     if gpu_backend and not torch.cuda.is_available():
         raise EnvConfigError(
             f"sim_backend='{backend}' needs a CUDA GPU and none is visible",

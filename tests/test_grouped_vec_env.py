@@ -75,6 +75,12 @@ def test_attributes_and_methods_go_to_the_envs_named():
     try:
         assert venv.get_attr("tag") == [0, 1, 2, 3, 4]
         assert venv.get_attr("tag", indices=[4, 0, 3]) == [4, 0, 3]
+        assert venv.get_attr("tag", indices=[-1]) == [4]  # from the end, as SubprocVecEnv
+        with pytest.raises(IndexError, match="env index 5 out of range"):
+            venv.get_attr("tag", indices=[5])
+        with pytest.raises(AttributeError):  # as DummyVecEnv raises it; the worker lives on
+            venv.get_attr("no_such_attribute", indices=[3])
+        assert venv.get_attr("tag", indices=[3]) == [3] and not venv.has_attr("no_such_attribute")
         venv.set_attr("tag", 7, indices=[1, 3])
         assert venv.get_attr("tag") == [0, 7, 2, 7, 4]
         assert venv.env_method("double", 3, indices=[2, 4]) == [12, 24]

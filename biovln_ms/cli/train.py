@@ -142,8 +142,8 @@ def _rl_command(algo: str):
         envs_per_process: int = typer.Option(
             1,
             min=1,
-            help="Envs per worker process (1: SB3's SubprocVecEnv); more make fewer round trips per "
-            "step, with the same transitions.",
+            help="At most this many envs per worker process, spread evenly (1: SB3's SubprocVecEnv); "
+            "fewer round trips per step, the same transitions.",
         ),
     ) -> None:
         _train_rl(

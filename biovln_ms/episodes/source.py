@@ -49,7 +49,11 @@ def seed_position(seed: int, n: int) -> int:
     exactly in 64-bit fixed point. Vector envs seed env ``i`` with ``seed + i`` (gymnasium's, SB3's); as
     ``seed mod n`` env ``i + 1`` would replay env ``i``'s episodes one step ahead, while golden-ratio steps
     start them far apart. Seed 0 is the first episode; every position is some seed's."""
-    return (seed * _GOLDEN_64 % 2**64) * n >> 64
+    return (int(seed) * _GOLDEN_64 % 2**64) * n >> 64
+
+
+#: how a seed places the cursor (:func:`seed_position`), as a training run's ``train.json`` records it
+SEED_RULE = "golden"
 
 
 #: the reset options that name an episode (``EpisodeCursor.select`` consumes them)

@@ -6,7 +6,7 @@ one env is not open there. :class:`GroupedSubprocVecEnv` runs ``n`` envs in ``pr
 stepping its group in turn through SB3's own ``DummyVecEnv`` (its auto-reset, ``terminal_observation``
 and ``TimeLimit.truncated``), so a round trip carries ``n / processes`` env steps. Env ``i`` is built
 by ``env_fns[i]`` and seeded ``seed + i`` as in ``SubprocVecEnv``: the same envs give the same
-transitions, only the time differs.
+transitions, only the time differs (rewards come as ``DummyVecEnv``'s float32).
 """
 
 from __future__ import annotations
@@ -24,7 +24,15 @@ from biovln_ms.errors import BioVLNError
 
 
 class _Failed(str):
-    """A worker's answer when its command raised: the exception's last line (the traceback went to stderr)."""
+    """A worker's last answer when a step or reset raised: the exception's last line (the traceback went to
+    stderr); the worker has ended."""
+
+
+class _Raised:
+    """A worker's answer when an attribute or method call raised: the exception, raised again here."""
+
+    def __init__(self, error: BaseException) -> None:
+        self.error = error
 
 
 def _worker(remote, parent_remote, fns: CloudpickleWrapper) -> None:
@@ -46,20 +54,13 @@ def _worker(remote, parent_remote, fns: CloudpickleWrapper) -> None:
                 remote.send((venv.reset(), venv.reset_infos))
             elif cmd == "spaces":
                 remote.send((venv.observation_space, venv.action_space))
-            elif cmd == "get_attr":
-                remote.send(venv.get_attr(*data))
-            elif cmd == "has_attr":
-                remote.send(venv.has_attr(data))
-            elif cmd == "set_attr":
-                venv.set_attr(*data)
-                remote.send([])
-            elif cmd == "env_method":
-                name, args, kwargs, indices = data
-                remote.send(venv.env_method(name, *args, indices=indices, **kwargs))
-            elif cmd == "is_wrapped":
-                remote.send(venv.env_is_wrapped(*data))
             elif cmd == "close":
                 break
+            else:  # attribute and method calls: an error is the caller's, and the worker lives on
+                try:
+                    remote.send(_call(venv, cmd, data))
+                except Exception as e:
+                    remote.send(_Raised(e))
     except KeyboardInterrupt:
         pass
     except Exception as e:  # the parent raises it as a one-line error; the traceback goes to stderr
@@ -69,6 +70,22 @@ def _worker(remote, parent_remote, fns: CloudpickleWrapper) -> None:
         if venv is not None:
             venv.close()
         remote.close()
+
+
+def _call(venv: DummyVecEnv, cmd: str, data: Any) -> Any:
+    if cmd == "get_attr":
+        return venv.get_attr(*data)
+    if cmd == "has_attr":
+        return venv.has_attr(data)
+    if cmd == "set_attr":
+        venv.set_attr(*data)
+        return []
+    if cmd == "env_method":
+        name, args, kwargs, indices = data
+        return venv.env_method(name, *args, indices=indices, **kwargs)
+    if cmd == "is_wrapped":
+        return venv.env_is_wrapped(*data)
+    raise ValueError(f"unknown command {cmd!r}")
 
 
 def _concat(parts: list) -> Any:
@@ -121,6 +138,8 @@ class GroupedSubprocVecEnv(VecEnv):
             answer = self.remotes[g].recv()
         except (EOFError, ConnectionResetError):
             answer = _Failed("the process ended")
+        if isinstance(answer, _Raised):
+            raise answer.error
         if isinstance(answer, _Failed):
             raise BioVLNError(
                 f"env process {g} (envs {a}..{b - 1}) failed: {answer}",
@@ -133,6 +152,9 @@ class GroupedSubprocVecEnv(VecEnv):
         """(group, its local indices) of global ``indices``, in the order given."""
         out: list[tuple[int, list[int]]] = []
         for i in self._get_indices(indices):
+            if not -self.num_envs <= i < self.num_envs:
+                raise IndexError(f"env index {i} out of range for {self.num_envs} envs")
+            i %= self.num_envs  # a negative index counts from the end, as in a list
             g = next(k for k, (a, b) in enumerate(self.groups) if a <= i < b)
             if out and out[-1][0] == g:
                 out[-1][1].append(i - self.groups[g][0])
@@ -183,14 +205,15 @@ class GroupedSubprocVecEnv(VecEnv):
             proc.join(timeout=30)
             if proc.is_alive():
                 proc.terminate()
+        for remote in self.remotes:
+            remote.close()
         self.closed = True
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         return self._ask("get_attr", indices, lambda rows: (attr_name, rows))
 
     def has_attr(self, attr_name: str) -> bool:
-        self._send(0, "has_attr", attr_name)
-        return self._recv(0)
+        return all(self._all("has_attr", lambda a, b: attr_name))
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         self._ask("set_attr", indices, lambda rows: (attr_name, value, rows))

@@ -24,6 +24,8 @@ import torch
 from stable_baselines3.common.callbacks import BaseCallback
 
 from biovln_ms.cluster import check_address, exit_on_sigterm
+from biovln_ms.episodes.source import SEED_RULE
+from biovln_ms.tasks.config_checks import is_gpu_backend
 from biovln_ms.errors import BioVLNError
 from biovln_ms.learning.algorithms import SB3_CONTROL_MODES, algo_class
 from biovln_ms.variants import RL_ENV
@@ -212,8 +214,8 @@ def train_rl(
         )
     restore = exit_on_sigterm()  # a kill ends the env processes too (venv.close below)
     threads = torch.get_num_threads()
-    if cfg.sim_backend != "physx_cuda":  # the envs step on this machine's cores: an MLP needs one thread,
-        torch.set_num_threads(1)  # and more only contend with the env processes (restored below)
+    if not (cfg.sim_backend and is_gpu_backend(cfg.sim_backend)):  # envs on CPU cores: an MLP needs one
+        torch.set_num_threads(1)  # thread, more only contend with the env processes (restored below)
     try:
         venv = make_vec_env(cfg)
         device = str(venv.venv.base.device) if cfg.sim_backend else "cpu"  # where the batched env steps
@@ -250,6 +252,7 @@ def train_rl(
         json.dumps(
             {
                 "config": asdict(cfg),
+                "seed_rule": SEED_RULE,
                 "timesteps": int(model.num_timesteps),
                 "minutes": round(seconds / 60, 2),
                 "steps_per_second": round(model.num_timesteps / seconds, 1),

@@ -161,7 +161,7 @@ def summary_table(result: dict, condition: str = "fast/ideal") -> tuple[list[str
             None,
         ]
     total = sum((Counter(r.get("misses", {})) for r in res[HELD_OUT[0]]["categories"].values()), Counter())
-    return cols, [*rows, [*mean, misses({"misses": dict(total)})]]
+    return cols, [*rows, [*mean, "total: " + (misses({"misses": dict(total)}) or "none")]]
 
 
 def misses(row: dict) -> str | None:

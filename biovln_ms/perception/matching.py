@@ -18,9 +18,9 @@ CONFIDENCE = 0.95
 COVER = 0.5
 #: why an annotated instance went unmatched, tested in this order (:func:`miss_cause`)
 MISS_CAUSES = {
-    "merged": "a detection of its category covers it and another annotated instance of its category",
+    "merged": "a detection of its category covers it and another annotated one of its category (any size)",
     "oversized": "a detection of its category covers it but spills past it (IoU under the match rule)",
-    "partial": "detections of its category cover less than half of it",
+    "partial": "detections of its category overlap it, none covering half of it",
     "dropped": "the net's commonest label on it is its category, in regions under the score or size floor",
     "other category": "the net's commonest label on it is another category (named in confused_with)",
     "background": "the net's commonest label on it is background",
