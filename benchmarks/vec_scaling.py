@@ -33,8 +33,8 @@ ENV = dict(split="train", obs_mode="state")
 
 
 def _rate(vec, steps: int, n: int) -> float:
-    """Env steps per second (all workers together) over ``steps`` vector steps of random actions."""
-    vec.reset(seed=0)
+    """Env steps per second (all workers together) over ``steps`` vector steps of random actions, after the
+    caller's seeded reset and 20 warm-up steps."""
     rng = np.random.default_rng(0)
     for _ in range(20):  # warm-up
         vec.step(rng.integers(1, 4, n))
@@ -42,6 +42,21 @@ def _rate(vec, steps: int, n: int) -> float:
     for _ in range(steps):
         vec.step(rng.integers(1, 4, n))
     return steps * n / (time.perf_counter() - t)
+
+
+def _sb3_rate(vec, steps: int, n: int) -> float:
+    """:func:`_rate` of an SB3 ``VecEnv`` (seeded through ``seed``, as SB3 does), which it then closes."""
+    try:
+        vec.seed(0)
+        vec.reset()
+        return _rate(vec, steps // n, n)
+    finally:
+        vec.close()
+
+
+def _factories(n: int) -> list:
+    """``n`` factories of the RL env for worker processes (picklable)."""
+    return [partial(make_gym_env, RL_ENV, **ENV)] * n
 
 
 def single(steps: int) -> float:
@@ -63,6 +78,7 @@ def make_vec(n: int, steps: int) -> float:
         RL_ENV, num_envs=n, vectorization_mode="async", vector_kwargs={"context": "spawn"}, **ENV
     )
     try:
+        vec.reset(seed=0)
         return _rate(vec, steps // n, n)
     finally:
         vec.close()
@@ -71,37 +87,13 @@ def make_vec(n: int, steps: int) -> float:
 def subproc(n: int, steps: int) -> float:
     from stable_baselines3.common.vec_env import SubprocVecEnv
 
-    vec = SubprocVecEnv([partial(make_gym_env, RL_ENV, **ENV)] * n, start_method="spawn")
-    try:
-        vec.seed(0)
-        vec.reset()
-        rng = np.random.default_rng(0)
-        for _ in range(20):
-            vec.step(rng.integers(1, 4, n))
-        t = time.perf_counter()
-        for _ in range(steps // n):
-            vec.step(rng.integers(1, 4, n))
-        return (steps // n) * n / (time.perf_counter() - t)
-    finally:
-        vec.close()
+    return _sb3_rate(SubprocVecEnv(_factories(n), start_method="spawn"), steps, n)
 
 
 def grouped(n: int, steps: int, processes: int = 2) -> float:
     from biovln_ms.learning.grouped_vec_env import GroupedSubprocVecEnv
 
-    vec = GroupedSubprocVecEnv([partial(make_gym_env, RL_ENV, **ENV)] * n, processes)
-    try:
-        vec.seed(0)
-        vec.reset()
-        rng = np.random.default_rng(0)
-        for _ in range(20):
-            vec.step(rng.integers(1, 4, n))
-        t = time.perf_counter()
-        for _ in range(steps // n):
-            vec.step(rng.integers(1, 4, n))
-        return (steps // n) * n / (time.perf_counter() - t)
-    finally:
-        vec.close()
+    return _sb3_rate(GroupedSubprocVecEnv(_factories(n), processes), steps, n)
 
 
 def ppo(n: int, timesteps: int, out: Path, envs_per_process: int = 1) -> tuple[float, list[dict]]:

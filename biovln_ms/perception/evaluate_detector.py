@@ -80,7 +80,7 @@ def evaluate_detector(
                 continue
             rgb, lab = read_frame(frames, im, anns[im["id"]])
             sample = rgb if sample is None else sample
-            net, conf = seg.labels(seg.check_frame(rgb))
+            net, conf = seg.labels(rgb)  # checks the frame
             preds = seg.regions(net, conf, rgb.shape[:2])
             net = S.nearest(net, rgb.shape[1::-1])
             for key in keys:
