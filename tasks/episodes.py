@@ -3,15 +3,49 @@
 
 from __future__ import annotations
 
+from collections import OrderedDict
+from collections.abc import Callable
+from typing import Generic, TypeVar
+
 import numpy as np
 
+from biovln_ms.agents.robots.locomotion import swept_motion
 from biovln_ms.episodes.schema import Episode
-from biovln_ms.episodes.source import EPISODE_OPTIONS, EpisodeCursor
+from biovln_ms.episodes.source import EPISODE_OPTIONS, EpisodeCursor, EpisodeSource
+from biovln_ms.geometry.motion import SweptMotion
 from biovln_ms.geometry.navigation import NavGeometry
 from biovln_ms.metrics.measures import EpisodeContext
+from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.scene.spec import SceneSpec
 from biovln_ms.task_config import NavTaskConfig
 from biovln_ms.tasks.config_checks import EnvConfigError
+
+#: scenes whose geometry (spec, navigation, swept-motion checks) an env keeps: a split's scenes recur as its
+#: episodes cycle; beyond this many, the least recently used is rebuilt when it comes back
+SCENE_CACHE = 64
+#: episodes whose measure context (goals, geodesic closures) an env keeps, likewise
+CONTEXT_CACHE = 4096
+
+K = TypeVar("K")
+V = TypeVar("V")
+
+
+class Kept(Generic[K, V]):
+    """At most ``size`` values made by ``make()`` on a key's first use, the least recently used dropped
+    first: what an env builds again and again from the same inputs (its episodes never change once made)."""
+
+    def __init__(self, size: int) -> None:
+        self.size, self._values = size, OrderedDict()
+
+    def get(self, key: K, make: Callable[[], V]) -> V:
+        values = self._values
+        if key in values:
+            values.move_to_end(key)
+            return values[key]
+        value = values[key] = make()
+        if len(values) > self.size:
+            values.popitem(last=False)
+        return value
 
 
 def choose_episodes(
@@ -37,6 +71,14 @@ def choose_episodes(
             fix="reset all sub-envs (reconfigure), or keep each sub-env's episodes in its scene",
         )
     return chosen, after, changed
+
+
+def scene_geometry(
+    source: EpisodeSource, scene_id: str, radius: float
+) -> tuple[SceneSpec, NavGeometry, SweptMotion]:
+    """A scene's spec, navigation geometry and swept-motion checks for a robot footprint of ``radius``."""
+    spec = source.spec(scene_id)
+    return spec, scene_navigation(spec), swept_motion(spec, radius)
 
 
 def episode_context(ep: Episode, spec: SceneSpec, nav: NavGeometry, cfg: NavTaskConfig) -> EpisodeContext:

@@ -9,6 +9,7 @@ handed its episodes; ``gym.make`` resolves ``split=`` and the like to them first
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 import sapien
@@ -19,7 +20,7 @@ from mani_skill.utils import sapien_utils
 from mani_skill.utils.structs.types import SimConfig
 
 from biovln_ms.agents.robots import NAV_AGENTS
-from biovln_ms.agents.robots.locomotion import as_action, swept_motion
+from biovln_ms.agents.robots.locomotion import as_action
 from biovln_ms.catalog import load_catalog
 from biovln_ms.episodes.schema import Episode
 from biovln_ms.episodes.source import EpisodeCursor, EpisodeSource, GeneratedEpisodes
@@ -29,13 +30,13 @@ from biovln_ms.metrics.reach_measures import REACH_MEASURES
 from biovln_ms.render.camera_shaders import head_camera_shader, use_depth_only_format
 from biovln_ms.render.progress import first_camera_render
 from biovln_ms.robot_specs import DEFAULT_ROBOT, ROBOTS, robot_spec
-from biovln_ms.scene.rules import scene_navigation
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.sim.maniskill_compat import FreezesLiveObjects
 from biovln_ms.sim.reach import FetchArm, ReachResult, reach_goals
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
 from biovln_ms.tasks.config_checks import SIM_FREQUENCIES, EnvConfigError, check_episode_kind
 from biovln_ms.tasks.config_checks import REWARD_MODES, reset_arguments, task_config
+from biovln_ms.tasks.episodes import CONTEXT_CACHE, SCENE_CACHE, Kept, scene_geometry
 from biovln_ms.tasks.episodes import choose_episodes, episode_context
 from biovln_ms.tasks.observations import HeadCameraNoise, segmentation_lookup
 from biovln_ms.tasks.people import EnvPeople
@@ -99,6 +100,7 @@ class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
         self._episode_index: list[int] = [self.cursor.first] * n  # per sub-env, into source.episodes
         self._episodes: list[Episode] = [self.source.episodes[self.cursor.first]] * n
         self._scene_ids: list[str | None] = [None] * n
+        self._scenes, self._contexts = Kept(SCENE_CACHE), Kept(CONTEXT_CACHE)  # built once, reused
         self._set_scenes()
         self._arm: FetchArm | None = None  # Fetch's arm model for the reach check, made at the first STOP
         self._head_noise: HeadCameraNoise | None = None  # the image noise models, made once
@@ -199,7 +201,7 @@ class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
             x, y = ep["start_position"][:2]
             w, _, _, z = ep["start_rotation"]
             qpos[k] = torch.tensor([x, y, 2 * math.atan2(z, w)])
-            self._ctx.set(i, self._episode_context(i))
+            self._ctx.set(i, self._contexts.get(self._episode_index[i], lambda: self._episode_context(i)))
             self._objectgoal[i] = 0.0
             self._objectgoal[i, self.category_names.index(ep["object_category"])] = 1.0
         self.agent.reset_planar(qpos if self.num_envs > 1 else qpos[:1])
@@ -366,15 +368,10 @@ class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
     # --- helpers -------------------------------------------------------------------------------
     def _set_scenes(self) -> None:
         """Scene specs, navigation geometry and swept-motion checks of every sub-env's current episode."""
-        scene_ids = [ep["scene_id"] for ep in self._episodes]
-        built = {}  # once per distinct scene: sub-envs sharing a scene share its geometry
-        for sid in dict.fromkeys(scene_ids):
-            spec = self.source.spec(sid)
-            built[sid] = (spec, scene_navigation(spec), swept_motion(spec, self._footprint))
-        self.scene_specs, self.navs, self._motions = (
-            list(v) for v in zip(*(built[sid] for sid in scene_ids))
-        )
-        self._scene_ids = scene_ids
+        self._scene_ids = [ep["scene_id"] for ep in self._episodes]
+        made = partial(scene_geometry, self.source, radius=self._footprint)  # sub-envs in one scene share it
+        geometry = [self._scenes.get(sid, partial(made, sid)) for sid in self._scene_ids]
+        self.scene_specs, self.navs, self._motions = (list(v) for v in zip(*geometry))
 
     def _episode_context(self, i: int) -> EpisodeContext:
         """Sub-env ``i``'s episode for the measures (:func:`~.episodes.episode_context`)."""

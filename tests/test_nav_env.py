@@ -113,6 +113,39 @@ def test_success_only_within_the_radius(env):
     assert bool(info["fail"]) == (not bool(info["success"]))
 
 
+def test_kept_values_drop_the_least_recently_used():
+    from biovln_ms.tasks.episodes import Kept
+
+    kept, made = Kept(2), []
+
+    def make(k: int) -> int:
+        made.append(k)
+        return 10 * k
+
+    assert [kept.get(k, lambda k=k: make(k)) for k in (1, 2, 1, 3, 2, 1)] == [10, 20, 10, 30, 20, 10]
+    assert made == [1, 2, 3, 2, 1]  # 1 was used again before 3 came, so 2 went first
+
+
+def test_a_scene_met_again_reuses_its_geometry_and_gives_the_same_values(env):
+    u = env.unwrapped
+
+    def visit() -> list[dict]:
+        _, info = env.reset(options={"episode_index": 0})  # scene a (episodes 0-5)
+        return [info] + [env.step(a)[4] for a in (1, 2, 1)]
+
+    env.reset(options={"episode_index": 6})  # scene b
+    first = visit()
+    nav, ctx = u.navs[0], u._ctx.episode(0)
+    env.reset(options={"episode_index": 7})
+    assert u.navs[0] is not nav
+    again = visit()
+    assert u.navs[0] is nav and u._ctx.episode(0) is ctx  # kept, not rebuilt
+    for a, b in zip(first, again):
+        assert a.keys() == b.keys()
+        for k in a.keys() - {"reconfigure"}:
+            np.testing.assert_array_equal(np.asarray(a[k]), np.asarray(b[k]), err_msg=k)
+
+
 def test_truncated_after_500_steps(dataset):
     e = gym.make("BioVLN-OpFace-v0", dataset=str(dataset), split="ms_val", obs_mode="none", **CPU)
     e.reset(options={"episode_index": 0})

@@ -16,7 +16,7 @@ from typer.testing import CliRunner
 from biovln_ms.cli import app
 from biovln_ms.perception import frames as F
 from biovln_ms.perception import segmenter as S
-from biovln_ms.perception.detectors import TrainedDetector, make_detector
+from biovln_ms.perception.detectors import TrainedDetector, drop_floor, make_detector
 from biovln_ms.perception.matching import MISS_CAUSES, Tally, match_frame, wilson
 from biovln_ms.perception.scorers import PerceptionError
 
@@ -257,6 +257,7 @@ def test_bad_weights_and_frames_are_one_line_errors(tmp_path):
     import torch
 
     path = tmp_path / "fresh.safetensors"  # an untrained net: the checks are the same for any weights
+    torch.manual_seed(0)
     S.save_weights(path, S.build_net(len(CATS) + 1, pretrained=False), S.header_of(CATS, 0, None))
     with pytest.raises(PerceptionError, match="weights file missing.*perception train") as e:
         S.Segmenter(tmp_path / "absent.safetensors")
@@ -290,9 +291,18 @@ def test_bad_weights_and_frames_are_one_line_errors(tmp_path):
         det.name == "trained:fresh.safetensors"
         and make_detector(f"trained:{path}").segmenter.categories == CATS
     )
-    obs = {"sensor_data": {"head": {"rgb": np.full((1, 480, 640, 3), 90, np.uint8)}}}
+    k = np.array([[[320.0, 0, 320], [0, 320, 240], [0, 0, 1]]])  # level camera, 1.2 m up, looking along x
+    ext = np.array([[[0.0, -1, 0, 0], [0, 0, -1, 1.2], [1, 0, 0, 0]]])
+    obs = {
+        "sensor_data": {"head": {"rgb": np.full((1, 480, 640, 3), 90, np.uint8)}},
+        "sensor_param": {"head": {"intrinsic_cv": k, "extrinsic_cv": ext}},
+    }
+    obs["sensor_data"]["head"]["depth"] = np.full((1, 480, 640, 1), 2000, np.int16)
     mask = det.detect(obs, CATS[0])
     assert mask.shape == (480, 640) and mask.dtype == bool
+    with pytest.raises(PerceptionError, match="no head camera depth.*obs_mode='rgbd'") as e:
+        drop_floor(np.ones((480, 640), bool), {"sensor_data": {"head": obs["sensor_data"]["head"]}})
+    assert "\n" not in str(e.value)
     for frame in (
         np.zeros((480, 480, 3), np.uint8),
         np.zeros((480, 640), np.uint8),

@@ -11,6 +11,7 @@ holds TensorBoard logs (``tb/``), atomic checkpoints (``checkpoints/``), ``model
 from __future__ import annotations
 
 import csv
+import gc
 import io
 import json
 import time
@@ -218,6 +219,7 @@ def train_rl(
         torch.set_num_threads(1)  # thread, more only contend with the env processes (restored below)
     try:
         venv = make_vec_env(cfg)
+        in_process = bool(cfg.sim_backend) or (cfg.n_envs == 1 and not cfg.ray_address)
         device = str(venv.venv.base.device) if cfg.sim_backend else "cpu"  # where the batched env steps
         try:
             model = cls(
@@ -230,6 +232,9 @@ def train_rl(
                 **cfg.defaults(),
             )
             log = EpisodeLog(out, cfg.checkpoint_every)
+            if in_process:  # the env's scene changes end in a full gc.collect(); freezing what lives now
+                gc.collect()  # (the model, torch's lazily imported modules) keeps it to the env's objects
+                gc.freeze()
             callbacks = [log] + ([EndStopPenalty(cfg.stop_penalty_steps)] if cfg.stop_penalty_steps else [])
             t0 = time.perf_counter()
             model.learn(
@@ -238,6 +243,8 @@ def train_rl(
             seconds = time.perf_counter() - t0
         finally:
             venv.close()
+            if in_process:
+                gc.unfreeze()  # collectable again (an env made next freezes what it needs)
     finally:
         restore()
         torch.set_num_threads(threads)
