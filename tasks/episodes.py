@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections import OrderedDict
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
 import numpy as np
@@ -20,11 +21,9 @@ from biovln_ms.scene.spec import SceneSpec
 from biovln_ms.task_config import NavTaskConfig
 from biovln_ms.tasks.config_checks import EnvConfigError
 
-#: scenes whose geometry (spec, navigation, swept-motion checks) an env keeps: a split's scenes recur as its
-#: episodes cycle; beyond this many, the least recently used is rebuilt when it comes back
+#: scenes an env keeps (their geometry and their episodes' measure contexts): a split's scenes recur as its
+#: episodes cycle; beyond this many, the least recently used is built again when it comes back
 SCENE_CACHE = 64
-#: episodes whose measure context (goals, geodesic closures) an env keeps, likewise
-CONTEXT_CACHE = 4096
 
 K = TypeVar("K")
 V = TypeVar("V")
@@ -46,6 +45,29 @@ class Kept(Generic[K, V]):
         if len(values) > self.size:
             values.popitem(last=False)
         return value
+
+
+@dataclass(frozen=True)
+class SceneGeometry:
+    """A scene's spec, navigation geometry and swept-motion checks for one robot footprint, and the measure
+    contexts of its episodes made so far (by episode index), kept and dropped with it."""
+
+    spec: SceneSpec
+    nav: NavGeometry
+    motion: SweptMotion
+    contexts: dict[int, EpisodeContext] = field(default_factory=dict)
+
+    def context(self, k: int, make: Callable[[], EpisodeContext]) -> EpisodeContext:
+        """Episode ``k``'s context, made on its first use."""
+        if k not in self.contexts:
+            self.contexts[k] = make()
+        return self.contexts[k]
+
+
+def scene_geometry(source: EpisodeSource, scene_id: str, radius: float) -> SceneGeometry:
+    """Scene ``scene_id`` of ``source`` for a robot footprint of ``radius``."""
+    spec = source.spec(scene_id)
+    return SceneGeometry(spec, scene_navigation(spec), swept_motion(spec, radius))
 
 
 def choose_episodes(
@@ -71,14 +93,6 @@ def choose_episodes(
             fix="reset all sub-envs (reconfigure), or keep each sub-env's episodes in its scene",
         )
     return chosen, after, changed
-
-
-def scene_geometry(
-    source: EpisodeSource, scene_id: str, radius: float
-) -> tuple[SceneSpec, NavGeometry, SweptMotion]:
-    """A scene's spec, navigation geometry and swept-motion checks for a robot footprint of ``radius``."""
-    spec = source.spec(scene_id)
-    return spec, scene_navigation(spec), swept_motion(spec, radius)
 
 
 def episode_context(ep: Episode, spec: SceneSpec, nav: NavGeometry, cfg: NavTaskConfig) -> EpisodeContext:

@@ -36,7 +36,7 @@ from biovln_ms.sim.reach import FetchArm, ReachResult, reach_goals
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
 from biovln_ms.tasks.config_checks import SIM_FREQUENCIES, EnvConfigError, check_episode_kind
 from biovln_ms.tasks.config_checks import REWARD_MODES, reset_arguments, task_config
-from biovln_ms.tasks.episodes import CONTEXT_CACHE, SCENE_CACHE, Kept, scene_geometry
+from biovln_ms.tasks.episodes import SCENE_CACHE, Kept, SceneGeometry, scene_geometry
 from biovln_ms.tasks.episodes import choose_episodes, episode_context
 from biovln_ms.tasks.observations import HeadCameraNoise, segmentation_lookup
 from biovln_ms.tasks.people import EnvPeople
@@ -99,8 +99,7 @@ class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
         n = int(kwargs.get("num_envs", 1))
         self._episode_index: list[int] = [self.cursor.first] * n  # per sub-env, into source.episodes
         self._episodes: list[Episode] = [self.source.episodes[self.cursor.first]] * n
-        self._scene_ids: list[str | None] = [None] * n
-        self._scenes, self._contexts = Kept(SCENE_CACHE), Kept(CONTEXT_CACHE)  # built once, reused
+        self._scenes: Kept[str, SceneGeometry] = Kept(SCENE_CACHE)  # built once, reused
         self._set_scenes()
         self._arm: FetchArm | None = None  # Fetch's arm model for the reach check, made at the first STOP
         self._head_noise: HeadCameraNoise | None = None  # the image noise models, made once
@@ -201,7 +200,8 @@ class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
             x, y = ep["start_position"][:2]
             w, _, _, z = ep["start_rotation"]
             qpos[k] = torch.tensor([x, y, 2 * math.atan2(z, w)])
-            self._ctx.set(i, self._contexts.get(self._episode_index[i], lambda: self._episode_context(i)))
+            made = partial(self._episode_context, i)  # once per episode: kept with its scene
+            self._ctx.set(i, self._geometry[i].context(self._episode_index[i], made))
             self._objectgoal[i] = 0.0
             self._objectgoal[i, self.category_names.index(ep["object_category"])] = 1.0
         self.agent.reset_planar(qpos if self.num_envs > 1 else qpos[:1])
@@ -369,9 +369,11 @@ class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
     def _set_scenes(self) -> None:
         """Scene specs, navigation geometry and swept-motion checks of every sub-env's current episode."""
         self._scene_ids = [ep["scene_id"] for ep in self._episodes]
-        made = partial(scene_geometry, self.source, radius=self._footprint)  # sub-envs in one scene share it
-        geometry = [self._scenes.get(sid, partial(made, sid)) for sid in self._scene_ids]
-        self.scene_specs, self.navs, self._motions = (list(v) for v in zip(*geometry))
+        made = partial(scene_geometry, self.source, radius=self._footprint)
+        kept = {sid: self._scenes.get(sid, partial(made, sid)) for sid in dict.fromkeys(self._scene_ids)}
+        self._geometry = [kept[sid] for sid in self._scene_ids]  # sub-envs in one scene share its geometry
+        self.scene_specs = [g.spec for g in self._geometry]
+        self.navs, self._motions = [g.nav for g in self._geometry], [g.motion for g in self._geometry]
 
     def _episode_context(self, i: int) -> EpisodeContext:
         """Sub-env ``i``'s episode for the measures (:func:`~.episodes.episode_context`)."""

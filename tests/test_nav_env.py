@@ -127,6 +127,8 @@ def test_kept_values_drop_the_least_recently_used():
 
 
 def test_a_scene_met_again_reuses_its_geometry_and_gives_the_same_values(env):
+    from biovln_ms.tasks.episodes import Kept
+
     u = env.unwrapped
 
     def visit() -> list[dict]:
@@ -140,10 +142,18 @@ def test_a_scene_met_again_reuses_its_geometry_and_gives_the_same_values(env):
     assert u.navs[0] is not nav
     again = visit()
     assert u.navs[0] is nav and u._ctx.episode(0) is ctx  # kept, not rebuilt
-    for a, b in zip(first, again):
-        assert a.keys() == b.keys()
-        for k in a.keys() - {"reconfigure"}:
-            np.testing.assert_array_equal(np.asarray(a[k]), np.asarray(b[k]), err_msg=k)
+    kept, u._scenes = u._scenes, Kept(1)  # one scene kept: scene a is built again, its contexts with it
+    try:
+        env.reset(options={"episode_index": 7})
+        rebuilt = visit()
+        assert u.navs[0] is not nav and u._ctx.episode(0) is not ctx
+    finally:
+        u._scenes = kept
+    for other in (again, rebuilt):
+        for a, b in zip(first, other):
+            assert a.keys() == b.keys()
+            for k in a.keys() - {"reconfigure"}:
+                np.testing.assert_array_equal(np.asarray(a[k]), np.asarray(b[k]), err_msg=k)
 
 
 def test_truncated_after_500_steps(dataset):

@@ -109,6 +109,8 @@ def test_batched_vec_env_resets_finished_sub_envs_in_place_and_trains_sb3(datase
 def test_one_batched_sub_env_trains_the_same_model_as_one_env_in_process(dataset, tmp_path):
     """On physx_cpu the batched path (one sub-env) steps exactly as the one-env path (DummyVecEnv, in
     process), and takes one torch thread as it does: the same model, bit for bit."""
+    import gc
+
     import torch
 
     from biovln_ms.learning.sb3_safe import load_sb3_model
@@ -126,6 +128,7 @@ def test_one_batched_sub_env_trains_the_same_model_as_one_env_in_process(dataset
             hyperparams={"n_steps": 128, "batch_size": 64},
         )
         r = train_rl(cfg, tmp_path / str(backend), echo=lambda s: None, progress=False)
+        assert gc.get_freeze_count() == 0  # what training froze (FreezeAtStart) is collectable again
         policy = load_sb3_model(r.model, "ppo").policy
         weights.append(torch.cat([p.detach().flatten() for p in policy.parameters()]))
     torch.set_num_threads(threads)

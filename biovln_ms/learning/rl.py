@@ -124,6 +124,20 @@ class EndStopPenalty(BaseCallback):
         return True
 
 
+class FreezeAtStart(BaseCallback):
+    """An env that steps in the trainer's process ends each scene change in ManiSkill's full
+    ``gc.collect()``, which would walk SB3's and torch's objects (made after the env froze what lived then,
+    :func:`~biovln_ms.sim.maniskill_compat.freeze_live_objects`). At the start of training, after SB3's
+    first reset, what lives is collected and frozen; ``train_rl`` unfreezes it when training ends."""
+
+    def _on_training_start(self) -> None:
+        gc.collect()
+        gc.freeze()
+
+    def _on_step(self) -> bool:
+        return True
+
+
 def save_model(model, path: Path) -> Path:
     """``model.save`` to a temporary name in the same folder, then rename (never a half-written zip)."""
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -232,19 +246,19 @@ def train_rl(
                 **cfg.defaults(),
             )
             log = EpisodeLog(out, cfg.checkpoint_every)
-            if in_process:  # the env's scene changes end in a full gc.collect(); freezing what lives now
-                gc.collect()  # (the model, torch's lazily imported modules) keeps it to the env's objects
-                gc.freeze()
             callbacks = [log] + ([EndStopPenalty(cfg.stop_penalty_steps)] if cfg.stop_penalty_steps else [])
+            callbacks += [FreezeAtStart()] if in_process else []
             t0 = time.perf_counter()
             model.learn(
                 total_timesteps=cfg.timesteps, callback=callbacks, progress_bar=progress, tb_log_name=cfg.algo
             )
             seconds = time.perf_counter() - t0
         finally:
-            venv.close()
-            if in_process:
-                gc.unfreeze()  # collectable again (an env made next freezes what it needs)
+            try:
+                venv.close()
+            finally:
+                if in_process:  # collectable again, the env's first freeze too (the next env freezes anew)
+                    gc.unfreeze()
     finally:
         restore()
         torch.set_num_threads(threads)
