@@ -303,6 +303,9 @@ def test_bad_weights_and_frames_are_one_line_errors(tmp_path):
     with pytest.raises(PerceptionError, match="no head camera depth.*obs_mode='rgbd'") as e:
         drop_floor(np.ones((480, 640), bool), {"sensor_data": {"head": obs["sensor_data"]["head"]}})
     assert "\n" not in str(e.value)
+    no_intrinsics = {**obs, "sensor_param": {"head": {"extrinsic_cv": ext}}}
+    with pytest.raises(PerceptionError, match="no head camera depth"):
+        drop_floor(np.ones((480, 640), bool), no_intrinsics)
     for frame in (
         np.zeros((480, 480, 3), np.uint8),
         np.zeros((480, 640), np.uint8),

@@ -50,14 +50,14 @@ def drop_floor(mask: np.ndarray, obs: dict, band: float = FLOOR_HEIGHT) -> np.nd
     v, u = np.nonzero(mask)
     if not len(v):
         return mask
-    if "depth" not in head_camera(obs) or "head" not in obs.get("sensor_param", {}):
+    params = obs.get("sensor_param", {}).get("head", {})
+    if "depth" not in head_camera(obs) or not {"intrinsic_cv", "extrinsic_cv"} <= set(params):
         raise PerceptionError(
             "the observation has no head camera depth and parameters, which place a mask's pixels above "
             "the floor",
             field="obs",
             fix="make the env with obs_mode='rgbd' (sensor_param included, as ManiSkill's default)",
         )
-    params = obs["sensor_param"]["head"]
     z = _numpy(head_camera(obs)["depth"][0, ..., 0])[v, u].astype(np.float64) / 1000.0
     k, e = _numpy(params["intrinsic_cv"][0]), _numpy(params["extrinsic_cv"][0])
     cam = np.stack([(u - k[0, 2]) * z / k[0, 0], (v - k[1, 2]) * z / k[1, 1], z], axis=-1)
