@@ -3,10 +3,8 @@
 
 from __future__ import annotations
 
-from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Generic, TypeVar
 
 import numpy as np
 
@@ -24,27 +22,6 @@ from biovln_ms.tasks.config_checks import EnvConfigError
 #: scenes an env keeps (their geometry and their episodes' measure contexts): a split's scenes recur as its
 #: episodes cycle; beyond this many, the least recently used is built again when it comes back
 SCENE_CACHE = 64
-
-K = TypeVar("K")
-V = TypeVar("V")
-
-
-class Kept(Generic[K, V]):
-    """At most ``size`` values made by ``make()`` on a key's first use, the least recently used dropped
-    first: what an env builds again and again from the same inputs (its episodes never change once made)."""
-
-    def __init__(self, size: int) -> None:
-        self.size, self._values = size, OrderedDict()
-
-    def get(self, key: K, make: Callable[[], V]) -> V:
-        values = self._values
-        if key in values:
-            values.move_to_end(key)
-            return values[key]
-        value = values[key] = make()
-        if len(values) > self.size:
-            values.popitem(last=False)
-        return value
 
 
 @dataclass(frozen=True)

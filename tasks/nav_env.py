@@ -9,7 +9,7 @@ handed its episodes; ``gym.make`` resolves ``split=`` and the like to them first
 from __future__ import annotations
 
 import math
-from functools import partial
+from functools import lru_cache, partial
 
 import numpy as np
 import sapien
@@ -36,7 +36,7 @@ from biovln_ms.sim.reach import FetchArm, ReachResult, reach_goals
 from biovln_ms.task_config import EpisodeInfo, NavTaskConfig, TaskSpec
 from biovln_ms.tasks.config_checks import SIM_FREQUENCIES, EnvConfigError, check_episode_kind
 from biovln_ms.tasks.config_checks import REWARD_MODES, reset_arguments, task_config
-from biovln_ms.tasks.episodes import SCENE_CACHE, Kept, SceneGeometry, scene_geometry
+from biovln_ms.tasks.episodes import SCENE_CACHE, scene_geometry
 from biovln_ms.tasks.episodes import choose_episodes, episode_context
 from biovln_ms.tasks.observations import HeadCameraNoise, segmentation_lookup
 from biovln_ms.tasks.people import EnvPeople
@@ -99,7 +99,7 @@ class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
         n = int(kwargs.get("num_envs", 1))
         self._episode_index: list[int] = [self.cursor.first] * n  # per sub-env, into source.episodes
         self._episodes: list[Episode] = [self.source.episodes[self.cursor.first]] * n
-        self._scenes: Kept[str, SceneGeometry] = Kept(SCENE_CACHE)  # built once, reused
+        self._scene = lru_cache(SCENE_CACHE)(partial(scene_geometry, self.source, radius=self._footprint))
         self._set_scenes()
         self._arm: FetchArm | None = None  # Fetch's arm model for the reach check, made at the first STOP
         self._head_noise: HeadCameraNoise | None = None  # the image noise models, made once
@@ -369,8 +369,7 @@ class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
     def _set_scenes(self) -> None:
         """Scene specs, navigation geometry and swept-motion checks of every sub-env's current episode."""
         self._scene_ids = [ep["scene_id"] for ep in self._episodes]
-        made = partial(scene_geometry, self.source, radius=self._footprint)
-        kept = {sid: self._scenes.get(sid, partial(made, sid)) for sid in dict.fromkeys(self._scene_ids)}
+        kept = {sid: self._scene(sid) for sid in dict.fromkeys(self._scene_ids)}  # each looked up once
         self._geometry = [kept[sid] for sid in self._scene_ids]  # sub-envs in one scene share its geometry
         self.scene_specs = [g.spec for g in self._geometry]
         self.navs, self._motions = [g.nav for g in self._geometry], [g.motion for g in self._geometry]

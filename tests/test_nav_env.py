@@ -113,21 +113,8 @@ def test_success_only_within_the_radius(env):
     assert bool(info["fail"]) == (not bool(info["success"]))
 
 
-def test_kept_values_drop_the_least_recently_used():
-    from biovln_ms.tasks.episodes import Kept
-
-    kept, made = Kept(2), []
-
-    def make(k: int) -> int:
-        made.append(k)
-        return 10 * k
-
-    assert [kept.get(k, lambda k=k: make(k)) for k in (1, 2, 1, 3, 2, 1)] == [10, 20, 10, 30, 20, 10]
-    assert made == [1, 2, 3, 2, 1]  # 1 was used again before 3 came, so 2 went first
-
-
 def test_a_scene_met_again_reuses_its_geometry_and_gives_the_same_values(env):
-    from biovln_ms.tasks.episodes import Kept
+    from functools import lru_cache
 
     u = env.unwrapped
 
@@ -142,13 +129,14 @@ def test_a_scene_met_again_reuses_its_geometry_and_gives_the_same_values(env):
     assert u.navs[0] is not nav
     again = visit()
     assert u.navs[0] is nav and u._ctx.episode(0) is ctx  # kept, not rebuilt
-    kept, u._scenes = u._scenes, Kept(1)  # one scene kept: scene a is built again, its contexts with it
+    # one scene kept: scene a is built again, its contexts with it
+    kept, u._scene = u._scene, lru_cache(1)(u._scene.__wrapped__)
     try:
         env.reset(options={"episode_index": 7})
         rebuilt = visit()
         assert u.navs[0] is not nav and u._ctx.episode(0) is not ctx
     finally:
-        u._scenes = kept
+        u._scene = kept
     for other in (again, rebuilt):
         for a, b in zip(first, other):
             assert a.keys() == b.keys()
