@@ -147,13 +147,6 @@ def step_rate(env, steps: int) -> float:
     return n / (time.perf_counter() - t)
 
 
-def _episodes_by_scene(env) -> dict[str, list[int]]:
-    by_scene: dict[str, list[int]] = {}
-    for i, e in enumerate(env.unwrapped.source.episodes):
-        by_scene.setdefault(e["scene_id"], []).append(i)
-    return by_scene
-
-
 def _reset_time(env, episode_index: int) -> float:
     t = time.perf_counter()
     env.reset(options={"episode_index": episode_index})
@@ -247,7 +240,7 @@ def main() -> None:
     # Resets: same scene, a scene met for the first time, and one met before (its geometry kept); state
     # obs, so the timing is the env's, not a frame's; train has scenes enough for 12 first visits
     env = gym.make("BioVLN-OpFace-v0", split="train", obs_mode="state", **CPU)
-    by_scene = _episodes_by_scene(env)
+    by_scene = env.unwrapped.source.by_scene()
     scenes = list(by_scene)[:13]
     env.reset(options={"episode_index": by_scene[scenes[0]][0]})
     same, first, again = [], [], []
@@ -263,7 +256,7 @@ def main() -> None:
         f"met before: median {np.median(again) * 1e3:.0f} ms"
     )
     env = gym.make("BioVLN-OpFace-v0", split="ms_dev", obs_mode="state", **CPU)
-    by_scene = _episodes_by_scene(env)
+    by_scene = env.unwrapped.source.by_scene()
     scenes = list(by_scene)
     gc.collect()
     gc.freeze()

@@ -27,6 +27,13 @@ class EpisodeSource:
     def __len__(self) -> int:
         return len(self.episodes)
 
+    def by_scene(self) -> dict[str, list[int]]:
+        """Each scene's episode indices, in source order."""
+        scenes: dict[str, list[int]] = {}
+        for i, ep in enumerate(self.episodes):
+            scenes.setdefault(ep["scene_id"], []).append(i)
+        return scenes
+
     def find(self, episode_id: str, scene_id: str | None = None) -> int:
         for i, e in enumerate(self.episodes):
             if e["episode_id"] == str(episode_id) and (scene_id is None or e["scene_id"] == scene_id):
@@ -76,9 +83,7 @@ class EpisodeCursor:
 
     def _shuffled(self, visit: int) -> list[int]:
         rng = np.random.default_rng(0)
-        by_scene: dict[str, list[int]] = {}
-        for i, ep in enumerate(self.source.episodes):
-            by_scene.setdefault(ep["scene_id"], []).append(i)
+        by_scene = self.source.by_scene()
         scenes = sorted(by_scene)
         runs: list[list[int]] = []
         for k in rng.permutation(len(scenes)):
