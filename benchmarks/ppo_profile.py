@@ -19,13 +19,12 @@ import time
 from functools import partial
 from pathlib import Path
 
-import numpy as np
 import torch
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from biovln_ms.learning.algorithms import algo_class
 from biovln_ms.learning.rl import RLConfig, make_vec_env
-from biovln_ms.measured import docs_data_dir, timed, write_table
+from biovln_ms.measured import docs_data_dir, timed, vec_step_rate, write_table
 from biovln_ms.variants import RL_ENV
 from biovln_ms.wrappers import make_gym_env
 
@@ -43,18 +42,7 @@ def env_alone(steps: int, worker: bool) -> float:
     per step)."""
     factory = partial(make_gym_env, RL_ENV, split="train", obs_mode="state", control_mode="discrete")
     vec = SubprocVecEnv([factory], start_method="spawn") if worker else DummyVecEnv([factory])
-    try:
-        vec.seed(0)
-        vec.reset()
-        rng = np.random.default_rng(0)
-        for _ in range(20):
-            vec.step(rng.integers(0, 4, 1))
-        t = time.perf_counter()
-        for _ in range(steps):
-            vec.step(rng.integers(0, 4, 1))
-        return steps / (time.perf_counter() - t)
-    finally:
-        vec.close()
+    return vec_step_rate(vec, steps, 1, actions=(0, 4), seed=True)
 
 
 def ppo_parts(timesteps: int, n_envs: int) -> tuple[dict[str, float], float, int]:

@@ -25,33 +25,11 @@ import numpy as np
 import torch
 
 import biovln_ms  # noqa: F401
-from biovln_ms.measured import docs_data_dir, write_table
+from biovln_ms.measured import docs_data_dir, vec_step_rate, write_table
 from biovln_ms.variants import RL_ENV
 from biovln_ms.wrappers import make_gym_env
 
 ENV = dict(split="train", obs_mode="state")
-
-
-def _rate(vec, steps: int, n: int) -> float:
-    """Env steps per second (all workers together) over ``steps`` vector steps of random actions, after the
-    caller's seeded reset and 20 warm-up steps."""
-    rng = np.random.default_rng(0)
-    for _ in range(20):  # warm-up
-        vec.step(rng.integers(1, 4, n))
-    t = time.perf_counter()
-    for _ in range(steps):
-        vec.step(rng.integers(1, 4, n))
-    return steps * n / (time.perf_counter() - t)
-
-
-def _sb3_rate(vec, steps: int, n: int) -> float:
-    """:func:`_rate` of an SB3 ``VecEnv`` (seeded through ``seed``, as SB3 does), which it then closes."""
-    try:
-        vec.seed(0)
-        vec.reset()
-        return _rate(vec, steps // n, n)
-    finally:
-        vec.close()
 
 
 def _factories(n: int) -> list:
@@ -79,7 +57,7 @@ def make_vec(n: int, steps: int) -> float:
     )
     try:
         vec.reset(seed=0)
-        return _rate(vec, steps // n, n)
+        return vec_step_rate(vec, steps // n, n)
     finally:
         vec.close()
 
@@ -87,13 +65,13 @@ def make_vec(n: int, steps: int) -> float:
 def subproc(n: int, steps: int) -> float:
     from stable_baselines3.common.vec_env import SubprocVecEnv
 
-    return _sb3_rate(SubprocVecEnv(_factories(n), start_method="spawn"), steps, n)
+    return vec_step_rate(SubprocVecEnv(_factories(n), start_method="spawn"), steps // n, n, seed=True)
 
 
 def grouped(n: int, steps: int, processes: int = 2) -> float:
     from biovln_ms.learning.grouped_vec_env import GroupedSubprocVecEnv
 
-    return _sb3_rate(GroupedSubprocVecEnv(_factories(n), processes), steps, n)
+    return vec_step_rate(GroupedSubprocVecEnv(_factories(n), processes), steps // n, n, seed=True)
 
 
 def ppo(n: int, timesteps: int, out: Path, envs_per_process: int = 1) -> tuple[float, list[dict]]:

@@ -31,6 +31,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from biovln_ms.io_utils import atomic_write_text
 
 
@@ -46,6 +48,27 @@ def timed(fn, spent: dict, key: str):
             spent[key] += time.perf_counter() - t
 
     return run
+
+
+def vec_step_rate(vec, steps: int, n: int, actions: tuple[int, int] = (1, 4), seed: bool = False) -> float:
+    """Env steps per second (all ``n`` sub-envs together) of a vector env over ``steps`` vector steps of
+    random discrete actions in ``[actions[0], actions[1])`` (from 1: never STOP), after 20 warm-up steps.
+    ``seed``: seed and reset it first as SB3 does (``vec.seed(0)``, ``vec.reset()``), and close it after;
+    otherwise the caller has reset it and closes it."""
+    try:
+        if seed:
+            vec.seed(0)
+            vec.reset()
+        rng = np.random.default_rng(0)
+        for _ in range(20):  # warm-up
+            vec.step(rng.integers(*actions, n))
+        t = time.perf_counter()
+        for _ in range(steps):
+            vec.step(rng.integers(*actions, n))
+        return steps * n / (time.perf_counter() - t)
+    finally:
+        if seed:
+            vec.close()
 
 
 REQUIRED = ("title", "command", "machine", "columns", "rows")
