@@ -29,6 +29,7 @@ from biovln_ms.metrics.measures import BatchContext, EpisodeContext, StepState
 from biovln_ms.metrics.reach_measures import REACH_MEASURES
 from biovln_ms.render.camera_shaders import head_camera_shader, use_depth_only_format
 from biovln_ms.render.progress import first_camera_render
+from biovln_ms.render.step_capture import CapturesDuringStep
 from biovln_ms.robot_specs import DEFAULT_ROBOT, ROBOTS, robot_spec
 from biovln_ms.sim.maniskill_builder import LabSceneBuilder
 from biovln_ms.sim.maniskill_compat import FreezesLiveObjects
@@ -50,7 +51,7 @@ FOLLOW_CAMERA_EYE = (-2.2, 0.0, 2.3)
 FOLLOW_CAMERA_TARGET = (1.0, 0.0, 0.3)
 
 
-class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
+class BioVLNNavEnv(FreezesLiveObjects, CapturesDuringStep, BaseEnv):
     """
     **Task Description:**
     Drive a mobile base (the BioVLN cylinder or Fetch) through a generated lab to the operational face of an
@@ -229,6 +230,7 @@ class BioVLNNavEnv(FreezesLiveObjects, BaseEnv):
         """The measures of the move the controller made, once per step (``evaluate`` only reads them)."""
         move = self.agent.controller.end_step()
         people = self._people.step(move.pose, self._frozen) if self._people else None  # they move meanwhile
+        self.start_capture(self._sync_people)  # the pictures render while the measures run
         state = StepState(move.pose[:, :2], move.pose[:, 2], move.stop, move.forward, move.moved, people)
         active = None if not self._frozen.any() else np.flatnonzero(~self._frozen)
         self._measures.update(self._ctx, state, active)
