@@ -156,3 +156,20 @@ def test_batched_vec_env_rotates_all_sub_envs_on_through_the_split(dataset):
         assert env.unwrapped._episode_index[0] != first
     finally:
         venv.close()
+
+
+def test_steps_in_process_tells_the_trainers_process_from_workers():
+    """``train_rl`` freezes the trainer's objects only when the envs step in its process."""
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
+
+    from biovln_ms.learning.rl import steps_in_process
+
+    def cartpole():
+        return gym.make("CartPole-v1")
+
+    assert steps_in_process(VecMonitor(DummyVecEnv([cartpole])))
+    workers = VecMonitor(SubprocVecEnv([cartpole] * 2, start_method="fork"))
+    try:
+        assert not steps_in_process(workers)
+    finally:
+        workers.close()

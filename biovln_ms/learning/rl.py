@@ -188,6 +188,16 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
     return VecMonitor(venv, info_keywords=("success",))
 
 
+def steps_in_process(venv) -> bool:
+    """Whether the envs of :func:`make_vec_env`'s vector env step in this process (one env, or a batched
+    env), not in worker processes or Ray actors."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from biovln_ms.learning.batched_vec_env import BatchedVecEnv
+
+    return isinstance(venv.unwrapped, (DummyVecEnv, BatchedVecEnv))
+
+
 @dataclass
 class RLResult:
     model: Path
@@ -233,7 +243,7 @@ def train_rl(
         torch.set_num_threads(1)  # thread, more only contend with the env processes (restored below)
     try:
         venv = make_vec_env(cfg)
-        in_process = bool(cfg.sim_backend) or (cfg.n_envs == 1 and not cfg.ray_address)
+        in_process = steps_in_process(venv)
         device = str(venv.venv.base.device) if cfg.sim_backend else "cpu"  # where the batched env steps
         try:
             model = cls(
