@@ -159,17 +159,31 @@ def test_batched_vec_env_rotates_all_sub_envs_on_through_the_split(dataset):
 
 
 def test_steps_in_process_tells_the_trainers_process_from_workers():
-    """``train_rl`` freezes the trainer's objects only when the envs step in its process."""
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
+    """``train_rl`` freezes the trainer's objects only when the envs step in its process: one env
+    (DummyVecEnv) or a batched env, under any stack of SB3's vector-env wrappers."""
+    from stable_baselines3.common.vec_env import (
+        DummyVecEnv,
+        SubprocVecEnv,
+        VecFrameStack,
+        VecMonitor,
+        VecNormalize,
+    )
 
+    from biovln_ms.learning.batched_vec_env import BatchedVecEnv
+    from biovln_ms.learning.grouped_vec_env import GroupedSubprocVecEnv
+    from biovln_ms.learning.ray_vec_env import RayVecEnv
     from biovln_ms.learning.rl import steps_in_process
 
-    def cartpole():
-        return gym.make("CartPole-v1")
+    dummy = DummyVecEnv([lambda: gym.make("CartPole-v1")])
+    assert steps_in_process(VecMonitor(dummy))
+    assert steps_in_process(VecMonitor(VecNormalize(dummy))) and steps_in_process(VecFrameStack(dummy, 2))
 
-    assert steps_in_process(VecMonitor(DummyVecEnv([cartpole])))
-    workers = VecMonitor(SubprocVecEnv([cartpole] * 2, start_method="fork"))
-    try:
-        assert not steps_in_process(workers)
-    finally:
-        workers.close()
+    def shell(cls):  # the class is all that counts: no processes, actors or envs are started
+        venv = cls.__new__(cls)
+        venv.num_envs, venv.observation_space = dummy.num_envs, dummy.observation_space
+        venv.action_space = dummy.action_space
+        return venv
+
+    assert steps_in_process(VecMonitor(shell(BatchedVecEnv)))
+    for cls in (SubprocVecEnv, GroupedSubprocVecEnv, RayVecEnv):
+        assert not steps_in_process(VecMonitor(shell(cls))), cls

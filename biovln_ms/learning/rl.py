@@ -244,7 +244,8 @@ def train_rl(
     try:
         venv = make_vec_env(cfg)
         in_process = steps_in_process(venv)
-        device = str(venv.venv.base.device) if cfg.sim_backend else "cpu"  # where the batched env steps
+        batched = getattr(venv.unwrapped, "base", None)  # a BatchedVecEnv's env
+        device = str(batched.device) if batched is not None else "cpu"  # where the batched env steps
         try:
             model = cls(
                 "MlpPolicy",

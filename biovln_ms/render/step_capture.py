@@ -35,8 +35,8 @@ class CapturesDuringStep:
         self._capture_pending = True
 
     def _get_obs_sensor_data(self, apply_texture_transforms: bool = True) -> dict:
-        """ManiSkill's read-back; with this step's pictures pending, neither its render update (a camera
-        update after ``take_picture`` orphans the picture) nor its capture run again."""
+        """ManiSkill's read-back; with this step's pictures pending, neither its render update (SAPIEN warns
+        when a camera is updated between taking and reading a picture) nor its capture runs again."""
         if not self._capture_pending:
             return super()._get_obs_sensor_data(apply_texture_transforms)
         self.scene.update_render = _no_update
@@ -47,10 +47,18 @@ class CapturesDuringStep:
             self._capture_pending = False
 
     def capture_sensor_data(self) -> None:
+        """ManiSkill's capture, unless this step's pictures are taken already."""
         if not self._capture_pending:
             super().capture_sensor_data()
 
-    # a reset or a state load moves the scene before the next ``get_obs``: a pending capture is stale
+    # a pending capture is this step's only: a step that raised before its read-back, a reset or a state
+    # load leaves none behind
+    def step(self, action):
+        try:
+            return super().step(action)
+        finally:
+            self._capture_pending = False
+
     def reset(self, *args, **kwargs):
         self._capture_pending = False
         return super().reset(*args, **kwargs)
