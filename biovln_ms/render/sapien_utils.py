@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import time
 
 import numpy as np
@@ -115,22 +116,51 @@ def vulkan_device_label() -> str:
     return "none"
 
 
-def raw_camera_rate(env, frames: int) -> float:
-    """Frames/s of the env's head camera rendered by SAPIEN alone (update_render + take_picture + the
-    read-back of every picture its shader pack makes: colour and position/segmentation, or the latter
-    alone for the depth-only pack): the reference the benchmarks divide by."""
+def _head_frame(env):
+    """One raw SAPIEN frame of the env's head camera, as a function: update_render + take_picture + the
+    read-back of every picture its shader pack makes (colour and position/segmentation, or the latter alone
+    for the depth-only pack), which it returns."""
     u = env.unwrapped
     head = u.scene.sensors["head"]
     cams, pictures = head.camera._render_cameras, list(head.config.shader_config.texture_names)
-    for _ in range(3):
+
+    def frame() -> list:
         u.scene.update_render()
+        out = []
         for c in cams:
             c.take_picture()
+            out += [c.get_picture(picture) for picture in pictures]
+        return out
+
+    return frame
+
+
+def raw_camera_rate(env, frames: int) -> float:
+    """Frames/s of the env's head camera rendered by SAPIEN alone at its current view (:func:`_head_frame`):
+    the reference the benchmarks divide by."""
+    frame = _head_frame(env)
+    for _ in range(3):
+        frame()
     t = time.perf_counter()
     for _ in range(frames):
-        u.scene.update_render()
-        for c in cams:
-            c.take_picture()
-            for picture in pictures:
-                c.get_picture(picture)
+        frame()
     return frames / (time.perf_counter() - t)
+
+
+def raw_camera_rate_at(env, views: list) -> float:
+    """Frames/s of raw SAPIEN frames (:func:`_head_frame`) at recorded views: ``(episode index, robot joint
+    positions)`` pairs, as a walk of the env visited them. Each episode's scene is loaded and the robot
+    placed (``set_qpos``) untimed; the frames are the walk's own (the same views, up to the last bit of a
+    pose), so the reference renders what the env did."""
+    spent, n = 0.0, 0
+    for episode, group in itertools.groupby(views, key=lambda v: v[0]):
+        env.reset(options={"episode_index": episode})
+        frame, robot = _head_frame(env), env.unwrapped.agent.robot
+        frame()
+        for _, qpos in group:
+            robot.set_qpos(qpos)
+            t = time.perf_counter()
+            frame()
+            spent += time.perf_counter() - t
+            n += 1
+    return n / spent
