@@ -1,6 +1,10 @@
 """Where a state-only step of BioVLN-OpFace-v0 spends its time, beside PickCube-v1 in the same run.
 
     python benchmarks/step_profile.py [--steps 3000] [--repeats 3]
+    python benchmarks/step_profile.py --people [--steps 1500] [--repeats 6]
+
+``--people`` times the same parts on the ``busy_val`` episodes with their crowds and with ``people=0``,
+in interleaved blocks, plus the crowd's own step (``docs/data/benchmarks/busy_step_profile.json``).
 
 Each part of ``env.step`` is timed by a wrapper around the method that does it (no profiler, whose
 overhead would inflate the Python parts): SAPIEN's physics (the control step's substeps), the robot's
@@ -27,26 +31,46 @@ from biovln_ms.sim.maniskill_compat import maniskill_task_id
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
 
 
-def _parts(env) -> dict[str, float]:
-    """Wrap the methods that do each part of a step; the returned dict accumulates their seconds."""
+PARTS = (
+    "SAPIEN physics",
+    "robot command",
+    "controller end of step",
+    "measures",
+    "info",
+    "observation",
+    "reward",
+)
+
+
+def _parts(env, spent: dict | None = None) -> dict[str, float]:
+    """Wrap the methods that do each part of a step; the returned dict accumulates their seconds. Called
+    again after a reset, it wraps what a new scene brought (its scene, robot, controller, people)."""
     u = env.unwrapped
-    spent = dict.fromkeys(
-        ("SAPIEN physics", "robot command", "controller end of step", "measures", "info", "observation",
-         "reward"), 0.0
-    )  # fmt: skip
-    u.scene.step = timed(u.scene.step, spent, "SAPIEN physics")
-    u.agent.set_action = timed(u.agent.set_action, spent, "robot command")
-    ctrl = u.agent.controller
-    ctrl.end_step = timed(ctrl.end_step, spent, "controller end of step")
-    u._measures.update = timed(u._measures.update, spent, "measures")
-    u.get_info = timed(u.get_info, spent, "info")
-    u.get_obs = timed(u.get_obs, spent, "observation")
-    u.get_reward = timed(u.get_reward, spent, "reward")
+    spent = dict.fromkeys(PARTS, 0.0) if spent is None else spent
+    targets = [
+        (u.scene, "step", "SAPIEN physics"),
+        (u.agent, "set_action", "robot command"),
+        (u.agent.controller, "end_step", "controller end of step"),
+        (u._measures, "update", "measures"),
+        (u, "get_info", "info"),
+        (u, "get_obs", "observation"),
+        (u, "get_reward", "reward"),
+    ]
+    if u._people is not None:
+        spent.setdefault("the crowd's step", 0.0)
+        targets.append((u._people, "step", "the crowd's step"))
+    for owner, name, key in targets:
+        fn = getattr(owner, name)
+        if not getattr(fn, "timed_part", False):  # a wrapper stays once: an object kept over a reset
+            wrapped = timed(fn, spent, key)
+            wrapped.timed_part = True
+            setattr(owner, name, wrapped)
     return spent
 
 
-def _run(env, steps: int, seed: int = 0) -> float:
-    """Seconds for ``steps`` random steps (the nav env: FORWARD, LEFT, RIGHT), resetting at episode ends."""
+def _run(env, steps: int, seed: int = 0, spent: dict | None = None) -> float:
+    """Seconds for ``steps`` random steps (the nav env: FORWARD, LEFT, RIGHT), resetting at episode ends;
+    with ``spent`` (from :func:`_parts`), what a reset rebuilt is wrapped too."""
     rng = np.random.default_rng(seed)
     sample = (lambda: int(rng.integers(1, 4))) if isinstance(env.action_space, gym.spaces.Discrete) else None
     t = time.perf_counter()
@@ -55,16 +79,61 @@ def _run(env, steps: int, seed: int = 0) -> float:
         _, _, term, trunc, _ = env.step(a)
         if bool(term) or bool(trunc):
             env.reset()
+            if spent is not None:
+                _parts(env, spent)
     return time.perf_counter() - t
+
+
+def people_profile(steps: int, repeats: int, out: Path) -> None:
+    """The parts of a state-only step on the ``busy_val`` episodes, empty (``people=0``) and busy (their
+    crowds; a person collision does not end the episode, so both run the same episodes' lengths)."""
+    envs, spent = {}, {}
+    for name, where in (("empty lab", {"people": 0}), ("busy", {"person_collision_ends": False})):
+        env = gym.make("BioVLN-OpFace-v0", split="busy_val", obs_mode="state", **where, **CPU)
+        env.reset(seed=0, options={"episode_index": 0})
+        _run(env, 300)  # warm-up: the scenes' geometry, the people's routes
+        spent[name] = _parts(env)
+        envs[name] = env
+    totals = dict.fromkeys(envs, 0.0)
+    for r in range(repeats):  # interleaved, so a busy moment of the machine costs both
+        for name, env in envs.items():
+            totals[name] += _run(env, steps, r, spent[name])
+    n = steps * repeats
+    parts = list(dict.fromkeys(k for d in spent.values() for k in d))
+    ms = {name: {k: 1e3 * spent[name].get(k, 0.0) / n for k in parts} for name in envs}
+    for name in envs:
+        ms[name]["the rest (ManiSkill's and gymnasium's step code, resets)"] = 1e3 * totals[name] / n - sum(
+            ms[name].values()
+        )
+        ms[name]["whole step"] = 1e3 * totals[name] / n
+    rows = [[k, *(f"{ms[name][k]:.3f}" for name in envs)] for k in ms["busy"]]
+    ratio = totals["busy"] / totals["empty lab"]
+    notes = [
+        f"{repeats} interleaved blocks of {steps} random FORWARD/LEFT/RIGHT steps per env, the parts timed "
+        f"by wrappers in place; a busy step is {ratio:.2f}x an empty-lab step here.",
+        "env_speed.py's budget ratio is the median of per-block ratios: another measure of the same cost.",
+    ]
+    for r in rows:
+        print(f"{r[0]:<58} {r[1]:>8} {r[2]:>8} ms")
+    print(notes[0])
+    columns = ["part", *(f"{name}, ms per step" for name in envs)]
+    write_table(out, "A state-only step with people: where the extra time goes", columns, rows, notes)
+    for env in envs.values():
+        env.close()
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--steps", type=int, default=3000)
     ap.add_argument("--repeats", type=int, default=3, help="interleaved blocks per env; the best is kept")
-    ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "step_profile.json")
+    ap.add_argument("--data-out", type=Path, default=None, help="default: docs/data/benchmarks/<table>.json")
+    ap.add_argument("--people", action="store_true", help="the busy_val episodes with and without people")
     args = ap.parse_args()
     torch.set_num_threads(1)
+    data = docs_data_dir() / "benchmarks"
+    if args.people:
+        return people_profile(args.steps, args.repeats, args.data_out or data / "busy_step_profile.json")
+    args.data_out = args.data_out or data / "step_profile.json"
 
     nav = gym.make("BioVLN-OpFace-v0", split="ms_val", obs_mode="state", **CPU)
     cube_id = maniskill_task_id("PickCube")  # PickCube-v1 on ManiSkill 3 (ManiSkill 4 announces -v4)
@@ -80,7 +149,7 @@ def main() -> None:
 
     u = nav.unwrapped
     spent = _parts(nav)
-    total = _run(nav, args.steps, 99)
+    total = _run(nav, args.steps, 99, spent)
     per_step = {k: 1e3 * v / args.steps for k, v in spent.items()}
     per_step["the rest (ManiSkill's and gymnasium's step code)"] = 1e3 * total / args.steps - sum(
         per_step.values()

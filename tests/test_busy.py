@@ -174,3 +174,27 @@ def test_a_face_without_a_free_path_is_never_a_persons_walk(room):
     for _ in range(30):
         assert crowd._retarget(0) and int(crowd.target[0]) != len(st.ids)
         crowd.pos[0] = st.stand[int(crowd.target[0])]
+
+
+def test_dataset_show_draws_a_busy_episodes_people_and_their_paths(dataset, tmp_path):
+    from matplotlib.colors import to_rgb
+    from PIL import Image
+    from typer.testing import CliRunner
+
+    from biovln_ms.cli import app
+    from biovln_ms.scene.rules import scene_navigation
+    from biovln_ms.scene.topdown import PERSON_COLOR, save_map
+
+    def person_pixels(png) -> int:
+        rgb = np.asarray(Image.open(png).convert("RGB")).astype(int)
+        want = np.round(np.array(to_rgb(PERSON_COLOR)) * 255).astype(int)
+        return int((np.abs(rgb - want).max(axis=-1) <= 8).sum())
+
+    shown = tmp_path / "shown.png"
+    r = CliRunner().invoke(app, ["dataset", "show", str(dataset), "--split", "busy_val", "-o", str(shown)])
+    assert r.exit_code == 0, r.output
+    ds = EpisodeDataset(dataset)
+    ep = next(iter(ds.episodes("busy_val")))
+    spec = ds.spec(ep["scene_id"])
+    bare = save_map(spec, tmp_path / "bare.png", episode=ep, nav=scene_navigation(spec))  # no people given
+    assert person_pixels(shown) > 300 and person_pixels(bare) == 0  # bodies and paths in the people's colour

@@ -251,8 +251,10 @@ def test_the_people_table_shows_busy_runs_beside_their_empty_lab_sr():
         "personal_space_rate": 20.0,
         "person_collisions": 0,
         "robot_wait_time": 5.0,
+        "people_wait_time": 1.5,
         "occupied_stop": False,
         "mcr_people": 0.4,
+        "vrt_people": 30.0,
     }
     busy = [{**r, **people} for r in _records([True] * 3 + [False])]
     summ = summarize(
@@ -272,4 +274,6 @@ def test_the_people_table_shows_busy_runs_beside_their_empty_lab_sr():
     assert cells[-1].startswith("100.0") and cells[-1].endswith(" / –")  # ms_val, and hard_val not run
     other = "\n".join(other_measures_table(summ))
     assert "min. person distance" not in other  # shown once, in the people table
+    for label in ("people waiting", "MCR (people too)", "VRT (people too)"):  # people as obstacles too
+        assert label in head and label not in other
     assert people_table(summarize({("frontier", "ms_val"): _records([True])})) == []

@@ -194,6 +194,7 @@ def test_training_writes_weights_plot_and_log_reproducibly(trained, tmp_path):
     data = json.loads((run / "train.json").read_text())
     assert data["epochs_run"] == 2 and len(data["loss"]) == 2 * -(-data["train_frames"] // 3)
     assert all(np.isfinite(data["loss"])) and (run / "train.png").stat().st_size > 10_000
+    assert data["whole_seconds"] >= data["seconds"] > 0  # the command's time holds the training loop's
     header, net = S.load_net(run / "detector.safetensors")
     assert header["categories"] == CATS and header["seed"] == 0 and header["input_size"] == list(S.INPUT_SIZE)
     assert header["classes"][0] == "background" and header["epochs"] == 2

@@ -190,7 +190,8 @@ def dataset(held_out_dataset):
 def test_the_gt_detector_is_its_own_method_not_a_vlfm_option():
     from biovln_ms.baselines.vlfm import VLFMPolicy
     from biovln_ms.errors import BioVLNError
-    from biovln_ms.eval.methods import METHODS
+    from biovln_ms.eval.methods import GT_ABLATION, METHODS
+    from biovln_ms.perception.detector_specs import GT_OBS
 
     assert VLFMPolicy().obs_mode == METHODS["vlfm"].obs_mode == "rgb+depth"  # no segmentation sensor
     assert VLFMPolicy(detector="gt").obs_mode == METHODS["vlfm_gt"].obs_mode == "rgb+depth+segmentation"
@@ -204,6 +205,30 @@ def test_the_gt_detector_is_its_own_method_not_a_vlfm_option():
         assert err.value.field == "detector"
         METHODS[name].preflight(detector="trained:/some/weights.safetensors")  # the others are its own
     assert "detector" not in METHODS["vlfm_gt"].options
+    for learned, ablation in GT_ABLATION.items():  # each learned-detector method's GT ablation, registered
+        assert METHODS[learned].obs_mode == "rgb+depth" and METHODS[ablation].obs_mode == GT_OBS
+        assert METHODS[ablation].env_id == METHODS[learned].env_id
+
+
+@pytest.mark.parametrize("method", ["vlfm", "protocol_vlfm"])
+def test_eval_detector_gt_runs_the_gt_ablation_method(method, monkeypatch, tmp_path):
+    from typer.testing import CliRunner
+
+    import biovln_ms.eval.harness as harness
+    from biovln_ms.cli import app
+    from biovln_ms.eval.methods import GT_ABLATION
+
+    seen = []
+
+    def fake_evaluate(cfg, **_):  # the CLI's hand-over is what is tested, not a run
+        seen.append(cfg)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(harness, "evaluate", fake_evaluate)
+    r = CliRunner().invoke(app, ["eval", "-m", method, "--detector", "gt", "-o", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    assert seen[0].method == GT_ABLATION[method] == f"{method}_gt" and "detector" not in seen[0].method_kwargs
+    assert f"method {method}_gt" in r.output
 
 
 @pytest.mark.slow

@@ -135,7 +135,7 @@ def eval_cmd(
     detector: Optional[str] = typer.Option(
         None,
         help="vlfm: 'trained' (default, the shipped weights), 'trained:FILE' or 'owlvit:/local/dir'; "
-        "the GT detector (simulator segmentation) is the method vlfm_gt.",
+        "'gt' runs the method's GT-detector ablation (simulator segmentation): vlfm_gt, protocol_vlfm_gt.",
     ),
     scorer: Optional[str] = typer.Option(
         None, help="vlfm: 'default' (packaged EfficientNet-Lite0 + MiniLM) or 'clip:/local/dir'."
@@ -168,8 +168,13 @@ def eval_cmd(
     ),
 ) -> None:
     from biovln_ms.eval.harness import EvalConfig, evaluate
+    from biovln_ms.eval.methods import GT_ABLATION
     from biovln_ms.eval.tables import headline
+    from biovln_ms.perception.detector_specs import GT_SPEC
 
+    if detector == GT_SPEC and method in GT_ABLATION:  # the ablation is its own method (another observation)
+        method, detector = GT_ABLATION[method], None
+        typer.echo(f"--detector gt: running the GT-detector ablation, method {method}")
     given = {"checkpoint": str(checkpoint) if checkpoint else None, "detector": detector, "scorer": scorer}
     given["parser"] = parser
     kwargs = {k: v for k, v in given.items() if v is not None}

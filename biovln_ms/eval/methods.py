@@ -78,7 +78,7 @@ def _image_detector_preflight(detector: str | None = None, **_) -> None:
         raise BioVLNError(
             "the GT detector is the ablation method, not a detector option",
             field="detector",
-            fix="run -m vlfm_gt (or protocol_vlfm_gt) for VLFM on the simulator's segmentation",
+            fix="run -m vlfm_gt (or protocol_vlfm_gt), which `biovln-ms eval --detector gt` picks",
         )
 
 
@@ -290,6 +290,10 @@ METHODS: dict[str, MethodSpec] = {
         env_id=PROTOCOL_ENV,
     ),
 }
+
+
+#: the GT-detector ablation of each learned-detector method: ``eval -m vlfm --detector gt`` runs it
+GT_ABLATION = {"vlfm": "vlfm_gt", "protocol_vlfm": "protocol_vlfm_gt"}
 
 
 def register_method(name: str, spec: MethodSpec, override: bool = False) -> MethodSpec:

@@ -48,8 +48,10 @@ PEOPLE_TABLE_MEASURES = (
     "personal_space_rate",
     "person_collisions",
     "robot_wait_time",
+    "people_wait_time",
     "occupied_stop",
     "mcr_people",
+    "vrt_people",
 )
 
 

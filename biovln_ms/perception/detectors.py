@@ -113,7 +113,7 @@ class TrainedDetector:
                 f"the task's goal categories {', '.join(unknown)} are not the detector's",
                 source=str(self.segmenter.path),
                 field="categories",
-                fix="train weights for this catalog: biovln-ms perception train -o DIR",
+                fix="train weights for this catalog: biovln-ms perception train -o DIR --frame-data FRAMES",
             )
 
     def detect(self, obs: dict, target: str) -> np.ndarray:

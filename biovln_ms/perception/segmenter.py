@@ -204,7 +204,7 @@ def _bad(path: Path, message: str, field: str | None = None) -> PerceptionError:
         source=str(path),
         field=field,
         fix="reinstall biovln-ms (pip install -e .) or rebuild the weights with "
-        "`biovln-ms perception train -o DIR` and pass DIR/detector.safetensors",
+        "`biovln-ms perception train -o DIR --frame-data FRAMES` and pass DIR/detector.safetensors",
     )
 
 
@@ -242,7 +242,7 @@ def read_weights(path: str | Path) -> tuple[dict, dict]:
             f"{len(mine)} goal categories ({', '.join(diff) or 'order'})",
             source=str(path),
             field="categories",
-            fix="train weights for this catalog: biovln-ms perception train -o DIR",
+            fix="train weights for this catalog: biovln-ms perception train -o DIR --frame-data FRAMES",
         )
     score = header.get("min_score", 0.0)
     if isinstance(score, bool) or not isinstance(score, (int, float)) or not 0.0 <= score <= 1.0:

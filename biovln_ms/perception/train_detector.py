@@ -175,6 +175,7 @@ def train_detector(
     ):
         if not isinstance(v, int) or not lo <= v <= hi:
             raise FramesError(f"{name} must be a whole number in [{lo}, {hi}], got {v!r}", field=name)
+    start = time.monotonic()  # the whole command's time: reading the frames and the frozen features too
     frames, out = Path(frames), Path(out)
     torch.set_num_threads(threads)
     torch.manual_seed(seed)
@@ -277,6 +278,7 @@ def train_detector(
         "weights_bytes": weights_path.stat().st_size,
         "seconds": round(seconds, 1),
         "cpu_seconds": round(time.process_time() - cpu0, 1),
+        "whole_seconds": round(time.monotonic() - start, 1),
         "history": history,
         "min_score": min_score,
         "operating_points": points,
