@@ -198,3 +198,23 @@ def test_dataset_show_draws_a_busy_episodes_people_and_their_paths(dataset, tmp_
     spec = ds.spec(ep["scene_id"])
     bare = save_map(spec, tmp_path / "bare.png", episode=ep, nav=scene_navigation(spec))  # no people given
     assert person_pixels(shown) > 300 and person_pixels(bare) == 0  # bodies and paths in the people's colour
+
+
+@pytest.mark.render
+def test_record_draws_the_people_and_their_recent_ways_on_the_map(dataset, tmp_path, monkeypatch):
+    from matplotlib.colors import to_rgb
+
+    import biovln_ms.render.video as video
+    from biovln_ms.episode_video import record_episode
+    from biovln_ms.scene.topdown import PERSON_COLOR
+
+    written = []
+    monkeypatch.setattr(video, "write_mp4", lambda frames, out, fps: written.extend(frames))  # uncompressed
+    out = record_episode(
+        tmp_path / "ep.mp4", "busy_val", 0, "oracle", str(dataset), BUSY_ENV, size=(160, 120), gaps=True
+    )
+    want = np.round(np.array(to_rgb(PERSON_COLOR)) * 255)
+    maps = [np.abs(f[:, 160:].astype(int) - want).max(axis=-1) <= 8 for f in written]  # the map's right half
+    assert len(maps) == len(out["gaps"]) > 5
+    assert all(m.sum() > 10 for m in maps)  # every frame shows the people
+    assert any((a != b).any() for a, b in zip(maps, maps[1:]))  # and they move
