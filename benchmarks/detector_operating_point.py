@@ -35,9 +35,8 @@ def main() -> None:
     seg = S.Segmenter(args.weights) if args.weights else S.Segmenter()
     shipped, seg.min_score = seg.min_score, 0.0  # every instance: the grid filters them
     cats = S.goal_categories()
-    found = [(seg.instances(rgb), lab, anns[im["id"]]) for im, (rgb, lab) in zip(val, frames)]
-    points = T.operating_points(found, cats)
-    chosen = max(points, key=lambda p: (p["f1"], -p["min_score"]))["min_score"]
+    points = T.operating_points(T.frame_instances(seg, val, frames, anns), cats)
+    chosen = T.choose_min_score(points)
     rows = [
         [
             p["min_score"],

@@ -176,19 +176,26 @@ def test_a_face_without_a_free_path_is_never_a_persons_walk(room):
         crowd.pos[0] = st.stand[int(crowd.target[0])]
 
 
-def test_dataset_show_draws_a_busy_episodes_people_and_their_paths(dataset, tmp_path):
+def _in_person_colour(rgb: np.ndarray) -> np.ndarray:
+    """Which pixels of an (H, W, 3) picture are the maps' person colour (within 8 levels)."""
     from matplotlib.colors import to_rgb
+
+    from biovln_ms.scene.topdown import PERSON_COLOR
+
+    want = np.round(np.array(to_rgb(PERSON_COLOR)) * 255)
+    return np.abs(rgb.astype(int) - want).max(axis=-1) <= 8
+
+
+def test_dataset_show_draws_a_busy_episodes_people_and_their_paths(dataset, tmp_path):
     from PIL import Image
     from typer.testing import CliRunner
 
     from biovln_ms.cli import app
     from biovln_ms.scene.rules import scene_navigation
-    from biovln_ms.scene.topdown import PERSON_COLOR, save_map
+    from biovln_ms.scene.topdown import save_map
 
     def person_pixels(png) -> int:
-        rgb = np.asarray(Image.open(png).convert("RGB")).astype(int)
-        want = np.round(np.array(to_rgb(PERSON_COLOR)) * 255).astype(int)
-        return int((np.abs(rgb - want).max(axis=-1) <= 8).sum())
+        return int(_in_person_colour(np.asarray(Image.open(png).convert("RGB"))).sum())
 
     shown = tmp_path / "shown.png"
     r = CliRunner().invoke(app, ["dataset", "show", str(dataset), "--split", "busy_val", "-o", str(shown)])
@@ -202,19 +209,15 @@ def test_dataset_show_draws_a_busy_episodes_people_and_their_paths(dataset, tmp_
 
 @pytest.mark.render
 def test_record_draws_the_people_and_their_recent_ways_on_the_map(dataset, tmp_path, monkeypatch):
-    from matplotlib.colors import to_rgb
-
     import biovln_ms.render.video as video
     from biovln_ms.episode_video import record_episode
-    from biovln_ms.scene.topdown import PERSON_COLOR
 
     written = []
     monkeypatch.setattr(video, "write_mp4", lambda frames, out, fps: written.extend(frames))  # uncompressed
     out = record_episode(
         tmp_path / "ep.mp4", "busy_val", 0, "oracle", str(dataset), BUSY_ENV, size=(160, 120), gaps=True
     )
-    want = np.round(np.array(to_rgb(PERSON_COLOR)) * 255)
-    maps = [np.abs(f[:, 160:].astype(int) - want).max(axis=-1) <= 8 for f in written]  # the map's right half
+    maps = [_in_person_colour(f[:, 160:]) for f in written]  # the map: the frame's right half
     assert len(maps) == len(out["gaps"]) > 5
     assert all(m.sum() > 10 for m in maps)  # every frame shows the people
     assert any((a != b).any() for a, b in zip(maps, maps[1:]))  # and they move

@@ -107,8 +107,7 @@ def perception_train(
     typer.echo(
         f"{data['epochs_run']} epochs in {data['seconds'] / 60:.1f} min "
         f"({data['whole_seconds'] / 60:.1f} min with reading the frames), loss {last['loss']:.3f}, "
-        f"validation "
-        f"recall {last.get('mean_recall')}, precision {last.get('mean_precision')}"
+        f"validation recall {last.get('mean_recall')}, precision {last.get('mean_precision')}"
         + (f" ({data['stopped']})" if data["stopped"] else "")
     )
     if install:

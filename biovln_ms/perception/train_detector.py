@@ -244,7 +244,7 @@ def train_detector(
     bar.close()
     seconds = time.monotonic() - t0
     points = operating_points(found, cats) if val else []  # the last epoch's instances: the final net
-    min_score = max(points, key=lambda p: (p["f1"], -p["min_score"]))["min_score"] if points else 0.0
+    min_score = choose_min_score(points) if points else 0.0
     header = S.header_of(
         cats,
         seed,
@@ -293,8 +293,18 @@ def train_detector(
 def validation_instances(net, cats: list[str], val: list[dict], val_frames: list, anns: dict) -> list:
     """(instances, semantic labels, annotations) of each validation frame, every instance kept."""
     net.eval()
-    seg = _InMemorySegmenter(net, cats)
+    return frame_instances(_InMemorySegmenter(net, cats), val, val_frames, anns)
+
+
+def frame_instances(seg, val: list[dict], val_frames: list, anns: dict) -> list:
+    """(instances, semantic labels, annotations) of each frame as segmenter ``seg`` finds them."""
     return [(seg.instances(rgb), lab, anns[im["id"]]) for im, (rgb, lab) in zip(val, val_frames)]
+
+
+def choose_min_score(points: list[dict]) -> float:
+    """The operating point: the score of :func:`operating_points` with the best harmonic mean, the
+    smallest such score on a tie."""
+    return max(points, key=lambda p: (p["f1"], -p["min_score"]))["min_score"]
 
 
 def tally_at(found: list, cats: list[str], min_score: float) -> Tally:
