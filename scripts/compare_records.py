@@ -36,6 +36,9 @@ SINGLE_GOAL = ("random", "oracle", "zone3_oracle", "frontier", "vlfm", "vlfm_gt"
 SINGLE_GOAL_SPLITS = ("ms_val", "ms_test", "two_room", "lsat_target", "hard_val", "molbio_val")
 PROTOCOL = ("protocol_oracle", "protocol_frontier", "protocol_vlfm", "protocol_vlfm_gt", "protocol_language")
 PROTOCOL_SPLITS = ("protocol_val",)
+#: the busy lab's cells: its crowds walk in every step of these methods' episodes
+BUSY = ("random", "oracle", "frontier", "vlfm_gt", "ppo")
+BUSY_SPLITS = ("busy_val",)
 PRESETS = ("ideal", "realistic")
 EPISODES = 2
 CAMERA = (160, 120)
@@ -51,18 +54,30 @@ for cell in json.loads(sys.argv[1]):
 """
 
 
-def _cells(out: Path, episodes: int, checkpoint: Path, methods: set[str] | None = None) -> list[dict]:
-    """The matrix's runs (only ``methods``' when given)."""
+def _cells(
+    out: Path,
+    episodes: int,
+    checkpoint: Path,
+    methods: set[str] | None = None,
+    splits: set[str] | None = None,
+) -> list[dict]:
+    """The matrix's runs (only ``methods``' and ``splits``' when given)."""
     cells = []
     for noise in PRESETS:
-        for method in SINGLE_GOAL:
-            kwargs = {"checkpoint": str(checkpoint)} if method == "ppo" else {}
-            for split in SINGLE_GOAL_SPLITS:
-                cells.append(dict(method=method, split=split, noise=noise, method_kwargs=kwargs))
-        for method in PROTOCOL:
-            for split in PROTOCOL_SPLITS:
-                cells.append(dict(method=method, split=split, noise=noise, method_kwargs={}))
-    cells = [c for c in cells if methods is None or c["method"] in methods]
+        for group, group_splits in (
+            (SINGLE_GOAL, SINGLE_GOAL_SPLITS),
+            (PROTOCOL, PROTOCOL_SPLITS),
+            (BUSY, BUSY_SPLITS),
+        ):
+            for method in group:
+                kwargs = {"checkpoint": str(checkpoint)} if method == "ppo" else {}
+                for split in group_splits:
+                    cells.append(dict(method=method, split=split, noise=noise, method_kwargs=kwargs))
+    cells = [
+        c
+        for c in cells
+        if (methods is None or c["method"] in methods) and (splits is None or c["split"] in splits)
+    ]
     for c in cells:
         c.update(out=str(out / "results"), max_episodes=episodes, camera=list(CAMERA), workers=1)
     return cells
@@ -98,9 +113,11 @@ def _sh(args: list[str], env: dict) -> None:
     subprocess.run(args, env=env, check=True)
 
 
-def run(out: Path, quick: bool, jobs: int, methods: set[str] | None = None) -> Path:
-    """Build the dataset, train the PPO checkpoint, run the matrix (``methods``' cells only when given);
-    write ``out/records.json.gz``."""
+def run(
+    out: Path, quick: bool, jobs: int, methods: set[str] | None = None, splits: set[str] | None = None
+) -> Path:
+    """Build the dataset, train the PPO checkpoint, run the matrix (``methods``' and ``splits``' cells only
+    when given); write ``out/records.json.gz``."""
     out.mkdir(parents=True, exist_ok=True)
     env = {**os.environ, "BIOVLN_DATA_DIR": str(out / "dataset")}
     py = sys.executable
@@ -128,7 +145,7 @@ def run(out: Path, quick: bool, jobs: int, methods: set[str] | None = None) -> P
             ],
             env,
         )
-    cells = _cells(out, 1 if quick else EPISODES, ckpt_dir / "model.zip", methods)
+    cells = _cells(out, 1 if quick else EPISODES, ckpt_dir / "model.zip", methods, splits)
     groups = [cells[i::jobs] for i in range(jobs)]  # one process per job, each running its cells in turn
     procs = [subprocess.Popen([py, "-c", _RUNNER, json.dumps(g)], env=env) for g in groups if g]
     if any(p.wait() for p in procs):
@@ -218,18 +235,34 @@ def main() -> None:
         help="comma-separated: run only these methods' cells (compare: the others "
         "show as 'only in the first')",
     )
+    r.add_argument(
+        "--splits",
+        help="comma-separated: run only these splits' cells (compare: others show as 'only in the first')",
+    )
     c = sub.add_parser("compare", help="compare two records files")
     c.add_argument("a", type=Path)
     c.add_argument("b", type=Path)
     args = p.parse_args()
     if args.cmd == "run":
-        unknown = set(args.methods.split(",")) - {*SINGLE_GOAL, *PROTOCOL} if args.methods else set()
+        unknown = set(args.methods.split(",")) - {*SINGLE_GOAL, *PROTOCOL, *BUSY} if args.methods else set()
         if unknown:
             p.error(
                 f"--methods: unknown {', '.join(sorted(unknown))}; "
                 f"use some of {', '.join(SINGLE_GOAL + PROTOCOL)}"
             )
-        run(args.out, args.quick, args.jobs, set(args.methods.split(",")) if args.methods else None)
+        all_splits = {*SINGLE_GOAL_SPLITS, *PROTOCOL_SPLITS, *BUSY_SPLITS}
+        bad = set(args.splits.split(",")) - all_splits if args.splits else set()
+        if bad:
+            p.error(
+                f"--splits: unknown {', '.join(sorted(bad))}; use some of {', '.join(sorted(all_splits))}"
+            )
+        run(
+            args.out,
+            args.quick,
+            args.jobs,
+            set(args.methods.split(",")) if args.methods else None,
+            set(args.splits.split(",")) if args.splits else None,
+        )
     else:
         sys.exit(1 if compare(args.a, args.b) else 0)
 

@@ -147,3 +147,47 @@ def test_grid_is_derived_from_the_polygons():
         assert nav.grid.free[i, j] == inside
     assert (nav.grid.inner <= nav.grid.free).all()
     assert set(np.unique(nav.grid.island)) == {-1, 0}
+
+
+def _crossings_vectorised(p, q, a, b, eps):
+    """The proper-crossing test as array formulas: the kernel's specification."""
+
+    def cross(ux, uy, wx, wy):
+        return ux * wy - uy * wx
+
+    px, py, qx, qy = p[:, None, 0], p[:, None, 1], q[:, None, 0], q[:, None, 1]
+    ax, ay, bx, by = a[None, :, 0], a[None, :, 1], b[None, :, 0], b[None, :, 1]
+    d1 = cross(qx - px, qy - py, ax - px, ay - py)
+    d2 = cross(qx - px, qy - py, bx - px, by - py)
+    d3 = cross(bx - ax, by - ay, px - ax, py - ay)
+    d4 = cross(bx - ax, by - ay, qx - ax, qy - ay)
+    return ((d1 * d2 < -eps) & (d3 * d4 < -eps)).any(axis=1)
+
+
+def _through_vectorised(p, q, v, tol):
+    d = q - p
+    length2 = np.maximum((d**2).sum(axis=1), 1e-18)
+    t = (
+        (v[None, :, 0] - p[:, None, 0]) * d[:, None, 0] + (v[None, :, 1] - p[:, None, 1]) * d[:, None, 1]
+    ) / (length2[:, None])
+    cx = p[:, None, 0] + t * d[:, None, 0] - v[None, :, 0]
+    cy = p[:, None, 1] + t * d[:, None, 1] - v[None, :, 1]
+    return (((t > 1e-9) & (t < 1 - 1e-9)) & (cx * cx + cy * cy < tol * tol)).any(axis=1)
+
+
+def test_visibility_kernels_equal_the_array_formulas():
+    """The compiled visibility tests answer as the array formulas do, segment for segment: between a
+    scene's vertices, from random points, along edges, through vertices, and for zero-length segments."""
+    from biovln_ms.geometry.navigation import EPS, _crossing_any, _through_any
+
+    nav = scene_navigation(generate_scene("suite", 2))
+    a, b, v = nav._edges_a, nav._edges_b, nav.vertices
+    rng = np.random.default_rng(0)
+    lo, hi = np.asarray(nav.free.bounds[:2]), np.asarray(nav.free.bounds[2:])
+    i, j = rng.integers(0, len(v), 3000), rng.integers(0, len(v), 3000)
+    pts = rng.uniform(lo, hi, (2000, 2))
+    p = np.concatenate([v[i], pts[:1000], a[:200], a[:50], pts[1000:1100]])
+    q = np.concatenate([v[j], pts[1000:], b[:200], 2 * b[:50] - a[:50], pts[1000:1100]])
+    assert np.array_equal(_crossing_any(p, q, a, b, EPS), _crossings_vectorised(p, q, a, b, EPS))
+    assert np.array_equal(_through_any(p, q, a, 1e-7), _through_vectorised(p, q, a, 1e-7))
+    assert _through_any(a[:50], 2 * b[:50] - a[:50], a, 1e-7).all()  # each passes through its edge's end

@@ -6,6 +6,8 @@ free space, so a visibility graph over those vertices (kept only where an edge i
 ends) with all-pairs distances precomputed answers a query by joining the start and goal to the
 vertices they see. Unreachable pairs give ``inf`` (``path`` raises). Paths stay inside the free
 space, so they never come closer than the radius to any obstacle (Habitat's Recast navmesh can).
+A segment's visibility is tested against every boundary edge in a compiled loop (Numba, cached on disk)
+that stops at the first crossing: an episode's measures ask for a geodesic at every move.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import shortest_path
 from shapely.geometry import MultiPolygon, Point, Polygon
 from shapely.geometry.polygon import orient
+from numba import njit
 from shapely.ops import nearest_points
 
 from biovln_ms.errors import BioVLNError
@@ -34,17 +37,48 @@ def _cross(ax, ay, bx, by):
     return ax * by - ay * bx
 
 
-def _segments_cross(p, q, a, b) -> np.ndarray:
-    """Proper crossings between segments p[i]->q[i] (broadcast) and edges a[j]->b[j]: bool (P, E)."""
-    px, py = p[:, None, 0], p[:, None, 1]
-    qx, qy = q[:, None, 0], q[:, None, 1]
-    ax, ay = a[None, :, 0], a[None, :, 1]
-    bx, by = b[None, :, 0], b[None, :, 1]
-    d1 = _cross(qx - px, qy - py, ax - px, ay - py)
-    d2 = _cross(qx - px, qy - py, bx - px, by - py)
-    d3 = _cross(bx - ax, by - ay, px - ax, py - ay)
-    d4 = _cross(bx - ax, by - ay, qx - ax, qy - ay)
-    return (d1 * d2 < -EPS) & (d3 * d4 < -EPS)
+@njit(cache=True)
+def _crossing_any(p, q, a, b, eps):
+    """Whether segment p[i]->q[i] properly crosses some edge a[j]->b[j]: with ``cross(u, w) = u_x w_y -
+    u_y w_x``, ``d1 = cross(q - p, a - p)``, ``d2 = cross(q - p, b - p)``, ``d3 = cross(b - a, p - a)``,
+    ``d4 = cross(b - a, q - a)``, both ``d1 d2`` and ``d3 d4`` below ``-eps``. One pass that stops at a
+    segment's first crossing, in float64 without fused multiply-add."""
+    out = np.zeros(p.shape[0], np.bool_)
+    for i in range(p.shape[0]):
+        px, py, qx, qy = p[i, 0], p[i, 1], q[i, 0], q[i, 1]
+        for j in range(a.shape[0]):
+            ax, ay, bx, by = a[j, 0], a[j, 1], b[j, 0], b[j, 1]
+            d1 = (qx - px) * (ay - py) - (qy - py) * (ax - px)
+            d2 = (qx - px) * (by - py) - (qy - py) * (bx - px)
+            if not d1 * d2 < -eps:
+                continue
+            d3 = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+            d4 = (bx - ax) * (qy - ay) - (by - ay) * (qx - ax)
+            if d3 * d4 < -eps:
+                out[i] = True
+                break
+    return out
+
+
+@njit(cache=True)
+def _through_any(p, q, v, tol):
+    """Whether segment p[i]->q[i] passes within ``tol`` of a point of ``v`` strictly between its ends: some
+    ``t = (v - p)·(q - p) / max(|q - p|², 1e-18)`` in (1e-9, 1 - 1e-9) with ``|p + t (q - p) - v| < tol``."""
+    out = np.zeros(p.shape[0], np.bool_)
+    for i in range(p.shape[0]):
+        px, py = p[i, 0], p[i, 1]
+        dx, dy = q[i, 0] - px, q[i, 1] - py
+        length2 = max(dx * dx + dy * dy, 1e-18)
+        for j in range(v.shape[0]):
+            vx, vy = v[j, 0], v[j, 1]
+            t = ((vx - px) * dx + (vy - py) * dy) / length2
+            if t > 1e-9 and t < 1 - 1e-9:
+                cx = px + t * dx - vx
+                cy = py + t * dy - vy
+                if cx * cx + cy * cy < tol * tol:
+                    out[i] = True
+                    break
+    return out
 
 
 @dataclass(frozen=True)
@@ -119,7 +153,7 @@ class NavGeometry:
         """
         if len(p) == 0:
             return np.zeros(0, bool)
-        ok = ~_segments_cross(p, q, self._edges_a, self._edges_b).any(axis=1)
+        ok = ~_crossing_any(p, q, self._edges_a, self._edges_b, EPS)
         idx = np.flatnonzero(ok)
         if len(idx):
             through = self._through_vertex(p[idx], q[idx])
@@ -137,17 +171,10 @@ class NavGeometry:
         return ok
 
     def _through_vertex(self, p: np.ndarray, q: np.ndarray, tol: float = 1e-7) -> np.ndarray:
-        """Which segments pass within ``tol`` of a boundary vertex strictly between their ends."""
-        v = self._edges_a
-        d = q - p
-        L2 = np.maximum((d**2).sum(axis=1), 1e-18)
-        t = (
-            (v[None, :, 0] - p[:, None, 0]) * d[:, None, 0] + (v[None, :, 1] - p[:, None, 1]) * d[:, None, 1]
-        ) / L2[:, None]
-        inner = (t > 1e-9) & (t < 1 - 1e-9)
-        cx = p[:, None, 0] + t * d[:, None, 0] - v[None, :, 0]
-        cy = p[:, None, 1] + t * d[:, None, 1] - v[None, :, 1]
-        return (inner & (cx * cx + cy * cy < tol * tol)).any(axis=1)
+        """Which segments pass within ``tol`` of a boundary vertex strictly between their ends: the vertex
+        ``v`` whose projection ``t = (v - p)·(q - p) / |q - p|²`` lies in (0, 1) with
+        ``|p + t (q - p) - v| < tol``."""
+        return _through_any(p, q, self._edges_a, tol)
 
     def _tangent(self, v_idx: np.ndarray, other: np.ndarray) -> np.ndarray:
         """Edge from reflex vertex v to ``other`` keeps both ring neighbours of v on one side."""

@@ -263,10 +263,19 @@ class Crowd:
         robot = (float(robot_xy[0]), float(robot_xy[1]))
         ticks = max(1, round(seconds / TICK))
         dt, waited_for_robot = seconds / ticks, 0.0
-        people = np.flatnonzero(self.present).tolist()
         mode, timer = self.mode, self.timer
+        moving = []  # people whose step needs ticks in turn: those standing on throughout depend on no one
+        for p in (p for p, here in enumerate(self.present.tolist()) if here):
+            if mode[p] == STAND:
+                t, k = float(timer[p]), 0
+                while k < ticks and t > dt:
+                    t, k = t - dt, k + 1
+                if k == ticks:
+                    timer[p] = t
+                    continue
+            moving.append(p)
         for _ in range(ticks):
-            for p in people:
+            for p in moving:
                 if mode[p] == STAND and timer[p] > dt:  # standing on: _tick's work, faster
                     timer[p] -= dt
                 else:
@@ -280,11 +289,12 @@ class Crowd:
             if self.timer[p] <= 0.0 and not self._retarget(p):
                 self.timer[p] = DWELL_RANGE[0]  # no free face: stand a while longer
             return 0.0
-        step = self.speed[p] * dt
-        cand, leg = self._along(p, step)
-        blocker = self._blocker(p, cand, robot)
+        step = float(self.speed[p]) * dt
+        at = self.pos.tolist()  # everyone's place before this move
+        cand, leg = self._along(p, step, at[p])
+        blocker = self._blocker(p, cand, robot, at)
         if blocker == 0:
-            self._move(p, cand, leg)
+            self._move(p, cand, leg, at[p])
             return 0.0
         side = self._sidestep(p, cand, step, robot)
         self.waited[p] += dt
@@ -297,11 +307,13 @@ class Crowd:
         return dt if blocker == _ROBOT and side is None else 0.0
 
     # A tick's geometry is on Python floats: a crowd is a few people, and NumPy's per-call cost dominates.
-    def _along(self, p: int, dist: float) -> tuple[tuple[float, float], int]:
-        """Where ``dist`` metres along person ``p``'s route end, and the index of the next waypoint."""
-        (x, y), k, end = self.pos[p].tolist(), int(self.leg[p]), int(self.route_len[p])
+    def _along(self, p: int, dist: float, at: list[float]) -> tuple[tuple[float, float], int]:
+        """Where ``dist`` metres along person ``p``'s route from ``at`` (their place) end, and the index of
+        the next waypoint."""
+        (x, y), k, end = at, int(self.leg[p]), int(self.route_len[p])
+        route = self.route[p]
         while dist > 0.0 and k < end:
-            wx, wy = self.route[p, k].tolist()
+            wx, wy = route[k].tolist()
             d = math.hypot(wx - x, wy - y)
             if d <= dist:
                 x, y, dist, k = wx, wy, dist - d, k + 1
@@ -310,14 +322,16 @@ class Crowd:
                 x, y, dist = x + (wx - x) * f, y + (wy - y) * f, 0.0
         return (x, y), k
 
-    def _blocker(self, p: int, cand: tuple[float, float], robot: tuple[float, float]) -> int:
+    def _blocker(
+        self, p: int, cand: tuple[float, float], robot: tuple[float, float], at: list[list[float]]
+    ) -> int:
         """What a move of person ``p`` to ``cand`` would come too close to (0: nothing): the robot's body or
-        another person's, nearer than GAP and nearer than before."""
-        (cx, cy), (ox, oy), (rx, ry) = cand, self.pos[p].tolist(), robot
+        another person's, nearer than GAP and nearer than before (``at``: everyone's place now)."""
+        (cx, cy), (ox, oy), (rx, ry) = cand, at[p], robot
         r = math.hypot(cx - rx, cy - ry)
         if r < PERSON_RADIUS + self.robot_radius + GAP and r <= math.hypot(ox - rx, oy - ry):
             return _ROBOT
-        for q, (qx, qy) in enumerate(self.pos.tolist()):
+        for q, (qx, qy) in enumerate(at):
             if q != p:  # not themselves
                 near = math.hypot(qx - cx, qy - cy)
                 if near < 2 * PERSON_RADIUS + GAP and near <= math.hypot(qx - ox, qy - oy):
@@ -338,12 +352,12 @@ class Crowd:
             a = heading + math.radians(turn)
             side = (x + step * math.cos(a), y + step * math.sin(a))
             inside = shapely.covers(self.nav.free, LineString([(x, y), side]))
-            if inside and self._blocker(p, side, robot) == 0:
+            if inside and self._blocker(p, side, robot, self.pos.tolist()) == 0:
                 return side
         return None
 
-    def _move(self, p: int, to: tuple[float, float], leg: int) -> None:
-        x, y = self.pos[p].tolist()
+    def _move(self, p: int, to: tuple[float, float], leg: int, at: list[float]) -> None:
+        x, y = at
         if to[0] - x or to[1] - y:
             self.yaw[p] = math.atan2(to[1] - y, to[0] - x)
         self.pos[p], self.leg[p] = to, leg
