@@ -42,3 +42,26 @@ def test_crossings_are_detected_and_contact_is_not(m):
     assert m.crossed(3.75, 1.0, 3.95, 1.0)  # deep inside the wall
     assert m.crossed(2.0, 2.75, 2.0, 3.45)  # through the pillar, out on its far side
     assert m.crossed(3.75, 1.0, 8.5, 1.0)  # out of the building
+
+
+def test_the_kept_clearance_answers_as_the_polygon_tests_do():
+    """Moves answered from a cell's kept distance to B (no polygon test) give what the polygon tests give:
+    random moves of every length in a generated suite, from everywhere on and off its floor."""
+    import numpy as np
+
+    from agents.robots.locomotion import swept_motion
+    from biovln_ms.scene.generator import generate_scene
+
+    spec = generate_scene("suite", 2)
+    fast, exact = swept_motion(spec, 0.3), swept_motion(spec, 0.3)
+    exact.room = lambda x, y: -np.inf  # every move through the polygon tests
+    rng = np.random.default_rng(0)
+    minx, miny, maxx, maxy = exact.core.bounds
+    starts = rng.uniform((minx, miny), (maxx, maxy), (3000, 2))
+    steps = rng.normal(0.0, 1.0, (3000, 2)) * rng.choice([0.05, 0.25, 1.0, 3.0], (3000, 1))
+    answered = 0
+    for (x, y), (dx, dy) in zip(starts.tolist(), steps.tolist()):
+        assert fast.target(x, y, x + dx, y + dy) == exact.target(x, y, x + dx, y + dy)
+        assert fast.crossed(x, y, x + dx, y + dy) == exact.crossed(x, y, x + dx, y + dy)
+        answered += np.hypot(dx, dy) < fast.room(x, y)
+    assert 300 < answered < 2700  # both ways taken
