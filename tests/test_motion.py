@@ -46,17 +46,30 @@ def test_crossings_are_detected_and_contact_is_not(m):
 
 def test_the_kept_clearance_answers_as_the_polygon_tests_do():
     """Moves answered from a cell's kept distance to B (no polygon test) give what the polygon tests give:
-    random moves of every length in a generated suite, from everywhere on and off its floor."""
-    import numpy as np
+    the kept value never exceeds the true distance (cell corners included), and random moves of every length
+    in a generated suite, from everywhere on and off its floor, and moves just longer than it toward a thin
+    wall are answered alike."""
+    import math
 
-    from agents.robots.locomotion import swept_motion
+    import numpy as np
+    import shapely
+    from shapely.geometry import Point
+
+    from biovln_ms.geometry.motion import CLEAR_CELL
     from biovln_ms.scene.generator import generate_scene
+    from biovln_ms.scene.rules import floor_polygon
+    from biovln_ms.sim.footprints import collision_footprints
 
     spec = generate_scene("suite", 2)
-    fast, exact = swept_motion(spec, 0.3), swept_motion(spec, 0.3)
+    fast = SweptMotion(floor_polygon(spec), collision_footprints(spec), 0.3)
+    exact = SweptMotion(floor_polygon(spec), collision_footprints(spec), 0.3)
     exact.room = lambda x, y: -np.inf  # every move through the polygon tests
     rng = np.random.default_rng(0)
     minx, miny, maxx, maxy = exact.core.bounds
+    corners = np.floor(rng.uniform((minx, miny), (maxx, maxy), (500, 2)) / CLEAR_CELL) * CLEAR_CELL
+    probes = np.concatenate([rng.uniform((minx, miny), (maxx, maxy), (2000, 2)), corners, corners + 1e-9])
+    for x, y in probes.tolist():
+        assert fast.room(x, y) <= shapely.distance(fast.blocked, Point(x, y))
     starts = rng.uniform((minx, miny), (maxx, maxy), (3000, 2))
     steps = rng.normal(0.0, 1.0, (3000, 2)) * rng.choice([0.05, 0.25, 1.0, 3.0], (3000, 1))
     answered = 0
@@ -65,3 +78,14 @@ def test_the_kept_clearance_answers_as_the_polygon_tests_do():
         assert fast.crossed(x, y, x + dx, y + dy) == exact.crossed(x, y, x + dx, y + dy)
         answered += np.hypot(dx, dy) < fast.room(x, y)
     assert 300 < answered < 2700  # both ways taken
+    # toward the thin wall of the two rooms, a move just longer than the kept room is tested exactly
+    m, polygons = SweptMotion(FLOOR, [PILLAR], R), SweptMotion(FLOOR, [PILLAR], R)
+    polygons.room = lambda x, y: -np.inf
+    for x in np.linspace(2.0, 3.7, 40).tolist():
+        far = max(m.room(x, 1.0), 0.0) + 0.5
+        assert m.target(x, 1.0, x + far, 1.0) == polygons.target(x, 1.0, x + far, 1.0)
+        assert m.crossed(x, 1.0, x + far, 1.0) == polygons.crossed(x, 1.0, x + far, 1.0)
+    # no shortcut where B does not contain the obstacles, nor from a point that is not finite
+    assert SweptMotion(FLOOR, [PILLAR], 0.05).room(1.0, 1.0) == -math.inf
+    assert m.room(math.nan, 1.0) == -math.inf and m.room(math.inf, 1.0) == -math.inf
+    assert SweptMotion(FLOOR, [PILLAR], 0.02).crossed(3.9, 1.0, 4.1, 1.0)  # through the wall

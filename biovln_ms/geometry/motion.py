@@ -48,12 +48,16 @@ class SweptMotion:
         self.components = [g for g in parts if isinstance(g, Polygon) and not g.is_empty]
         for g in (self.core, self.blocked, *self.components):
             shapely.prepare(g)
-        self._room: dict[tuple[int, int], float] = {}
+        # clear of B is clear of the core only when B contains it (a footprint no smaller than ALLOWANCE)
+        self._room: dict[tuple[int, int], float] | None = {} if radius >= ALLOWANCE else None
 
     def room(self, x: float, y: float) -> float:
         """A lower bound of the distance from (x, y) to ``B`` (negative inside it): the distance of the
         centre of its :data:`CLEAR_CELL` cell less half the cell's diagonal and 1 µm, computed once per cell.
-        No segment from (x, y) shorter than this meets ``B``."""
+        No segment from (x, y) shorter than this meets ``B`` (nor the core, which ``B`` contains); -inf for a
+        footprint smaller than ALLOWANCE (``B`` then does not contain the core) and for a point not finite."""
+        if self._room is None or not (math.isfinite(x) and math.isfinite(y)):
+            return -math.inf
         key = (math.floor(x / CLEAR_CELL), math.floor(y / CLEAR_CELL))
         d = self._room.get(key)
         if d is None:

@@ -16,11 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from numba import njit
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import shortest_path
 from shapely.geometry import MultiPolygon, Point, Polygon
 from shapely.geometry.polygon import orient
-from numba import njit
 from shapely.ops import nearest_points
 
 from biovln_ms.errors import BioVLNError
@@ -42,7 +42,7 @@ def _crossing_any(p, q, a, b, eps):
     """Whether segment p[i]->q[i] properly crosses some edge a[j]->b[j]: with ``cross(u, w) = u_x w_y -
     u_y w_x``, ``d1 = cross(q - p, a - p)``, ``d2 = cross(q - p, b - p)``, ``d3 = cross(b - a, p - a)``,
     ``d4 = cross(b - a, q - a)``, both ``d1 d2`` and ``d3 d4`` below ``-eps``. One pass that stops at a
-    segment's first crossing, in float64 without fused multiply-add."""
+    segment's first crossing, in the inputs' dtype (float64 here) without fused multiply-add."""
     out = np.zeros(p.shape[0], np.bool_)
     for i in range(p.shape[0]):
         px, py, qx, qy = p[i, 0], p[i, 1], q[i, 0], q[i, 1]
@@ -171,9 +171,8 @@ class NavGeometry:
         return ok
 
     def _through_vertex(self, p: np.ndarray, q: np.ndarray, tol: float = 1e-7) -> np.ndarray:
-        """Which segments pass within ``tol`` of a boundary vertex strictly between their ends: the vertex
-        ``v`` whose projection ``t = (v - p)·(q - p) / |q - p|²`` lies in (0, 1) with
-        ``|p + t (q - p) - v| < tol``."""
+        """Which segments pass within ``tol`` of a boundary vertex strictly between their ends
+        (:func:`_through_any`)."""
         return _through_any(p, q, self._edges_a, tol)
 
     def _tangent(self, v_idx: np.ndarray, other: np.ndarray) -> np.ndarray:

@@ -296,7 +296,7 @@ class Crowd:
         if blocker == 0:
             self._move(p, cand, leg, at[p])
             return 0.0
-        side = self._sidestep(p, cand, step, robot)
+        side = self._sidestep(p, cand, step, robot, at)
         self.waited[p] += dt
         if side is not None:  # off the route: a new one from there
             self.yaw[p] = math.atan2(side[1] - self.pos[p, 1], side[0] - self.pos[p, 0])
@@ -339,11 +339,16 @@ class Crowd:
         return 0
 
     def _sidestep(
-        self, p: int, cand: tuple[float, float], step: float, robot: tuple[float, float]
+        self,
+        p: int,
+        cand: tuple[float, float],
+        step: float,
+        robot: tuple[float, float],
+        at: list[list[float]],
     ) -> tuple[float, float] | None:
         """A step of length ``step`` off the way to ``cand`` (right, then left) inside the free space and
-        clear of everyone, or None."""
-        x, y = self.pos[p].tolist()
+        clear of everyone (``at``: everyone's place now), or None."""
+        x, y = at[p]
         dx, dy = cand[0] - x, cand[1] - y
         if not (dx or dy):
             return None
@@ -352,7 +357,7 @@ class Crowd:
             a = heading + math.radians(turn)
             side = (x + step * math.cos(a), y + step * math.sin(a))
             inside = shapely.covers(self.nav.free, LineString([(x, y), side]))
-            if inside and self._blocker(p, side, robot, self.pos.tolist()) == 0:
+            if inside and self._blocker(p, side, robot, at) == 0:
                 return side
         return None
 
