@@ -14,6 +14,12 @@ VLFM's reference records from that run are the GT detector's, under that method'
 (``vlfm_gt``, ``protocol_vlfm_gt``); the learned detector's (``vlfm``, ``protocol_vlfm``) come from a
 ``run --methods vlfm,protocol_vlfm --jobs 1`` of the code that made it VLFM's default.
 
+Records are exact on one machine and install: the same commit can give other image-method paths and PPO
+weights elsewhere (CPU rendering and torch's kernels depend on the CPU and the library builds). Where a
+run differs from the reference, run the code before the change on the same machine (a ``git worktree``)
+and compare the two runs. The ``busy_val`` cells are newer than the reference (``--splits busy_val``
+runs only them).
+
 ``--quick`` runs one episode per cell (a smoke check). The PPO checkpoint is trained here, seeded, so
 training is compared too (its weights' digest is in the file). Images are 160x120 to keep the run short;
 the code paths are those of any resolution. Fetch has its own dataset build (minutes) and is left out.
