@@ -39,7 +39,7 @@ import numpy as np
 import torch
 
 import biovln_ms  # noqa: F401
-from biovln_ms.measured import docs_data_dir, timed, write_table
+from biovln_ms.measured import BUSY_VAL_CROWDED, BUSY_VAL_EMPTY, docs_data_dir, timed, write_table
 from biovln_ms.render.sapien_utils import raw_camera_rate, raw_camera_rate_at, vulkan_device_label
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
@@ -175,11 +175,10 @@ def busy_cost(obs_mode: str, size: tuple[int, int], steps: int, block: int) -> f
     episodes and reset together at the step limit: the ratio is the step's, not that of extra resets."""
     envs = []
     try:
-        for where in ({"people": 0}, {"person_collision_ends": False}):
+        for where in (BUSY_VAL_EMPTY, BUSY_VAL_CROWDED):
             envs.append(
                 gym.make(
                     "BioVLN-OpFace-v0",
-                    split="busy_val",
                     obs_mode=obs_mode,
                     camera_width=size[0],
                     camera_height=size[1],
@@ -202,8 +201,6 @@ def main() -> None:
     args = ap.parse_args()
     torch.set_num_threads(1)
     rows, noise_seconds = [], {}
-    empty = {"split": "busy_val", "people": 0}  # the busy episodes without their crowds
-    busy = {"split": "busy_val", "person_collision_ends": False}  # the same episodes' lengths (busy_cost)
     for label, obs_mode, w, h, noise, robot, where in (
         ("640x480 RGB-D", "rgbd", 640, 480, "ideal", "biovln_base", {}),
         ("640x480 RGB-D, noise=realistic", "rgbd", 640, 480, "realistic", "biovln_base", {}),
@@ -212,10 +209,10 @@ def main() -> None:
         ("state only", "state", 128, 128, "ideal", "biovln_base", {}),
         ("Fetch, 640x480 RGB-D", "rgbd", 640, 480, "ideal", "fetch", {}),
         ("Fetch, state only", "state", 128, 128, "ideal", "fetch", {}),
-        ("busy_val empty, 640x480 RGB-D", "rgbd", 640, 480, "ideal", "biovln_base", empty),
-        ("busy_val, 640x480 RGB-D", "rgbd", 640, 480, "ideal", "biovln_base", busy),
-        ("busy_val empty, state only", "state", 128, 128, "ideal", "biovln_base", empty),
-        ("busy_val, state only", "state", 128, 128, "ideal", "biovln_base", busy),
+        ("busy_val empty, 640x480 RGB-D", "rgbd", 640, 480, "ideal", "biovln_base", BUSY_VAL_EMPTY),
+        ("busy_val, 640x480 RGB-D", "rgbd", 640, 480, "ideal", "biovln_base", BUSY_VAL_CROWDED),
+        ("busy_val empty, state only", "state", 128, 128, "ideal", "biovln_base", BUSY_VAL_EMPTY),
+        ("busy_val, state only", "state", 128, 128, "ideal", "biovln_base", BUSY_VAL_CROWDED),
     ):
         env = gym.make(
             "BioVLN-OpFace-v0",
@@ -231,7 +228,9 @@ def main() -> None:
         start = raw_camera_rate(env, max(20, args.steps // 5)) if obs_mode != "state" else None
         spent = time_noise_work(env) if noise != "ideal" else {"noise": 0.0}
         steps = args.steps if obs_mode != "state" else args.steps * 5
-        views = [] if obs_mode != "state" and where is not busy else None  # the replay places no people
+        views = (
+            [] if obs_mode != "state" and where is not BUSY_VAL_CROWDED else None
+        )  # the replay places no people
         rate = step_rate(env, steps, views)
         raw = raw_camera_rate_at(env, views) if views else None  # the walk's own frames
         rows.append((label, rate, raw, start))

@@ -25,7 +25,7 @@ import numpy as np
 import torch
 
 import biovln_ms  # noqa: F401
-from biovln_ms.measured import docs_data_dir, timed, write_table
+from biovln_ms.measured import BUSY_VAL_CROWDED, BUSY_VAL_EMPTY, docs_data_dir, timed, write_table
 from biovln_ms.sim.maniskill_compat import maniskill_task_id
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
@@ -88,8 +88,8 @@ def people_profile(steps: int, repeats: int, out: Path) -> None:
     """The parts of a state-only step on the ``busy_val`` episodes, empty (``people=0``) and busy (their
     crowds; a person collision does not end the episode, so both run the same episodes' lengths)."""
     envs, spent = {}, {}
-    for name, where in (("empty lab", {"people": 0}), ("busy", {"person_collision_ends": False})):
-        env = gym.make("BioVLN-OpFace-v0", split="busy_val", obs_mode="state", **where, **CPU)
+    for name, where in (("empty lab", BUSY_VAL_EMPTY), ("busy", BUSY_VAL_CROWDED)):
+        env = gym.make("BioVLN-OpFace-v0", obs_mode="state", **where, **CPU)
         env.reset(seed=0, options={"episode_index": 0})
         _run(env, 300)  # warm-up: the scenes' geometry, the people's routes
         spent[name] = _parts(env)

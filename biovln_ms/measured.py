@@ -71,6 +71,11 @@ def vec_step_rate(vec, steps: int, n: int, actions: tuple[int, int] = (1, 4), se
             vec.close()
 
 
+#: the busy step's comparison (``gym.make`` arguments): the ``busy_val`` episodes without their crowds and
+#: with them, where a person collision does not end the episode, so both envs run the same episodes' lengths
+BUSY_VAL_EMPTY = {"split": "busy_val", "people": 0}
+BUSY_VAL_CROWDED = {"split": "busy_val", "person_collision_ends": False}
+
 REQUIRED = ("title", "command", "machine", "columns", "rows")
 
 

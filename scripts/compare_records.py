@@ -45,6 +45,8 @@ PROTOCOL_SPLITS = ("protocol_val",)
 #: the busy lab's cells: its crowds walk in every step of these methods' episodes
 BUSY = ("random", "oracle", "frontier", "vlfm_gt", "ppo")
 BUSY_SPLITS = ("busy_val",)
+#: (methods, splits) groups: every method of a group runs on every split of it, under each preset
+MATRIX = ((SINGLE_GOAL, SINGLE_GOAL_SPLITS), (PROTOCOL, PROTOCOL_SPLITS), (BUSY, BUSY_SPLITS))
 PRESETS = ("ideal", "realistic")
 EPISODES = 2
 CAMERA = (160, 120)
@@ -70,11 +72,7 @@ def _cells(
     """The matrix's runs (only ``methods``' and ``splits``' when given)."""
     cells = []
     for noise in PRESETS:
-        for group, group_splits in (
-            (SINGLE_GOAL, SINGLE_GOAL_SPLITS),
-            (PROTOCOL, PROTOCOL_SPLITS),
-            (BUSY, BUSY_SPLITS),
-        ):
+        for group, group_splits in MATRIX:
             for method in group:
                 kwargs = {"checkpoint": str(checkpoint)} if method == "ppo" else {}
                 for split in group_splits:
@@ -250,25 +248,18 @@ def main() -> None:
     c.add_argument("b", type=Path)
     args = p.parse_args()
     if args.cmd == "run":
-        unknown = set(args.methods.split(",")) - {*SINGLE_GOAL, *PROTOCOL, *BUSY} if args.methods else set()
-        if unknown:
-            p.error(
-                f"--methods: unknown {', '.join(sorted(unknown))}; "
-                f"use some of {', '.join(SINGLE_GOAL + PROTOCOL)}"
-            )
-        all_splits = {*SINGLE_GOAL_SPLITS, *PROTOCOL_SPLITS, *BUSY_SPLITS}
-        bad = set(args.splits.split(",")) - all_splits if args.splits else set()
-        if bad:
-            p.error(
-                f"--splits: unknown {', '.join(sorted(bad))}; use some of {', '.join(sorted(all_splits))}"
-            )
-        run(
-            args.out,
-            args.quick,
-            args.jobs,
-            set(args.methods.split(",")) if args.methods else None,
-            set(args.splits.split(",")) if args.splits else None,
-        )
+
+        def chosen(flag: str, given: str | None, known: list[str]) -> set[str] | None:
+            names = set(given.split(",")) if given else None
+            if names and names - set(known):
+                p.error(
+                    f"{flag}: unknown {', '.join(sorted(names - set(known)))}; use some of {', '.join(known)}"
+                )
+            return names
+
+        methods = chosen("--methods", args.methods, list(dict.fromkeys(m for g, _ in MATRIX for m in g)))
+        splits = chosen("--splits", args.splits, list(dict.fromkeys(x for _, g in MATRIX for x in g)))
+        run(args.out, args.quick, args.jobs, methods, splits)
     else:
         sys.exit(1 if compare(args.a, args.b) else 0)
 
