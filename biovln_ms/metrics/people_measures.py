@@ -157,11 +157,11 @@ class RobotWaitTime(Measure):
         self.last[idx] = s.position[idx]
 
     def update(self, ctx, s, m, idx):
-        d = s.position[idx] - self.last[idx]
-        still = (np.hypot(d[:, 0], d[:, 1]) < STILL) & ~m["stopped"][idx]
-        self.value[idx] += np.where(
-            still & (m["person_distance"][idx] < WAIT_DISTANCE), s.people.seconds, 0.0
-        )
+        near = m["person_distance"][idx] < WAIT_DISTANCE
+        if near.any():  # else nobody waits: the common step skips the rest
+            d = s.position[idx] - self.last[idx]
+            still = (np.hypot(d[:, 0], d[:, 1]) < STILL) & ~m["stopped"][idx]
+            self.value[idx] += np.where(still & near, s.people.seconds, 0.0)
         self.last[idx] = s.position[idx]
 
 

@@ -356,8 +356,10 @@ class Crowd:
         for turn in (-SIDESTEP_DEG, SIDESTEP_DEG):
             a = heading + math.radians(turn)
             side = (x + step * math.cos(a), y + step * math.sin(a))
-            inside = shapely.covers(self.nav.free, LineString([(x, y), side]))
-            if inside and self._blocker(p, side, robot, at) == 0:
+            # the cheap test first: most sidesteps are blocked by the same person or robot
+            if self._blocker(p, side, robot, at) == 0 and shapely.covers(
+                self.nav.free, LineString([(x, y), side])
+            ):
                 return side
         return None
 
@@ -365,7 +367,8 @@ class Crowd:
         x, y = at
         if to[0] - x or to[1] - y:
             self.yaw[p] = math.atan2(to[1] - y, to[0] - x)
-        self.pos[p], self.leg[p] = to, leg
+        pos = self.pos
+        pos[p, 0], pos[p, 1], self.leg[p] = to[0], to[1], leg  # scalars: cheaper than a row from a tuple
         if leg < self.route_len[p]:
             return
         s = int(self.target[p])
