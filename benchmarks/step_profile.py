@@ -1,10 +1,14 @@
 """Where a state-only step of BioVLN-OpFace-v0 spends its time, beside PickCube-v1 in the same run.
 
     python benchmarks/step_profile.py [--steps 3000] [--repeats 3]
-    python benchmarks/step_profile.py --people [--steps 1500] [--repeats 6]
+    python benchmarks/step_profile.py --people [--steps 3000] [--repeats 3]
+    python benchmarks/step_profile.py --crowd [--steps 400] [--repeats 7]
 
 ``--people`` times the same parts on the ``busy_val`` episodes with their crowds and with ``people=0``,
 in interleaved blocks, plus the crowd's own step (``docs/data/benchmarks/busy_step_profile.json``).
+``--crowd`` times the crowd's ``advance`` alone, replayed along the robot poses of 12 recorded ``busy_val``
+walks, and prints a digest of the crowds' final states, so two versions can be compared for time and
+sameness (``docs/data/benchmarks/crowd_step.json``).
 
 Each part of ``env.step`` is timed by a wrapper around the method that does it (no profiler, whose
 overhead would inflate the Python parts): SAPIEN's physics (the control step's substeps), the robot's
@@ -17,6 +21,7 @@ table goes to ``docs/data/benchmarks/step_profile.json``.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import time
 from pathlib import Path
 
@@ -122,15 +127,79 @@ def people_profile(steps: int, repeats: int, out: Path) -> None:
         env.close()
 
 
+def crowd_alone(steps: int, repeats: int, out: Path, episodes: int = 12) -> None:
+    """``Crowd.advance`` alone, replayed along ``episodes`` recorded ``busy_val`` random walks (up to
+    ``steps`` steps each, spread over the split's scenes): the robot's pose after each move, as the env
+    hands it to the crowd. The first pass plans every route afresh (cold), the later ``repeats - 1`` reuse
+    them (warm, the best kept). Every pass must end in the env's own final crowd (else it raises); the
+    digest of the final crowds and waits tells whether two versions move the people alike."""
+    env = gym.make("BioVLN-OpFace-v0", obs_mode="state", **BUSY_VAL_CROWDED, **CPU)
+    total = len(env.unwrapped.source)
+    rng = np.random.default_rng(0)
+    walks = []
+    for ep in np.linspace(0, total - 1, episodes).astype(int).tolist():
+        env.reset(seed=ep, options={"episode_index": ep})
+        u = env.unwrapped
+        start, poses = u._people.crowds[0].state(), []
+        for _ in range(steps):
+            _, _, term, trunc, _ = env.step(int(rng.integers(1, 4)))
+            poses.append(u._measures["agent_pose"][0, :2].copy())
+            if bool(term) or bool(trunc):
+                break
+        walks.append((ep, start, poses, u._people.crowds[0].state()))
+    cold, warm, digest, n = 0.0, 0.0, hashlib.sha256(), 0
+    for ep, start, poses, end in walks:
+        env.reset(seed=ep, options={"episode_index": ep})
+        u = env.unwrapped
+        crowd, seconds = u._people.crowds[0], u._people.seconds
+        crowd._paths.clear()  # the scene's routes, planned while recording: the first pass plans its own
+        times = []
+        for _ in range(repeats):
+            crowd.load(start)
+            t = time.perf_counter()
+            waits = [crowd.advance(seconds, p) for p in poses]
+            times.append(time.perf_counter() - t)
+            final = crowd.state()
+            if not all(np.array_equal(final[k], end[k], equal_nan=True) for k in end):
+                raise RuntimeError(f"episode {ep}: the replayed crowd differs from the env's")
+        cold, warm, n = cold + times[0], warm + min(times[1:]), n + len(poses)
+        for v in final.values():
+            digest.update(np.ascontiguousarray(v).tobytes())
+        digest.update(np.asarray(waits).tobytes())
+    env.close()
+    rows = [
+        ["first pass (every route planned)", f"{1e6 * cold / n:.1f}"],
+        [f"best of {repeats - 1} later passes (routes kept)", f"{1e6 * warm / n:.1f}"],
+    ]
+    notes = [
+        f"{n} steps of {episodes} busy_val random walks over {len({e for e, *_ in walks})} episodes; every "
+        f"pass ends in the env's own final crowds; their digest {digest.hexdigest()[:16]}."
+    ]
+    for r in rows:
+        print(f"{r[0]:<40} {r[1]:>8} µs per step")
+    print(notes[0])
+    write_table(out, "The crowd's step alone (Crowd.advance)", ["pass", "µs per step"], rows, notes)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--steps", type=int, default=3000)
-    ap.add_argument("--repeats", type=int, default=3, help="interleaved blocks per env; the best is kept")
+    ap.add_argument("--steps", type=int, help="per block (default 3000; --crowd: per walk, 400)")
+    ap.add_argument("--repeats", type=int, help="interleaved blocks per env (default 3; --crowd: passes, 7)")
     ap.add_argument("--data-out", type=Path, default=None, help="default: docs/data/benchmarks/<table>.json")
-    ap.add_argument("--people", action="store_true", help="the busy_val episodes with and without people")
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--people", action="store_true", help="the busy_val episodes with and without people")
+    mode.add_argument("--crowd", action="store_true", help="the crowd's advance alone, replayed")
     args = ap.parse_args()
     torch.set_num_threads(1)
     data = docs_data_dir() / "benchmarks"
+    if args.crowd:
+        repeats = 7 if args.repeats is None else args.repeats
+        if repeats < 2:
+            ap.error("--crowd needs --repeats 2 or more (a cold pass and a warm one)")
+        out = args.data_out or data / "crowd_step.json"
+        return crowd_alone(400 if args.steps is None else args.steps, repeats, out)
+    args.steps = 3000 if args.steps is None else args.steps
+    args.repeats = 3 if args.repeats is None else args.repeats
     if args.people:
         return people_profile(args.steps, args.repeats, args.data_out or data / "busy_step_profile.json")
     args.data_out = args.data_out or data / "step_profile.json"

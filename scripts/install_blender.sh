@@ -14,4 +14,4 @@ fi
 .venv-blender/bin/python -m pip install -q bpy gymnasium pydantic rapidfuzz scipy shapely trimesh pyyaml usd-core pillow numba \
   -c scripts/constraints-blender.txt
 .venv-blender/bin/python -m pip install -q --no-deps -e .
-.venv-blender/bin/python -c "import bpy, biovln_ms.lsat.markers; print('[install_blender] Blender', bpy.app.version_string)"
+.venv-blender/bin/python -c "import bpy, biovln_ms.lsat.importer, biovln_ms.lsat.markers; print('[install_blender] Blender', bpy.app.version_string)"
