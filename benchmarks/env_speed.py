@@ -228,9 +228,8 @@ def main() -> None:
         start = raw_camera_rate(env, max(20, args.steps // 5)) if obs_mode != "state" else None
         spent = time_noise_work(env) if noise != "ideal" else {"noise": 0.0}
         steps = args.steps if obs_mode != "state" else args.steps * 5
-        views = (
-            [] if obs_mode != "state" and where is not BUSY_VAL_CROWDED else None
-        )  # the replay places no people
+        # the walk's own frames are replayed for raw SAPIEN, which places no people: not for the busy env
+        views = [] if obs_mode != "state" and where is not BUSY_VAL_CROWDED else None
         rate = step_rate(env, steps, views)
         raw = raw_camera_rate_at(env, views) if views else None  # the walk's own frames
         rows.append((label, rate, raw, start))

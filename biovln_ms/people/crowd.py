@@ -299,8 +299,9 @@ class Crowd:
         side = self._sidestep(p, cand, step, robot, at)
         self.waited[p] += dt
         if side is not None:  # off the route: a new one from there
-            self.yaw[p] = math.atan2(side[1] - self.pos[p, 1], side[0] - self.pos[p, 0])
-            self.pos[p] = side
+            x, y = at[p]
+            self.yaw[p] = math.atan2(side[1] - y, side[0] - x)
+            self.pos[p, 0], self.pos[p, 1] = side
             self._plan(p, int(self.target[p]))
         elif self.waited[p] >= PATIENCE:
             self._retarget(p)
