@@ -1,5 +1,7 @@
 """RL with Stable-Baselines3: the training command's outputs, evaluation through the harness, Ray envs."""
 
+import time
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -187,3 +189,26 @@ def test_steps_in_process_tells_the_trainers_process_from_workers():
     assert steps_in_process(VecMonitor(shell(BatchedVecEnv)))
     for cls in (SubprocVecEnv, GroupedSubprocVecEnv, RayVecEnv):
         assert not steps_in_process(VecMonitor(shell(cls))), cls
+
+
+@pytest.mark.parametrize("grouped", [False, True])
+def test_an_interrupted_step_still_ends_the_env_processes(grouped):
+    """A kill or ^C between two workers' replies (one read, ``waiting`` still set, as inside SB3's
+    ``step_wait``): SB3's ``close`` would wait for the reply already read; ``end_env_processes`` ends
+    the workers at once, and ``close`` afterwards returns."""
+    from stable_baselines3.common.vec_env import SubprocVecEnv, VecMonitor
+
+    from biovln_ms.learning.grouped_vec_env import GroupedSubprocVecEnv
+    from biovln_ms.learning.rl import end_env_processes
+
+    fns = [lambda: gym.make("CartPole-v1")] * 2
+    base = GroupedSubprocVecEnv(fns, processes=2) if grouped else SubprocVecEnv(fns, start_method="spawn")
+    venv = VecMonitor(base)
+    venv.reset()
+    venv.step_async(np.zeros(2, dtype=np.int64))
+    base.remotes[0].recv()  # the first worker's reply read, the second's not: where a signal can land
+    t0 = time.monotonic()
+    end_env_processes(venv)
+    venv.close()
+    assert time.monotonic() - t0 < 30
+    assert base.closed and not any(p.is_alive() for p in base.processes)

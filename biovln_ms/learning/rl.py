@@ -188,6 +188,27 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
     return VecMonitor(venv, info_keywords=("success",))
 
 
+def end_env_processes(venv) -> None:
+    """End a vector env's worker processes without the close handshake, after a SIGTERM or ^C.
+
+    Interrupted inside ``step_wait``, SB3's ``SubprocVecEnv`` may already have read one worker's reply
+    while ``waiting`` is still set, so its ``close`` would wait for that reply again, for ever. In-process
+    and Ray vector envs have no such handshake; ``close`` ends those."""
+    base = venv.unwrapped
+    processes = getattr(base, "processes", None)
+    if processes is None or getattr(base, "closed", False):
+        return
+    for proc in processes:
+        proc.terminate()
+    for proc in processes:
+        proc.join(timeout=30)
+        if proc.is_alive():
+            proc.kill()
+    for remote in getattr(base, "remotes", ()):
+        remote.close()
+    base.closed = True
+
+
 def steps_in_process(venv) -> bool:
     """Whether the envs of :func:`make_vec_env`'s vector env step in this process (one env, or a batched
     env), not in worker processes or Ray actors."""
@@ -237,7 +258,7 @@ def train_rl(
             field="sim_backend",
             fix="drop --ray-address, or --sim-backend",
         )
-    restore = exit_on_sigterm()  # a kill ends the env processes too (venv.close below)
+    restore = exit_on_sigterm()  # a kill ends the env processes too (end_env_processes below)
     threads = torch.get_num_threads()
     if not (cfg.sim_backend and is_gpu_backend(cfg.sim_backend)):  # envs on CPU cores: an MLP needs one
         torch.set_num_threads(1)  # thread, more only contend with the env processes (restored below)
@@ -264,6 +285,9 @@ def train_rl(
                 total_timesteps=cfg.timesteps, callback=callbacks, progress_bar=progress, tb_log_name=cfg.algo
             )
             seconds = time.perf_counter() - t0
+        except BaseException:  # a kill, ^C or an error: no handshake with envs that may be mid-step
+            end_env_processes(venv)
+            raise
         finally:
             try:
                 venv.close()
