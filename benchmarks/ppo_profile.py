@@ -22,6 +22,7 @@ from pathlib import Path
 import torch
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
+from biovln_ms.cluster import end_env_processes
 from biovln_ms.learning.algorithms import algo_class
 from biovln_ms.learning.rl import RLConfig, make_vec_env
 from biovln_ms.measured import docs_data_dir, timed, vec_step_rate, write_table
@@ -60,6 +61,9 @@ def ppo_parts(timesteps: int, n_envs: int) -> tuple[dict[str, float], float, int
         t = time.perf_counter()
         model.learn(total_timesteps=cfg.timesteps)
         return spent, time.perf_counter() - t, int(model.num_timesteps)
+    except BaseException:  # ^C or an error: no close handshake with envs that may be mid-step
+        end_env_processes(venv)
+        raise
     finally:
         venv.close()
 

@@ -90,3 +90,43 @@ def exit_on_sigterm():
     previous = signal.getsignal(signal.SIGTERM)  # None: set outside Python, restored as the default
     signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
     return lambda: signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
+def stop_process_pool(pool) -> None:
+    """Shut a ``ProcessPoolExecutor`` down without waiting for the work still running (after an error, ^C
+    or SIGTERM): its workers are ended, and gone when this returns."""
+    stop = getattr(pool, "terminate_workers", None)  # Python 3.14's public way
+    if stop is not None:
+        stop()
+        return
+    workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown() forgets them
+    pool.shutdown(wait=False, cancel_futures=True)
+    _end(workers)
+
+
+def end_env_processes(venv) -> None:
+    """End a vector env's worker processes without the close handshake, after a SIGTERM, ^C or error.
+
+    Interrupted inside ``step_wait``, Stable-Baselines3's ``SubprocVecEnv`` may already have read one
+    worker's reply while ``waiting`` is still set, so its ``close`` would wait for that reply again, for ever.
+    In-process and Ray vector envs have no such handshake; ``close`` ends those."""
+    base = venv.unwrapped
+    processes = getattr(base, "processes", None)
+    if processes is None or getattr(base, "closed", False):
+        return
+    _end(processes)
+    for remote in getattr(base, "remotes", ()):
+        remote.close()
+    base.closed = True
+
+
+def _end(processes) -> None:
+    """Terminate ``processes``, then kill any still alive after 10 s; all are gone when this returns."""
+    for proc in processes:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in processes:
+        proc.join(timeout=10)
+        if proc.is_alive():
+            proc.kill()
+            proc.join()

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from biovln_ms.cluster import end_env_processes
 from biovln_ms.io_utils import atomic_write_text
 
 
@@ -66,6 +67,10 @@ def vec_step_rate(vec, steps: int, n: int, actions: tuple[int, int] = (1, 4), se
         for _ in range(steps):
             vec.step(rng.integers(*actions, n))
         return steps * n / (time.perf_counter() - t)
+    except BaseException:  # ^C or an error: no close handshake with envs that may be mid-step
+        if seed:
+            end_env_processes(vec)
+        raise
     finally:
         if seed:
             vec.close()

@@ -326,6 +326,14 @@ def test_a_terminated_training_stops_its_env_processes(held_out_dataset, tmp_pat
     _terminated_leaves_no_workers([*argv, "-o", str(tmp_path / "run")], ready)
 
 
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the process table from /proc")
+def test_a_terminated_dataset_build_stops_its_workers(tmp_path):
+    """``kill`` of ``dataset build --workers 2`` (a process pool) ends its workers too."""
+    argv = ["dataset", "build", "--template", "single_room", "--scenes", "400", "--episodes-per-scene", "2"]
+    argv += ["--workers", "2", "-o", str(tmp_path / "ds")]
+    _terminated_leaves_no_workers(argv, lambda proc: len(_workers_of_group(proc.pid)) == 2)
+
+
 def test_duplicate_records_of_an_older_version_are_repaired_and_named(ds, tmp_path):
     from biovln_ms.eval.report import load_runs
 

@@ -199,7 +199,7 @@ def test_an_interrupted_step_still_ends_the_env_processes(grouped):
     from stable_baselines3.common.vec_env import SubprocVecEnv, VecMonitor
 
     from biovln_ms.learning.grouped_vec_env import GroupedSubprocVecEnv
-    from biovln_ms.learning.rl import end_env_processes
+    from biovln_ms.cluster import end_env_processes
 
     fns = [lambda: gym.make("CartPole-v1")] * 2
     base = GroupedSubprocVecEnv(fns, processes=2) if grouped else SubprocVecEnv(fns, start_method="spawn")

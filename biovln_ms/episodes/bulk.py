@@ -39,7 +39,7 @@ from biovln_ms.episodes.dataset import (
 from biovln_ms.episodes.generator import EpisodeError
 from biovln_ms.episodes.samplers import SceneSamplers, SingleGoalEpisodes
 from biovln_ms.episodes.writer import gz_json, new_manifest, partial_folder, put_in_place, stable_split_seed
-from biovln_ms.cluster import check_address, start_ray
+from biovln_ms.cluster import check_address, exit_on_sigterm, start_ray, stop_process_pool
 from biovln_ms.errors import BioVLNError
 from biovln_ms.io_utils import atomic_write_bytes, exclusive_lock
 from biovln_ms.limits import ID_CHARS, ID_RULE, MAX_ID_LENGTH, MAX_WORKERS
@@ -206,10 +206,7 @@ class _Pool:
             ) from None
 
     def close(self) -> None:
-        self._pool.shutdown(wait=False, cancel_futures=True)
-        for proc in list((getattr(self._pool, "_processes", None) or {}).values()):
-            if proc.is_alive():
-                proc.terminate()
+        stop_process_pool(self._pool)
 
 
 class _Ray:
@@ -415,6 +412,7 @@ def _run(
                 fix="check the template's slots and rules (biovln-ms scene generate), or use another",
             )
 
+    restore = exit_on_sigterm()  # a kill ends the worker processes too (backend.close below)
     try:
         while True:
             while ok + len(running) < n and len(running) < capacity:
@@ -440,9 +438,12 @@ def _run(
             running.discard(result["seed"])
             count(result["seed"])
     finally:
-        if backend is not None:
-            backend.close()
-        bar.close()
+        try:
+            if backend is not None:
+                backend.close()
+            bar.close()
+        finally:
+            restore()
     chosen = [s for s in order if found[s]["ok"]][:n]
     return chosen, sum(1 for s in order if not found[s]["ok"] and s < chosen[-1])
 

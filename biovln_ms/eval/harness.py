@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.variants import BENCHMARK_ENV
-from biovln_ms.cluster import check_address, exit_on_sigterm, start_ray
+from biovln_ms.cluster import check_address, exit_on_sigterm, start_ray, stop_process_pool
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import method_spec
 from biovln_ms.eval.aggregate import aggregate_all, record_error
@@ -578,24 +578,8 @@ def _run_on_pool(wcfg: dict, todo: list[int], workers: int, write) -> None:
         if finished:  # every episode ran: the workers end on their own
             pool.shutdown(wait=True)
         else:
-            _stop_pool(pool)
+            stop_process_pool(pool)
         restore()
-
-
-def _stop_pool(pool) -> None:
-    """Shut ``pool`` down without waiting for the episodes still running (after an error, ^C or SIGTERM):
-    its workers are ended, and gone when this returns."""
-    stop = getattr(pool, "terminate_workers", None)  # Python 3.14's public way
-    if stop is not None:
-        stop()
-        return
-    workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown() forgets them
-    pool.shutdown(wait=False, cancel_futures=True)
-    for proc in workers:
-        if proc.is_alive():
-            proc.terminate()
-    for proc in workers:
-        proc.join(timeout=10)
 
 
 class EpisodeRunner:

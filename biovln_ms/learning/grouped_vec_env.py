@@ -136,7 +136,7 @@ class GroupedSubprocVecEnv(VecEnv):
         self.pending.discard(g)
         try:
             answer = self.remotes[g].recv()
-        except (EOFError, ConnectionResetError):
+        except (EOFError, OSError):  # OSError: a message cut off, the pipe reset
             answer = _Failed("the process ended")
         if isinstance(answer, _Raised):
             raise answer.error
@@ -199,7 +199,7 @@ class GroupedSubprocVecEnv(VecEnv):
                     if g in self.pending:  # an answer left unread (another worker failed first)
                         remote.recv()
                     remote.send(("close", None))
-                except (BrokenPipeError, EOFError, ConnectionResetError):
+                except (EOFError, OSError):
                     pass  # that worker has already ended
         for proc in self.processes:
             proc.join(timeout=30)

@@ -24,7 +24,7 @@ import numpy as np
 import torch
 from stable_baselines3.common.callbacks import BaseCallback
 
-from biovln_ms.cluster import check_address, exit_on_sigterm
+from biovln_ms.cluster import check_address, end_env_processes, exit_on_sigterm
 from biovln_ms.episodes.source import SEED_RULE
 from biovln_ms.tasks.config_checks import is_gpu_backend
 from biovln_ms.errors import BioVLNError
@@ -186,27 +186,6 @@ def make_vec_env(cfg: RLConfig, n_envs: int | None = None):
         venv = SubprocVecEnv([factory] * n, start_method="spawn")
     venv.seed(cfg.seed)
     return VecMonitor(venv, info_keywords=("success",))
-
-
-def end_env_processes(venv) -> None:
-    """End a vector env's worker processes without the close handshake, after a SIGTERM or ^C.
-
-    Interrupted inside ``step_wait``, SB3's ``SubprocVecEnv`` may already have read one worker's reply
-    while ``waiting`` is still set, so its ``close`` would wait for that reply again, for ever. In-process
-    and Ray vector envs have no such handshake; ``close`` ends those."""
-    base = venv.unwrapped
-    processes = getattr(base, "processes", None)
-    if processes is None or getattr(base, "closed", False):
-        return
-    for proc in processes:
-        proc.terminate()
-    for proc in processes:
-        proc.join(timeout=30)
-        if proc.is_alive():
-            proc.kill()
-    for remote in getattr(base, "remotes", ()):
-        remote.close()
-    base.closed = True
 
 
 def steps_in_process(venv) -> bool:

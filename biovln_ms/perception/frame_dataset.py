@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.catalog import load_catalog
+from biovln_ms.cluster import exit_on_sigterm
 from biovln_ms.episodes.writer import partial_folder, put_in_place
 from biovln_ms.perception import frames as F
 from biovln_ms.perception.frames import FramesError, SceneSource
@@ -187,12 +188,14 @@ def build_frames_dataset(
             env = {"LP_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
             saved = {k: os.environ.get(k) for k in env}
             os.environ.update(env)  # the spawned workers inherit them: one core each
+            restore = exit_on_sigterm()  # a kill ends the workers too (the pool's exit terminates them)
             try:
                 with ctx.Pool(workers) as pool:
                     for part in pool.imap(_render_group, jobs):
                         results += part
                         bar.update(len(part))
             finally:
+                restore()
                 for k, v in saved.items():
                     os.environ.pop(k) if v is None else os.environ.__setitem__(k, v)
         bar.close()
