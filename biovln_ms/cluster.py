@@ -109,8 +109,13 @@ def end_env_processes(venv) -> None:
 
     Interrupted inside ``step_wait``, Stable-Baselines3's ``SubprocVecEnv`` may already have read one
     worker's reply while ``waiting`` is still set, so its ``close`` would wait for that reply again, for ever.
-    In-process and Ray vector envs have no such handshake; ``close`` ends those."""
+    A vector env with a ``terminate()`` of its own (``RayVecEnv``: its actors) is ended by it; in-process
+    vector envs have no workers (``close`` ends those)."""
     base = venv.unwrapped
+    terminate = getattr(base, "terminate", None)
+    if callable(terminate):
+        terminate()
+        return
     processes = getattr(base, "processes", None)
     if processes is None or getattr(base, "closed", False):
         return

@@ -38,6 +38,8 @@ import time
 import zipfile
 from pathlib import Path
 
+from biovln_ms.io_utils import atomic_write_bytes
+
 SINGLE_GOAL = ("random", "oracle", "zone3_oracle", "frontier", "vlfm", "vlfm_gt", "ppo")
 SINGLE_GOAL_SPLITS = ("ms_val", "ms_test", "two_room", "lsat_target", "hard_val", "molbio_val")
 PROTOCOL = ("protocol_oracle", "protocol_frontier", "protocol_vlfm", "protocol_vlfm_gt", "protocol_language")
@@ -152,12 +154,19 @@ def run(
     cells = _cells(out, 1 if quick else EPISODES, ckpt_dir / "model.zip", methods, splits)
     groups = [cells[i::jobs] for i in range(jobs)]  # one process per job, each running its cells in turn
     procs = [subprocess.Popen([py, "-c", _RUNNER, json.dumps(g)], env=env) for g in groups if g]
-    if any(p.wait() for p in procs):
+    try:
+        codes = [p.wait() for p in procs]  # every runner to its end, also after one failed
+    finally:
+        for p in procs:  # ^C or an error here: no runner left running on its own
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+    if any(codes):
         raise SystemExit("a runner failed (its traceback is above)")
     result = collect(out, ckpt_dir / "model.zip")
     path = out / "records.json.gz"
-    with gzip.open(path, "wt") as f:
-        json.dump(result, f, sort_keys=True, separators=(",", ":"))
+    text = json.dumps(result, sort_keys=True, separators=(",", ":"))
+    atomic_write_bytes(path, gzip.compress(text.encode(), mtime=0))  # the same records, the same bytes
     n = sum(len(v) for v in result["records"].values())
     print(f"{n} records in {len(result['records'])} runs, {time.time() - t0:.0f} s -> {path}")
     return path

@@ -212,3 +212,22 @@ def test_an_interrupted_step_still_ends_the_env_processes(grouped):
     venv.close()
     assert time.monotonic() - t0 < 30
     assert base.closed and not any(p.is_alive() for p in base.processes)
+
+
+def test_an_interrupted_ray_step_ends_the_actors():
+    """The same on Ray: a step in flight, ``end_env_processes`` kills the actors without their ``close``
+    and shuts down the local Ray instance it started."""
+    ray = pytest.importorskip("ray")
+    from biovln_ms.cluster import end_env_processes
+    from biovln_ms.learning.ray_vec_env import RayVecEnv
+
+    venv = RayVecEnv([lambda: gym.make("CartPole-v1")] * 2, address="local")
+    try:
+        venv.reset()
+        venv.step_async(np.zeros(2, dtype=np.int64))
+        end_env_processes(venv)
+        assert venv.closed and not ray.is_initialized()
+        venv.close()  # nothing left to close
+    finally:
+        if ray.is_initialized():
+            ray.shutdown()
