@@ -334,6 +334,14 @@ def test_a_terminated_dataset_build_stops_its_workers(tmp_path):
     _terminated_leaves_no_workers(argv, lambda proc: len(_workers_of_group(proc.pid)) == 2)
 
 
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the process table from /proc")
+def test_a_terminated_perception_dataset_stops_its_workers(tmp_path):
+    """``kill`` of ``perception dataset --workers 2`` (a multiprocessing pool, rendering) ends its workers."""
+    argv = ["perception", "dataset", "-o", str(tmp_path / "frames"), "--frames", "400", "--workers", "2"]
+    _terminated_leaves_no_workers(argv, lambda proc: len(_workers_of_group(proc.pid)) == 2)
+
+
 def test_duplicate_records_of_an_older_version_are_repaired_and_named(ds, tmp_path):
     from biovln_ms.eval.report import load_runs
 
