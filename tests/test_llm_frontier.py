@@ -169,3 +169,32 @@ def test_llm_frontier_runs_an_episode_against_the_local_server(server):
     env.close()
     assert bool(term) or bool(trunc)
     assert pol.episode_stats()["llm_consulted"] == len(server.requests) + pol.client.stats.cache_hits
+
+
+@pytest.mark.slow
+def test_llm_frontier_runs_with_people_through_the_harness(server, monkeypatch, held_out_dataset, tmp_path):
+    """LLM-Frontier on the busy variant, configured from the environment as ``biovln-ms eval`` is, against
+    the loopback endpoint: it finishes the episodes, and its records carry the people's measures."""
+    from biovln_ms.eval.harness import EvalConfig, evaluate, load_records
+
+    monkeypatch.setenv("BIOVLN_LLM_API_KEY", SECRET)
+    monkeypatch.setenv("BIOVLN_LLM_BASE_URL", f"http://127.0.0.1:{server.server_address[1]}/v1")
+    server.mode = "zero"
+    ds = held_out_dataset(ms_val=2)
+    cfg = EvalConfig(
+        "llm_frontier",
+        "ms_val",
+        str(tmp_path),
+        ds,
+        env_id="BioVLN-OpFace-Busy-v0",
+        workers=1,
+        camera=(320, 240),
+        max_episodes=2,
+    )
+    summary = evaluate(cfg, progress=False)
+    assert summary["overall"]["episodes"] == 2 and summary["overall"]["errors"] == 0
+    recs = load_records(cfg.run_dir / "episodes.jsonl")
+    assert len(recs) == 2
+    assert all(r["env_id"] == "BioVLN-OpFace-Busy-v0" and r["min_person_distance"] > 0 for r in recs)
+    assert all("person_collisions" in r and r["policy_stats"]["llm_fallbacks"] == 0 for r in recs)
+    assert len(server.requests) <= sum(r["policy_stats"]["llm_consulted"] for r in recs)  # the rest: cached
