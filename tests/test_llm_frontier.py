@@ -179,6 +179,7 @@ def test_llm_frontier_runs_with_people_through_the_harness(server, monkeypatch, 
 
     monkeypatch.setenv("BIOVLN_LLM_API_KEY", SECRET)
     monkeypatch.setenv("BIOVLN_LLM_BASE_URL", f"http://127.0.0.1:{server.server_address[1]}/v1")
+    monkeypatch.setenv("BIOVLN_LLM_CACHE", str(tmp_path / "llm.jsonl"))  # no answer cached before
     server.mode = "zero"
     ds = held_out_dataset(ms_val=2)
     cfg = EvalConfig(
