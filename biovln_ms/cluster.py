@@ -1,5 +1,6 @@
 """Ray, the way this package's work leaves one machine: the address rule and starting or joining a cluster;
-and how a process with workers of its own ends on SIGTERM.
+and how a process with workers of its own (a process pool, a vector env's processes or Ray actors) ends
+them on SIGTERM, ^C or an error, without waiting for work in flight.
 
 Evaluation actors, training env actors and training-split builds all start Ray here, so an address is
 checked, a silent head node refused and Ray's own errors turned into one line in one place. Ray is an
@@ -13,6 +14,7 @@ import signal
 import socket
 import sys
 import threading
+import time
 from types import ModuleType
 
 from biovln_ms.errors import BioVLNError
@@ -95,10 +97,6 @@ def exit_on_sigterm():
 def stop_process_pool(pool) -> None:
     """Shut a ``ProcessPoolExecutor`` down without waiting for the work still running (after an error, ^C
     or SIGTERM): its workers are ended, and gone when this returns."""
-    stop = getattr(pool, "terminate_workers", None)  # Python 3.14's public way
-    if stop is not None:
-        stop()
-        return
     workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown() forgets them
     pool.shutdown(wait=False, cancel_futures=True)
     _end(workers)
@@ -126,12 +124,14 @@ def end_env_processes(venv) -> None:
 
 
 def _end(processes) -> None:
-    """Terminate ``processes``, then kill any still alive after 10 s; all are gone when this returns."""
+    """Terminate ``processes``, then kill any still alive 10 s later; all are gone when this returns."""
     for proc in processes:
         if proc.is_alive():
             proc.terminate()
+    deadline = time.monotonic() + 10
     for proc in processes:
-        proc.join(timeout=10)
+        proc.join(timeout=max(0.0, deadline - time.monotonic()))
+    for proc in processes:
         if proc.is_alive():
             proc.kill()
             proc.join()

@@ -159,6 +159,11 @@ def run(
     finally:
         for p in procs:  # ^C or an error here: no runner left running on its own
             if p.poll() is None:
+                p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait()
     if any(codes):

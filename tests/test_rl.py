@@ -231,3 +231,30 @@ def test_an_interrupted_ray_step_ends_the_actors():
     finally:
         if ray.is_initialized():
             ray.shutdown()
+
+
+def test_train_rl_interrupted_mid_step_ends_its_env_processes(monkeypatch, tmp_path):
+    """``train_rl`` itself: a ^C that lands between two workers' replies propagates at once, and no env
+    process is left (SB3's own close would wait for ever)."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import SubprocVecEnv, VecMonitor
+
+    import biovln_ms.learning.rl as rl
+
+    made = []
+
+    def two_cartpoles(cfg, n_envs=None):
+        made.append(SubprocVecEnv([lambda: gym.make("CartPole-v1")] * 2, start_method="spawn"))
+        return VecMonitor(made[-1])
+
+    def interrupted_learn(self, *args, **kwargs):
+        self.env.reset()
+        self.env.step_async(np.zeros(2, dtype=np.int64))
+        made[-1].remotes[0].recv()  # one reply read, the other not
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(rl, "make_vec_env", two_cartpoles)
+    monkeypatch.setattr(PPO, "learn", interrupted_learn)
+    with pytest.raises(KeyboardInterrupt):
+        train_rl(RLConfig(timesteps=64, n_envs=2, eval_split=None), tmp_path / "run", progress=False)
+    assert made[-1].closed and not any(p.is_alive() for p in made[-1].processes)

@@ -228,6 +228,12 @@ class _Ray:
         return self._ray.get(ref)
 
     def close(self) -> None:
+        for ref in self._pending:  # after an error, ^C or SIGTERM: no task left running on the cluster
+            try:
+                self._ray.cancel(ref, force=True)
+            except Exception:  # finished meanwhile, or Ray failed: the error in flight is the one to see
+                pass
+        self._pending.clear()
         if self._started:
             self._ray.shutdown()
 

@@ -575,11 +575,13 @@ def _run_on_pool(wcfg: dict, todo: list[int], workers: int, write) -> None:
             fix="run again to resume; with --workers 1 its error shows, fewer workers need less memory",
         ) from None
     finally:
-        if finished:  # every episode ran: the workers end on their own
-            pool.shutdown(wait=True)
-        else:
-            stop_process_pool(pool)
-        restore()
+        try:
+            if finished:  # every episode ran: the workers end on their own
+                pool.shutdown(wait=True)
+            else:
+                stop_process_pool(pool)
+        finally:
+            restore()
 
 
 class EpisodeRunner:

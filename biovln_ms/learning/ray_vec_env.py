@@ -107,11 +107,16 @@ class RayVecEnv(VecEnv):
         mid-step or never placed on a node, and ``close`` would wait for it)."""
         if self.closed:
             return
-        for a in self.actors:
-            self._ray.kill(a)
-        if self._started:
-            self._ray.shutdown()
-        self.closed = True
+        try:
+            for a in self.actors:
+                try:
+                    self._ray.kill(a)
+                except Exception:  # already gone, or Ray itself failed: the error in flight is the one to see
+                    pass
+            if self._started:
+                self._ray.shutdown()
+        finally:
+            self.closed = True
 
     def close(self) -> None:
         if self.closed:
