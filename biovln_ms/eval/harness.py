@@ -597,9 +597,10 @@ class EpisodeRunner:
 def _run_on_ray(address: str, wcfg: dict, todo: list[int], workers: int, write) -> None:
     """Run episodes on Ray actors; results are written as they arrive, so resume works as with a pool."""
     ray, started = start_ray(address, workers)
+    actors = []
     try:
         runner = ray.remote(num_cpus=1)(EpisodeRunner)
-        actors = [runner.remote(wcfg) for _ in range(workers)]
+        actors += [runner.remote(wcfg) for _ in range(workers)]
         queue = list(todo)
         pending = {}
         for actor in actors:
@@ -612,6 +613,11 @@ def _run_on_ray(address: str, wcfg: dict, todo: list[int], workers: int, write) 
             if queue:
                 pending[actor.run.remote(queue.pop(0))] = actor
     finally:
+        for actor in actors:  # done, or an error, ^C or SIGTERM: none left running on a joined cluster
+            try:
+                ray.kill(actor)
+            except Exception:  # already gone, or Ray failed: the error in flight is the one to see
+                pass
         if started:
             ray.shutdown()
 
