@@ -123,6 +123,21 @@ def end_env_processes(venv) -> None:
     base.closed = True
 
 
+def stop_ray_work(ray: ModuleType, actors=(), tasks=()) -> None:
+    """Kill Ray ``actors`` and cancel ``tasks`` (object refs) without waiting for them; one already gone, or
+    a failing Ray, is passed over, so that the error in flight stays the one the user sees."""
+    for actor in actors:
+        try:
+            ray.kill(actor)
+        except Exception:
+            pass
+    for ref in tasks:
+        try:
+            ray.cancel(ref, force=True)
+        except Exception:
+            pass
+
+
 def _end(processes) -> None:
     """Terminate ``processes``, then kill any still alive 10 s later; all are gone when this returns."""
     for proc in processes:

@@ -39,7 +39,7 @@ from biovln_ms.episodes.dataset import (
 from biovln_ms.episodes.generator import EpisodeError
 from biovln_ms.episodes.samplers import SceneSamplers, SingleGoalEpisodes
 from biovln_ms.episodes.writer import gz_json, new_manifest, partial_folder, put_in_place, stable_split_seed
-from biovln_ms.cluster import check_address, exit_on_sigterm, start_ray, stop_process_pool
+from biovln_ms.cluster import check_address, exit_on_sigterm, start_ray, stop_process_pool, stop_ray_work
 from biovln_ms.errors import BioVLNError
 from biovln_ms.io_utils import atomic_write_bytes, exclusive_lock
 from biovln_ms.limits import ID_CHARS, ID_RULE, MAX_ID_LENGTH, MAX_WORKERS
@@ -228,11 +228,7 @@ class _Ray:
         return self._ray.get(ref)
 
     def close(self) -> None:
-        for ref in self._pending:  # after an error, ^C or SIGTERM: no task left running on the cluster
-            try:
-                self._ray.cancel(ref, force=True)
-            except Exception:  # finished meanwhile, or Ray failed: the error in flight is the one to see
-                pass
+        stop_ray_work(self._ray, tasks=self._pending)  # after an error, ^C or SIGTERM: none left running
         self._pending.clear()
         if self._started:
             self._ray.shutdown()

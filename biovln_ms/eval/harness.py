@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from biovln_ms.variants import BENCHMARK_ENV
-from biovln_ms.cluster import check_address, exit_on_sigterm, start_ray, stop_process_pool
+from biovln_ms.cluster import check_address, exit_on_sigterm, start_ray, stop_process_pool, stop_ray_work
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval.methods import method_spec
 from biovln_ms.eval.aggregate import aggregate_all, record_error
@@ -613,11 +613,7 @@ def _run_on_ray(address: str, wcfg: dict, todo: list[int], workers: int, write) 
             if queue:
                 pending[actor.run.remote(queue.pop(0))] = actor
     finally:
-        for actor in actors:  # done, or an error, ^C or SIGTERM: none left running on a joined cluster
-            try:
-                ray.kill(actor)
-            except Exception:  # already gone, or Ray failed: the error in flight is the one to see
-                pass
+        stop_ray_work(ray, actors=actors)  # done, an error, ^C or SIGTERM: none left on a joined cluster
         if started:
             ray.shutdown()
 

@@ -15,7 +15,7 @@ import gymnasium as gym
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices
 
-from biovln_ms.cluster import start_ray
+from biovln_ms.cluster import start_ray, stop_ray_work
 
 
 class EnvActor:
@@ -108,11 +108,7 @@ class RayVecEnv(VecEnv):
         if self.closed:
             return
         try:
-            for a in self.actors:
-                try:
-                    self._ray.kill(a)
-                except Exception:  # already gone, or Ray itself failed: the error in flight is the one to see
-                    pass
+            stop_ray_work(self._ray, actors=self.actors)
             if self._started:
                 self._ray.shutdown()
         finally:
