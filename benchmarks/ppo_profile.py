@@ -22,7 +22,7 @@ from pathlib import Path
 import torch
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-from biovln_ms.cluster import end_env_processes
+from biovln_ms.cluster import closing_vec_env
 from biovln_ms.learning.algorithms import algo_class
 from biovln_ms.learning.rl import RLConfig, make_vec_env
 from biovln_ms.measured import docs_data_dir, timed, vec_step_rate, write_table
@@ -52,7 +52,7 @@ def ppo_parts(timesteps: int, n_envs: int) -> tuple[dict[str, float], float, int
     torch.set_num_threads(1)  # as train_rl on CPU envs
     venv = make_vec_env(cfg)
     spent = dict.fromkeys((k for k, _ in PARTS), 0.0)
-    try:
+    with closing_vec_env(venv):  # ^C or an error: no close handshake with envs that may be mid-step
         model = algo_class("ppo")("MlpPolicy", venv, seed=cfg.seed, device="cpu", verbose=0, **cfg.defaults())
         venv.step_wait = timed(venv.step_wait, spent, "wait")
         venv.step_async = timed(venv.step_async, spent, "async")
@@ -61,11 +61,6 @@ def ppo_parts(timesteps: int, n_envs: int) -> tuple[dict[str, float], float, int
         t = time.perf_counter()
         model.learn(total_timesteps=cfg.timesteps)
         return spent, time.perf_counter() - t, int(model.num_timesteps)
-    except BaseException:  # ^C or an error: no close handshake with envs that may be mid-step
-        end_env_processes(venv)
-        raise
-    finally:
-        venv.close()
 
 
 def main() -> None:

@@ -9,6 +9,7 @@ optional dependency (``pip install 'biovln-ms[cluster]'``) and is imported only 
 
 from __future__ import annotations
 
+import contextlib
 import re
 import signal
 import socket
@@ -121,6 +122,19 @@ def end_env_processes(venv) -> None:
     for remote in getattr(base, "remotes", ()):
         remote.close()
     base.closed = True
+
+
+@contextlib.contextmanager
+def closing_vec_env(venv):
+    """Yield ``venv`` and close it when the block ends; if the block raised (a kill, ^C or an error), end
+    its worker processes first (:func:`end_env_processes`), as a close handshake may wait for ever."""
+    try:
+        yield venv
+    except BaseException:
+        end_env_processes(venv)
+        raise
+    finally:
+        venv.close()
 
 
 def stop_ray_work(ray: ModuleType, actors=(), tasks=()) -> None:

@@ -21,6 +21,7 @@ Cells are strings or numbers, as the script formatted them; ``null`` is shown as
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import json
 import os
@@ -33,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from biovln_ms.cluster import end_env_processes
+from biovln_ms.cluster import closing_vec_env
 from biovln_ms.io_utils import atomic_write_text
 
 
@@ -56,7 +57,7 @@ def vec_step_rate(vec, steps: int, n: int, actions: tuple[int, int] = (1, 4), se
     random discrete actions in ``[actions[0], actions[1])`` (from 1: never STOP), after 20 warm-up steps.
     ``seed``: seed and reset it first as SB3 does (``vec.seed(0)``, ``vec.reset()``), and close it after;
     otherwise the caller has reset it and closes it."""
-    try:
+    with closing_vec_env(vec) if seed else contextlib.nullcontext():
         if seed:
             vec.seed(0)
             vec.reset()
@@ -67,13 +68,6 @@ def vec_step_rate(vec, steps: int, n: int, actions: tuple[int, int] = (1, 4), se
         for _ in range(steps):
             vec.step(rng.integers(*actions, n))
         return steps * n / (time.perf_counter() - t)
-    except BaseException:  # ^C or an error: no close handshake with envs that may be mid-step
-        if seed:
-            end_env_processes(vec)
-        raise
-    finally:
-        if seed:
-            vec.close()
 
 
 #: the busy step's comparison (``gym.make`` arguments): the ``busy_val`` episodes without their crowds and

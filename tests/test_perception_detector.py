@@ -17,7 +17,7 @@ from biovln_ms.cli import app
 from biovln_ms.perception import frames as F
 from biovln_ms.perception import segmenter as S
 from biovln_ms.perception.detectors import TrainedDetector, drop_floor, make_detector
-from biovln_ms.perception.matching import MISS_CAUSES, Tally, match_frame, wilson
+from biovln_ms.perception.matching import MISS_CAUSES, Tally, box_iou, box_of, match_frame, wilson
 from biovln_ms.perception.scorers import PerceptionError
 
 runner = CliRunner()
@@ -106,6 +106,25 @@ def test_each_miss_gets_its_cause():
     assert row["confused_with"] == {CATS[2]: 1}
     assert tally.summary()["categories"][CATS[1]]["matched"] == 1
     assert "misses" not in Tally(CATS).summary()["categories"][CATS[0]]  # training's validation: none
+
+
+def test_an_outline_found_as_a_filled_region_matches_by_box_not_by_mask():
+    """The pipette stand's case: annotated as its rails (an outline), detected as the region they enclose."""
+    inst = np.zeros((240, 320), np.uint16)
+    inst[40:140, 100:104] = inst[40:140, 156:160] = inst[40:44, 100:160] = 1  # a frame of 4-pixel rails
+    anns = _ann(inst, {1: CATS[4]})
+    labels = np.where(inst > 0, 5, 0).astype(np.uint8)
+    filled = np.zeros(inst.shape, bool)
+    filled[40:140, 100:160] = True  # box IoU 1, mask IoU 0.2
+    by_mask, by_box = Tally(CATS), Tally(CATS, rule="box")
+    for tally in (by_mask, by_box):
+        match_frame(tally, [_inst(CATS[4], filled)], anns, CATS, labels)
+    mask_row, box_row = by_mask.summary()["categories"][CATS[4]], by_box.summary()["categories"][CATS[4]]
+    assert (mask_row["recall"], mask_row["precision"]) == (0.0, 0.0)
+    assert (box_row["recall"], box_row["precision"], box_row["box_iou"]) == (1.0, 1.0, 1.0)
+    assert box_iou(box_of(filled), (100, 40, 130, 140)) == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="match rule"):
+        Tally(CATS, rule="polygon")
 
 
 def test_wilson_interval():
@@ -215,6 +234,38 @@ def test_training_writes_weights_plot_and_log_reproducibly(trained, tmp_path):
     ).read_bytes()
 
 
+@pytest.mark.slow
+def test_training_at_another_input_size_is_read_back_from_the_header(trained, tmp_path):
+    from biovln_ms.perception.train_detector import train_detector
+
+    frames, _ = trained
+    data = train_detector(frames, tmp_path / "r", epochs=1, batch=3, threads=1, input_size="96x72")
+    seg = S.Segmenter(tmp_path / "r" / "detector.safetensors")
+    assert data["input_size"] == seg.header["input_size"] == [96, 72] and seg.input_size == (96, 72)
+    lab, conf = seg.labels(np.zeros((240, 320, 3), np.uint8))
+    assert lab.shape == conf.shape == (72, 96)
+
+
+@pytest.mark.parametrize("size", ["160x100", "16x12", "axb", "1000000x750000", "800x600"])
+def test_a_bad_input_size_is_a_one_line_error(tmp_path, size):
+    r = runner.invoke(
+        app,
+        [
+            "perception",
+            "train",
+            "-o",
+            str(tmp_path / "r"),
+            "--frame-data",
+            str(tmp_path),
+            "--input-size",
+            size,
+        ],
+    )
+    assert r.exit_code != 0
+    text = str(r.exception or "") + r.output
+    assert "input size" in text and "4:3" in text and "\n" not in text.strip(), text
+
+
 def _evaluate(frames, run, *extra):
     """``perception evaluate`` of ``run``'s weights on ``frames`` on one thread, with ``extra`` options."""
     weights = ["--weights", str(run / "detector.safetensors"), "--threads", "1"]
@@ -232,6 +283,8 @@ def test_evaluate_reports_each_held_out_part(trained, tmp_path):
     result = json.loads(out.read_text())
     parts = result["results"]["fast/ideal"]
     assert set(parts) == {"test_scenes", "test_looks"} and parts["test_scenes"]["frames"] == 2
+    box = result["results_box"]["fast/ideal"]["test_scenes"]
+    assert box["frames"] == 2 and "box_iou" in next(iter(box["categories"].values()))
     assert sum(row["instances"] for row in parts["test_scenes"]["categories"].values()) > 0
     assert result["detect_ms_640x480"]["median"] > 0
     rows = json.loads(table.read_text())["rows"]

@@ -78,6 +78,9 @@ def perception_train(
         None, "--batch", help="Frames per step (default: the shipped recipe's)."
     ),
     threads: int = typer.Option(2, "--threads", help="CPU threads of torch."),
+    input_size: str = typer.Option(
+        "160x120", "--input-size", help="WIDTHxHEIGHT the net sees (4:3; the frames are resized to it)."
+    ),
     max_minutes: Optional[float] = typer.Option(
         None, "--max-minutes", help="Stop after this many minutes (the result then depends on the machine)."
     ),
@@ -101,6 +104,7 @@ def perception_train(
         max_minutes=max_minutes,
         progress=sys.stderr.isatty(),
         commit=source_commit(),
+        input_size=input_size,
         **{k: v for k, v in (("epochs", epochs), ("batch", batch)) if v is not None},
     )
     last = data["history"][-1]
@@ -158,10 +162,11 @@ def perception_evaluate(
         return
     for cond, parts in result["results"].items():
         for part in HELD_OUT:
-            s = parts[part]
+            s, b = parts[part], result["results_box"][cond][part]
             typer.echo(
                 f"{cond:18s} {part:12s} {s['frames']:4d} frames  mean precision {s['mean_precision']}  "
-                f"mean recall {s['mean_recall']}  pixel IoU {s['mean_pixel_iou']}"
+                f"mean recall {s['mean_recall']}  pixel IoU {s['mean_pixel_iou']}  "
+                f"(by box: precision {b['mean_precision']}, recall {b['mean_recall']})"
             )
     ms = result["detect_ms_640x480"]
     if ms:

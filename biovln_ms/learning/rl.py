@@ -24,7 +24,7 @@ import numpy as np
 import torch
 from stable_baselines3.common.callbacks import BaseCallback
 
-from biovln_ms.cluster import check_address, end_env_processes, exit_on_sigterm
+from biovln_ms.cluster import check_address, closing_vec_env, exit_on_sigterm
 from biovln_ms.episodes.source import SEED_RULE
 from biovln_ms.tasks.config_checks import is_gpu_backend
 from biovln_ms.errors import BioVLNError
@@ -237,7 +237,7 @@ def train_rl(
             field="sim_backend",
             fix="drop --ray-address, or --sim-backend",
         )
-    restore = exit_on_sigterm()  # a kill ends the env processes too (end_env_processes below)
+    restore = exit_on_sigterm()  # a kill ends the env processes too (closing_vec_env below)
     threads = torch.get_num_threads()
     if not (cfg.sim_backend and is_gpu_backend(cfg.sim_backend)):  # envs on CPU cores: an MLP needs one
         torch.set_num_threads(1)  # thread, more only contend with the env processes (restored below)
@@ -247,32 +247,32 @@ def train_rl(
         batched = getattr(venv.unwrapped, "base", None)  # a BatchedVecEnv's env
         device = str(batched.device) if batched is not None else "cpu"  # where the batched env steps
         try:
-            model = cls(
-                "MlpPolicy",
-                venv,
-                seed=cfg.seed,
-                device=device,
-                verbose=0,
-                tensorboard_log=str(out / "tb"),
-                **cfg.defaults(),
-            )
-            log = EpisodeLog(out, cfg.checkpoint_every)
-            callbacks = [log] + ([EndStopPenalty(cfg.stop_penalty_steps)] if cfg.stop_penalty_steps else [])
-            callbacks += [FreezeAtStart()] if in_process else []
-            t0 = time.perf_counter()
-            model.learn(
-                total_timesteps=cfg.timesteps, callback=callbacks, progress_bar=progress, tb_log_name=cfg.algo
-            )
-            seconds = time.perf_counter() - t0
-        except BaseException:  # a kill, ^C or an error: no handshake with envs that may be mid-step
-            end_env_processes(venv)
-            raise
+            with closing_vec_env(venv):  # a kill, ^C or error: no handshake with envs that may be mid-step
+                model = cls(
+                    "MlpPolicy",
+                    venv,
+                    seed=cfg.seed,
+                    device=device,
+                    verbose=0,
+                    tensorboard_log=str(out / "tb"),
+                    **cfg.defaults(),
+                )
+                log = EpisodeLog(out, cfg.checkpoint_every)
+                callbacks = [log] + (
+                    [EndStopPenalty(cfg.stop_penalty_steps)] if cfg.stop_penalty_steps else []
+                )
+                callbacks += [FreezeAtStart()] if in_process else []
+                t0 = time.perf_counter()
+                model.learn(
+                    total_timesteps=cfg.timesteps,
+                    callback=callbacks,
+                    progress_bar=progress,
+                    tb_log_name=cfg.algo,
+                )
+                seconds = time.perf_counter() - t0
         finally:
-            try:
-                venv.close()
-            finally:
-                if in_process:  # collectable again, the env's first freeze too (the next env freezes anew)
-                    gc.unfreeze()
+            if in_process:  # collectable again, the env's first freeze too (the next env freezes anew)
+                gc.unfreeze()
     finally:
         restore()
         torch.set_num_threads(threads)

@@ -1,6 +1,10 @@
 """Matching a frame's detections to its annotated instances, and the per-category tally of an evaluation
 (COCO's AP50 rule: a detection matches the unmatched annotation of its category it overlaps most, if their
-mask IoU is at least :data:`IOU_MATCH`); :mod:`~.evaluate_detector` and training's validation share it."""
+IoU is at least :data:`IOU_MATCH`); :mod:`~.evaluate_detector` and training's validation share it.
+
+The IoU is of the masks (the ``mask`` rule, COCO's segmentation AP) or of their bounding boxes (``box``,
+COCO's detection AP): a thin object, such as the pipette stand's rails, is annotated as its outline, which
+a region of the label map covers as a filled blob, a miss by mask and a match by box."""
 
 from __future__ import annotations
 
@@ -13,6 +17,8 @@ from biovln_ms.perception import segmenter as S
 from biovln_ms.perception.frames import decode_mask
 
 IOU_MATCH = 0.5
+#: what the IoU of a detection and an annotated instance is taken of (:func:`match_frame`)
+MATCH_RULES = ("mask", "box")
 CONFIDENCE = 0.95
 #: a detection "covers" an annotated instance when it holds at least this share of its pixels
 COVER = 0.5
@@ -37,8 +43,10 @@ def wilson(k: int, n: int, confidence: float = CONFIDENCE) -> list[float] | None
 class Tally:
     """Per-category counts of one evaluation."""
 
-    def __init__(self, categories: list[str], causes: bool = False) -> None:
-        self.categories = list(categories)
+    def __init__(self, categories: list[str], causes: bool = False, rule: str = "mask") -> None:
+        if rule not in MATCH_RULES:
+            raise ValueError(f"match rule '{rule}' is not one of {MATCH_RULES}")
+        self.categories, self.rule = list(categories), rule
         #: per category, the misses by cause and the categories the net took them for (``causes``)
         self.causes = causes
         self.misses = {c: Counter() for c in categories}
@@ -61,7 +69,7 @@ class Tally:
                 "precision_ci": wilson(tp, pred),
                 "recall": round(tp / gt, 4) if gt else None,
                 "recall_ci": wilson(tp, gt),
-                "mask_iou": round(self.iou_sum[c] / tp, 4) if tp else None,
+                f"{self.rule}_iou": round(self.iou_sum[c] / tp, 4) if tp else None,
                 "pixel_iou": round(self.inter[c] / self.union[c], 4) if self.union[c] else None,
             }
             if self.causes:
@@ -108,6 +116,25 @@ def miss_cause(
     return ("background", None) if top == 0 else ("other category", categories[top - 1])
 
 
+def box_of(mask: np.ndarray) -> tuple[int, int, int, int]:
+    """The pixel box (x0, y0, x1, y1), end exclusive, of a mask's pixels; (0, 0, 0, 0) for an empty mask."""
+    ys, xs = np.any(mask, axis=1), np.any(mask, axis=0)
+    if not ys.any():
+        return 0, 0, 0, 0
+    y0, y1 = np.flatnonzero(ys)[[0, -1]]
+    x0, x1 = np.flatnonzero(xs)[[0, -1]]
+    return int(x0), int(y0), int(x1) + 1, int(y1) + 1
+
+
+def box_iou(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> float:
+    """IoU of two (x0, y0, x1, y1) boxes."""
+    w = min(a[2], b[2]) - max(a[0], b[0])
+    h = min(a[3], b[3]) - max(a[1], b[1])
+    inter = max(w, 0) * max(h, 0)
+    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
+    return inter / union if union > 0 else 0.0
+
+
 def match_frame(
     tally: Tally,
     preds: list[S.Instance],
@@ -128,13 +155,18 @@ def match_frame(
     for c, _, counted in gts:
         tally.gt[c] += counted
     used = [False] * len(gts)
+    boxes = [box_of(m) for _, m, _ in gts] if tally.rule == "box" else []
     for p in sorted(preds, key=lambda p: -p.score):
         best, best_iou = None, IOU_MATCH
+        pbox = box_of(p.mask) if boxes else None
         for j, (c, m, _) in enumerate(gts):
             if c != p.category or used[j]:
                 continue
-            inter = np.logical_and(m, p.mask).sum()
-            iou = inter / (m.sum() + p.mask.sum() - inter)
+            if boxes:
+                iou = box_iou(boxes[j], pbox)
+            else:
+                inter = np.logical_and(m, p.mask).sum()
+                iou = inter / (m.sum() + p.mask.sum() - inter)
             if iou >= best_iou:
                 best, best_iou = j, iou
         if best is not None:

@@ -174,7 +174,7 @@ def header_of(categories: list[str], seed: int, commit: str | None, extra: dict 
         "categories": list(categories),
         "categories_sha256": categories_sha256(categories),
         "catalog_sha256": load_catalog().sha256,
-        "input_size": list(INPUT_SIZE),
+        "input_size": list(INPUT_SIZE),  # ``extra`` gives another size the net was trained at
         "normalisation": {"mean": MEAN, "std": STD, "scale": "x / 255"},
         "seed": seed,
         "git_commit": commit,

@@ -40,6 +40,8 @@ MAX_FRAMES_READ = 200_000
 EPOCHS, BATCH = 20, 16
 #: instance scores (mean softmax probability) tried as the operating point on the validation frames
 SCORE_GRID = (0.0, 0.4, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95)
+#: the net's input width and height, each in this range (pixels)
+INPUT_SIZE_LIMITS = (32, 640)
 RENDER_FIX = "render the frames again: biovln-ms perception dataset -o DIR"
 
 
@@ -99,20 +101,46 @@ def read_frame(folder: Path, image: dict, anns: list[dict]) -> tuple[np.ndarray,
     return rgb, lut[inst]
 
 
+def check_input_size(size: object) -> tuple[int, int]:
+    """``size`` (a (width, height) pair or ``"WxH"``) as whole numbers within :data:`INPUT_SIZE_LIMITS`,
+    4:3 as the head camera (within ``segmenter.ASPECT_TOLERANCE``); a one-line error naming the fix
+    otherwise."""
+    lo, hi = INPUT_SIZE_LIMITS
+    if isinstance(size, str):
+        parts = size.lower().split("x")
+        size = tuple(int(p) for p in parts) if all(p.isdigit() and len(p) < 6 for p in parts) else size
+    ok = isinstance(size, (tuple, list)) and len(size) == 2 and all(isinstance(v, int) for v in size)
+    ok = ok and all(lo <= v <= hi for v in size)
+    ok = ok and abs(size[0] / size[1] - 4 / 3) <= S.ASPECT_TOLERANCE * 4 / 3
+    if not ok:
+        raise FramesError(
+            f"input size {size!r} is not a 4:3 width x height in [{lo}, {hi}] pixels",
+            field="input_size",
+            fix="give WxH at 4:3, e.g. 160x120 (the shipped recipe) or 224x168",
+        )
+    return int(size[0]), int(size[1])
+
+
 def is_validation(image: dict, seed: int) -> bool:
     return stable_hash("validation", seed, image["group"]) % 1000 < VAL_SHARE * 1000
 
 
-def load_tensors(folder: Path, images: list[dict], anns: dict[int, list], progress: bool = False):
-    """(inputs (N, 3, h, w) float32 normalised, labels (N, h, w) int64) at the net's input size."""
+def load_tensors(
+    folder: Path,
+    images: list[dict],
+    anns: dict[int, list],
+    progress: bool = False,
+    size: tuple[int, int] = S.INPUT_SIZE,
+):
+    """(inputs (N, 3, h, w) float32 normalised, labels (N, h, w) int64) at the net's input ``size``."""
     import torch
     from tqdm import tqdm
 
     xs, ys = [], []
     for im in tqdm(images, desc="reading frames", unit="frame", disable=not progress):
         rgb, lab = read_frame(folder, im, anns[im["id"]])
-        xs.append(S.prepare(rgb)[0])
-        ys.append(torch.from_numpy(S.nearest(lab, S.INPUT_SIZE).astype(np.int64)))
+        xs.append(S.prepare(rgb, size)[0])
+        ys.append(torch.from_numpy(S.nearest(lab, size).astype(np.int64)))
     return torch.stack(xs), torch.stack(ys)
 
 
@@ -161,8 +189,10 @@ def train_detector(
     limit: int | None = None,
     progress: bool = False,
     commit: str | None = None,
+    input_size: tuple[int, int] = S.INPUT_SIZE,
 ) -> dict:
     """Train on ``frames`` (a frame dataset folder) and write ``out``; returns the ``train.json`` data.
+    ``input_size``: the net's (width, height), 4:3 (:func:`check_input_size`).
     ``max_minutes`` stops after the first step past it (the run is then no longer a function of the seed
     alone; ``train.json`` says so). ``limit``: read only the first frames (tests)."""
     import torch
@@ -175,6 +205,7 @@ def train_detector(
     ):
         if not isinstance(v, int) or not lo <= v <= hi:
             raise FramesError(f"{name} must be a whole number in [{lo}, {hi}], got {v!r}", field=name)
+    input_size = check_input_size(input_size)
     start = time.monotonic()  # the whole command's time: reading the frames and the frozen features too
     frames, out = Path(frames), Path(out)
     torch.set_num_threads(threads)
@@ -187,7 +218,7 @@ def train_detector(
     if not fit:
         raise FramesError("no training frames", source=str(frames), fix="render more frames")
     cats = S.goal_categories()
-    x, y = load_tensors(frames, fit, anns, progress)
+    x, y = load_tensors(frames, fit, anns, progress, input_size)
     weights = class_weights(y, len(cats) + 1)
     net = S.build_net(len(cats) + 1, pretrained=True)
     frozen = {id(p) for m in net.frozen_modules() for p in m.parameters()}
@@ -236,7 +267,7 @@ def train_detector(
             }
         )
         if val:
-            found = validation_instances(net, cats, val, val_frames, anns)
+            found = validation_instances(net, cats, val, val_frames, anns, input_size)
             summary = tally_at(found, cats, 0.0).summary()
             history[-1].update({k: summary[k] for k in ("mean_precision", "mean_recall", "mean_pixel_iou")})
         if stopped:
@@ -259,6 +290,7 @@ def train_detector(
             },
             "epochs": len(history),
             "min_score": min_score,
+            "input_size": list(input_size),
         },
     )
     weights_path = S.save_weights(out / "detector.safetensors", net, header)
@@ -270,7 +302,7 @@ def train_detector(
         "batch": batch,
         "lr": lr,
         "threads": threads,
-        "input_size": list(S.INPUT_SIZE),
+        "input_size": list(input_size),
         "train_frames": len(fit),
         "validation_frames": len(val),
         "class_weights": [round(float(w), 4) for w in weights],
@@ -290,10 +322,12 @@ def train_detector(
     return data
 
 
-def validation_instances(net, cats: list[str], val: list[dict], val_frames: list, anns: dict) -> list:
+def validation_instances(
+    net, cats: list[str], val: list[dict], val_frames: list, anns: dict, size: tuple[int, int] = S.INPUT_SIZE
+) -> list:
     """(instances, semantic labels, annotations) of each validation frame, every instance kept."""
     net.eval()
-    return frame_instances(_InMemorySegmenter(net, cats), val, val_frames, anns)
+    return frame_instances(_InMemorySegmenter(net, cats, size), val, val_frames, anns)
 
 
 def frame_instances(seg, val: list[dict], val_frames: list, anns: dict) -> list:
@@ -336,8 +370,8 @@ class _InMemorySegmenter(S.Segmenter):
     """A :class:`~biovln_ms.perception.segmenter.Segmenter` around a net being trained (every instance
     kept: ``min_score`` 0)."""
 
-    def __init__(self, net, categories: list[str]) -> None:
-        self.net, self.categories, self.input_size, self.path = net, categories, S.INPUT_SIZE, None
+    def __init__(self, net, categories: list[str], size: tuple[int, int] = S.INPUT_SIZE) -> None:
+        self.net, self.categories, self.input_size, self.path = net, categories, tuple(size), None
         self.header, self.min_score = {}, 0.0
 
 
