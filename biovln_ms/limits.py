@@ -10,6 +10,7 @@ separator, a space or a control character), at most ``MAX_ID_LENGTH`` characters
 
 from __future__ import annotations
 
+import re
 from typing import Annotated
 
 from pydantic import Field
@@ -49,3 +50,19 @@ MAX_PROTOCOL_FILES = 1_000
 MAX_DESCRIPTION_LENGTH = 4_096
 #: ``eval --workers`` (worker processes, each with its own env)
 MAX_WORKERS = 1_024
+
+
+#: a size given as text (``WIDTHxHEIGHT``: frame sizes, the detector's input): ASCII digits, at most 5 each
+SIZE_TEXT = r"([0-9]{1,5})[xX]([0-9]{1,5})"
+
+
+def parse_size(text: str) -> tuple[int, int] | None:
+    """(width, height) of ``WIDTHxHEIGHT`` text, or None when it is not that (the caller names the field)."""
+    m = re.fullmatch(SIZE_TEXT, text.strip()) if isinstance(text, str) else None
+    return (int(m[1]), int(m[2])) if m else None
+
+
+def shown(text: object, limit: int = 40) -> str:
+    """``repr(text)``, cut to ``limit`` characters: a value echoed in a one-line error."""
+    r = repr(text)
+    return r if len(r) <= limit else r[: limit - 3] + "..."

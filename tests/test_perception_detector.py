@@ -17,6 +17,7 @@ from biovln_ms.cli import app
 from biovln_ms.perception import frames as F
 from biovln_ms.perception import segmenter as S
 from biovln_ms.perception.detectors import TrainedDetector, drop_floor, make_detector
+from biovln_ms.perception.frames import FramesError
 from biovln_ms.perception.matching import MISS_CAUSES, Tally, box_iou, box_of, match_frame, wilson
 from biovln_ms.perception.scorers import PerceptionError
 
@@ -175,6 +176,8 @@ def _synthetic_frames(root: Path, n: int = 12, size=(160, 120)) -> Path:
         "categories": CATS,
         "files": {},
         "source": "synthetic",
+        "width": size[0],
+        "height": size[1],
     }
     (root / "manifest.json").write_text(json.dumps(manifest))
     return root
@@ -239,14 +242,16 @@ def test_training_at_another_input_size_is_read_back_from_the_header(trained, tm
     from biovln_ms.perception.train_detector import train_detector
 
     frames, _ = trained
-    data = train_detector(frames, tmp_path / "r", epochs=1, batch=3, threads=1, input_size="96x72")
+    data = train_detector(frames, tmp_path / "r", epochs=1, batch=3, threads=1, input_size=(96, 72))
     seg = S.Segmenter(tmp_path / "r" / "detector.safetensors")
     assert data["input_size"] == seg.header["input_size"] == [96, 72] and seg.input_size == (96, 72)
     lab, conf = seg.labels(np.zeros((240, 320, 3), np.uint8))
     assert lab.shape == conf.shape == (72, 96)
+    with pytest.raises(FramesError, match="field 'input_size'.*larger than the frames"):
+        train_detector(frames, tmp_path / "big", epochs=1, threads=1, input_size=(640, 480))
 
 
-@pytest.mark.parametrize("size", ["160x100", "16x12", "axb", "1000000x750000", "800x600"])
+@pytest.mark.parametrize("size", ["160x100", "16x12", "axb", "1000000x750000", "800x600", "²x³", "9" * 5000])
 def test_a_bad_input_size_is_a_one_line_error(tmp_path, size):
     r = runner.invoke(
         app,
@@ -263,7 +268,7 @@ def test_a_bad_input_size_is_a_one_line_error(tmp_path, size):
     )
     assert r.exit_code != 0
     text = str(r.exception or "") + r.output
-    assert "input size" in text and "4:3" in text and "\n" not in text.strip(), text
+    assert "field 'input_size'" in text and "\n" not in text.strip() and len(text) < 300, text
 
 
 def _evaluate(frames, run, *extra):
@@ -333,6 +338,12 @@ def test_bad_weights_and_frames_are_one_line_errors(tmp_path):
         odd.write_bytes(S.weights_bytes(net, {**header, "min_score": score}))
         with pytest.raises(PerceptionError, match="min_score .* not a number in \\[0, 1\\]"):
             S.Segmenter(odd)
+    for size in ([0, 0], "ab", [160], [160, 100], [True, 1]):  # the header's input size is checked too
+        odd = tmp_path / "odd_size.safetensors"
+        odd.write_bytes(S.weights_bytes(net, {**header, "input_size": size}))
+        with pytest.raises(PerceptionError, match="odd_size.*field 'input_size'.*perception train") as e:
+            S.Segmenter(odd)
+        assert "\n" not in str(e.value)
     foreign = tmp_path / "foreign.safetensors"
     other = [*CATS[:-1], "flux_capacitor"]
     foreign.write_bytes(

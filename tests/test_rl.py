@@ -258,3 +258,23 @@ def test_train_rl_interrupted_mid_step_ends_its_env_processes(monkeypatch, tmp_p
     with pytest.raises(KeyboardInterrupt):
         train_rl(RLConfig(timesteps=64, n_envs=2, eval_split=None), tmp_path / "run", progress=False)
     assert made[-1].closed and not any(p.is_alive() for p in made[-1].processes)
+
+
+def test_closing_vec_env_ends_the_workers_only_when_the_block_raises(monkeypatch):
+    from biovln_ms import cluster
+
+    calls, ended = [], []
+
+    class Fake:
+        def close(self):
+            calls.append("close")
+
+    monkeypatch.setattr(cluster, "end_env_processes", ended.append)
+    venv = Fake()
+    with cluster.closing_vec_env(venv) as v:
+        assert v is venv
+    assert (calls, ended) == (["close"], [])
+    with pytest.raises(KeyboardInterrupt):
+        with cluster.closing_vec_env(venv):
+            raise KeyboardInterrupt
+    assert (calls, ended) == (["close", "close"], [venv])

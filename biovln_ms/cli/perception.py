@@ -78,8 +78,8 @@ def perception_train(
         None, "--batch", help="Frames per step (default: the shipped recipe's)."
     ),
     threads: int = typer.Option(2, "--threads", help="CPU threads of torch."),
-    input_size: str = typer.Option(
-        "160x120", "--input-size", help="WIDTHxHEIGHT the net sees (4:3; the frames are resized to it)."
+    input_size: Optional[str] = typer.Option(
+        None, "--input-size", help="WIDTHxHEIGHT the net sees (4:3; default: the shipped weights' 160x120)."
     ),
     max_minutes: Optional[float] = typer.Option(
         None, "--max-minutes", help="Stop after this many minutes (the result then depends on the machine)."
@@ -93,8 +93,15 @@ def perception_train(
     On a frame dataset's train part: a segmentation net (EfficientNet-Lite0 encoder, small decoder) over
     background and the catalog's goal categories; a tenth of the training groups validates each epoch.
     The held-out parts are not read."""
+    from biovln_ms.limits import parse_size, shown
+    from biovln_ms.perception.segmenter import INPUT_SIZE, PerceptionError
     from biovln_ms.perception.train_detector import install_weights, train_detector
 
+    size = INPUT_SIZE if input_size is None else parse_size(input_size)
+    if size is None:
+        raise PerceptionError(
+            f"input size {shown(input_size)} is not WIDTHxHEIGHT", field="input_size", fix="e.g. 224x168"
+        )
     target = given_path(out)
     data = train_detector(
         given_path(frames),
@@ -104,7 +111,7 @@ def perception_train(
         max_minutes=max_minutes,
         progress=sys.stderr.isatty(),
         commit=source_commit(),
-        input_size=input_size,
+        input_size=size,
         **{k: v for k, v in (("epochs", epochs), ("batch", batch)) if v is not None},
     )
     last = data["history"][-1]

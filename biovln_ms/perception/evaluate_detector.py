@@ -111,6 +111,7 @@ def evaluate_detector(
         "iou_match": IOU_MATCH,
         "min_pixels_at_640x480": S.MIN_PIXELS,
         "threads": threads,
+        "input_size": list(seg.input_size),
         "detect_ms_640x480": detect_time(seg, sample, timing_frames) if sample is not None else None,
         "results": summaries(tallies),
         "results_box": summaries(by_box),

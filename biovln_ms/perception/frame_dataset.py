@@ -36,6 +36,7 @@ import numpy as np
 from biovln_ms.catalog import load_catalog
 from biovln_ms.cluster import exit_on_sigterm
 from biovln_ms.episodes.writer import partial_folder, put_in_place
+from biovln_ms.limits import parse_size, shown
 from biovln_ms.perception import frames as F
 from biovln_ms.perception.frames import FramesError, SceneSource
 from biovln_ms.perception.render_frames import NEAR, TASK
@@ -69,10 +70,12 @@ def check_request(frames: object, width: object, height: object, workers: object
 
 def parse_resolution(text: str) -> tuple[int, int]:
     """``"WxH"`` as (width, height); a one-line error otherwise."""
-    parts = text.lower().split("x")
-    if len(parts) != 2 or not all(p.isdigit() for p in parts):
-        raise FramesError(f"resolution '{text}' is not WIDTHxHEIGHT", field="resolution", fix="e.g. 320x240")
-    w, h = int(parts[0]), int(parts[1])
+    size = parse_size(text)
+    if size is None:
+        raise FramesError(
+            f"resolution {shown(text)} is not WIDTHxHEIGHT", field="resolution", fix="e.g. 320x240"
+        )
+    w, h = size
     check_request(1, w, h, 1, 0)
     return w, h
 

@@ -70,8 +70,9 @@ class Tally:
                 "recall": round(tp / gt, 4) if gt else None,
                 "recall_ci": wilson(tp, gt),
                 f"{self.rule}_iou": round(self.iou_sum[c] / tp, 4) if tp else None,
-                "pixel_iou": round(self.inter[c] / self.union[c], 4) if self.union[c] else None,
             }
+            if self.rule == "mask":  # the category's pixels: the same under either rule, kept once
+                rows[c]["pixel_iou"] = round(self.inter[c] / self.union[c], 4) if self.union[c] else None
             if self.causes:
                 rows[c]["misses"] = {k: self.misses[c][k] for k in MISS_CAUSES if self.misses[c][k]}
                 rows[c]["confused_with"] = dict(self.confused[c].most_common())
@@ -85,7 +86,7 @@ class Tally:
             "frames": self.frames,
             "mean_precision": mean("precision"),
             "mean_recall": mean("recall"),
-            "mean_pixel_iou": mean("pixel_iou"),
+            **({"mean_pixel_iou": mean("pixel_iou")} if self.rule == "mask" else {}),
             "pooled_precision": round(tp / pred, 4) if pred else None,
             "pooled_recall": round(tp / gt, 4) if gt else None,
             "categories": rows,
@@ -155,14 +156,15 @@ def match_frame(
     for c, _, counted in gts:
         tally.gt[c] += counted
     used = [False] * len(gts)
-    boxes = [box_of(m) for _, m, _ in gts] if tally.rule == "box" else []
+    by_box = tally.rule == "box"
+    boxes = [box_of(m) for _, m, _ in gts] if by_box else []
     for p in sorted(preds, key=lambda p: -p.score):
         best, best_iou = None, IOU_MATCH
-        pbox = box_of(p.mask) if boxes else None
+        pbox = box_of(p.mask) if by_box else None
         for j, (c, m, _) in enumerate(gts):
             if c != p.category or used[j]:
                 continue
-            if boxes:
+            if by_box:
                 iou = box_iou(boxes[j], pbox)
             else:
                 inter = np.logical_and(m, p.mask).sum()
@@ -184,6 +186,8 @@ def match_frame(
                 tally.misses[c][cause] += 1
                 if taken_for:
                     tally.confused[c][taken_for] += 1
+    if by_box:  # the pixel statistics are the mask rule's
+        return
     for k, c in enumerate(categories):
         mine = np.zeros(labels.shape, bool)
         for p in preds:

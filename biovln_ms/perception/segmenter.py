@@ -28,6 +28,7 @@ import numpy as np
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.io_utils import atomic_write_bytes, read_regular_file
+from biovln_ms.limits import shown
 from biovln_ms.paths import ASSET_DIR
 from biovln_ms.perception.scorers import PerceptionError
 
@@ -44,6 +45,8 @@ MEAN, STD = 0.498, 0.502
 #: input (width, height) of the net; frames must have its aspect ratio (within ASPECT_TOLERANCE)
 INPUT_SIZE = (160, 120)
 ASPECT_TOLERANCE = 0.02
+#: the net's input width and height, each in this range (pixels)
+INPUT_SIZE_LIMITS = (32, 640)
 DECODER_WIDTH = 32
 #: encoder blocks kept at their ImageNet weights (stem and blocks 0-10, strides 2-16): trained on 2 CPU
 #: cores, their outputs are computed once per frame instead of every step
@@ -67,6 +70,25 @@ def categories_sha256(categories: list[str] | tuple[str, ...]) -> str:
 
 def goal_categories() -> list[str]:
     return list(load_catalog().goal_categories())
+
+
+def check_input_size(size: object, source: str | None = None) -> tuple[int, int]:
+    """``size`` as a (width, height) pair of whole numbers within :data:`INPUT_SIZE_LIMITS` at the head
+    camera's 4:3 (within :data:`ASPECT_TOLERANCE`); a one-line error naming the fix otherwise."""
+    lo, hi = INPUT_SIZE_LIMITS
+
+    def whole(v: object) -> bool:
+        return isinstance(v, int) and not isinstance(v, bool) and lo <= v <= hi
+
+    ok = isinstance(size, (tuple, list)) and len(size) == 2 and all(whole(v) for v in size)
+    if not ok or abs(size[0] / size[1] - 4 / 3) > ASPECT_TOLERANCE * 4 / 3:
+        raise PerceptionError(
+            f"input size {shown(size)} is not a 4:3 width x height of {lo}-{hi} pixels each",
+            source=source,
+            field="input_size",
+            fix="e.g. 160x120 (the shipped weights' size) or 224x168",
+        )
+    return int(size[0]), int(size[1])
 
 
 def min_pixels(height: int, width: int) -> float:
@@ -162,8 +184,14 @@ def prepare(rgb: np.ndarray, size: tuple[int, int] = INPUT_SIZE):
     return (x / 255.0 - MEAN) / STD
 
 
-def header_of(categories: list[str], seed: int, commit: str | None, extra: dict | None = None) -> dict:
-    """The weights file's JSON header."""
+def header_of(
+    categories: list[str],
+    seed: int,
+    commit: str | None,
+    extra: dict | None = None,
+    input_size: tuple[int, int] = INPUT_SIZE,
+) -> dict:
+    """The weights file's JSON header; ``input_size``: the (width, height) the net was trained at."""
     return {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -174,7 +202,7 @@ def header_of(categories: list[str], seed: int, commit: str | None, extra: dict 
         "categories": list(categories),
         "categories_sha256": categories_sha256(categories),
         "catalog_sha256": load_catalog().sha256,
-        "input_size": list(INPUT_SIZE),  # ``extra`` gives another size the net was trained at
+        "input_size": list(input_size),
         "normalisation": {"mean": MEAN, "std": STD, "scale": "x / 255"},
         "seed": seed,
         "git_commit": commit,
@@ -244,6 +272,10 @@ def read_weights(path: str | Path) -> tuple[dict, dict]:
             field="categories",
             fix="train weights for this catalog: biovln-ms perception train -o DIR --frame-data FRAMES",
         )
+    try:
+        check_input_size(header.get("input_size"))
+    except PerceptionError as e:
+        raise _bad(path, e.message, "input_size") from None
     score = header.get("min_score", 0.0)
     if isinstance(score, bool) or not isinstance(score, (int, float)) or not 0.0 <= score <= 1.0:
         raise _bad(path, f"min_score {score!r} is not a number in [0, 1]", "min_score")

@@ -40,8 +40,6 @@ MAX_FRAMES_READ = 200_000
 EPOCHS, BATCH = 20, 16
 #: instance scores (mean softmax probability) tried as the operating point on the validation frames
 SCORE_GRID = (0.0, 0.4, 0.5, 0.6, 0.7, 0.75, 0.8, 0.85, 0.9, 0.95)
-#: the net's input width and height, each in this range (pixels)
-INPUT_SIZE_LIMITS = (32, 640)
 RENDER_FIX = "render the frames again: biovln-ms perception dataset -o DIR"
 
 
@@ -101,26 +99,6 @@ def read_frame(folder: Path, image: dict, anns: list[dict]) -> tuple[np.ndarray,
     return rgb, lut[inst]
 
 
-def check_input_size(size: object) -> tuple[int, int]:
-    """``size`` (a (width, height) pair or ``"WxH"``) as whole numbers within :data:`INPUT_SIZE_LIMITS`,
-    4:3 as the head camera (within ``segmenter.ASPECT_TOLERANCE``); a one-line error naming the fix
-    otherwise."""
-    lo, hi = INPUT_SIZE_LIMITS
-    if isinstance(size, str):
-        parts = size.lower().split("x")
-        size = tuple(int(p) for p in parts) if all(p.isdigit() and len(p) < 6 for p in parts) else size
-    ok = isinstance(size, (tuple, list)) and len(size) == 2 and all(isinstance(v, int) for v in size)
-    ok = ok and all(lo <= v <= hi for v in size)
-    ok = ok and abs(size[0] / size[1] - 4 / 3) <= S.ASPECT_TOLERANCE * 4 / 3
-    if not ok:
-        raise FramesError(
-            f"input size {size!r} is not a 4:3 width x height in [{lo}, {hi}] pixels",
-            field="input_size",
-            fix="give WxH at 4:3, e.g. 160x120 (the shipped recipe) or 224x168",
-        )
-    return int(size[0]), int(size[1])
-
-
 def is_validation(image: dict, seed: int) -> bool:
     return stable_hash("validation", seed, image["group"]) % 1000 < VAL_SHARE * 1000
 
@@ -130,17 +108,17 @@ def load_tensors(
     images: list[dict],
     anns: dict[int, list],
     progress: bool = False,
-    size: tuple[int, int] = S.INPUT_SIZE,
+    input_size: tuple[int, int] = S.INPUT_SIZE,
 ):
-    """(inputs (N, 3, h, w) float32 normalised, labels (N, h, w) int64) at the net's input ``size``."""
+    """(inputs (N, 3, h, w) float32 normalised, labels (N, h, w) int64) at the net's ``input_size``."""
     import torch
     from tqdm import tqdm
 
     xs, ys = [], []
     for im in tqdm(images, desc="reading frames", unit="frame", disable=not progress):
         rgb, lab = read_frame(folder, im, anns[im["id"]])
-        xs.append(S.prepare(rgb, size)[0])
-        ys.append(torch.from_numpy(S.nearest(lab, size).astype(np.int64)))
+        xs.append(S.prepare(rgb, input_size)[0])
+        ys.append(torch.from_numpy(S.nearest(lab, input_size).astype(np.int64)))
     return torch.stack(xs), torch.stack(ys)
 
 
@@ -192,7 +170,7 @@ def train_detector(
     input_size: tuple[int, int] = S.INPUT_SIZE,
 ) -> dict:
     """Train on ``frames`` (a frame dataset folder) and write ``out``; returns the ``train.json`` data.
-    ``input_size``: the net's (width, height), 4:3 (:func:`check_input_size`).
+    ``input_size``: the net's (width, height) (``segmenter.check_input_size``), at most the frames' size.
     ``max_minutes`` stops after the first step past it (the run is then no longer a function of the seed
     alone; ``train.json`` says so). ``limit``: read only the first frames (tests)."""
     import torch
@@ -205,12 +183,20 @@ def train_detector(
     ):
         if not isinstance(v, int) or not lo <= v <= hi:
             raise FramesError(f"{name} must be a whole number in [{lo}, {hi}], got {v!r}", field=name)
-    input_size = check_input_size(input_size)
+    input_size = S.check_input_size(input_size)
     start = time.monotonic()  # the whole command's time: reading the frames and the frozen features too
     frames, out = Path(frames), Path(out)
     torch.set_num_threads(threads)
     torch.manual_seed(seed)
     manifest = read_manifest(frames)
+    framed = (manifest.get("width"), manifest.get("height"))
+    if all(isinstance(v, int) for v in framed) and (input_size[0] > framed[0] or input_size[1] > framed[1]):
+        raise FramesError(
+            f"input size {input_size[0]}x{input_size[1]} is larger than the frames ({framed[0]}x{framed[1]})",
+            source=str(frames),
+            field="input_size",
+            fix="train at most at the frames' size, or render larger ones (perception dataset --frame-size)",
+        )
     images, anns = read_part(frames, "train", limit)
     val = [im for im in images if is_validation(im, seed)]
     val_frames = [read_frame(frames, im, anns[im["id"]]) for im in val]  # read once, matched every epoch
@@ -290,8 +276,8 @@ def train_detector(
             },
             "epochs": len(history),
             "min_score": min_score,
-            "input_size": list(input_size),
         },
+        input_size,
     )
     weights_path = S.save_weights(out / "detector.safetensors", net, header)
     data = {
@@ -323,11 +309,16 @@ def train_detector(
 
 
 def validation_instances(
-    net, cats: list[str], val: list[dict], val_frames: list, anns: dict, size: tuple[int, int] = S.INPUT_SIZE
+    net,
+    cats: list[str],
+    val: list[dict],
+    val_frames: list,
+    anns: dict,
+    input_size: tuple[int, int] = S.INPUT_SIZE,
 ) -> list:
     """(instances, semantic labels, annotations) of each validation frame, every instance kept."""
     net.eval()
-    return frame_instances(_InMemorySegmenter(net, cats, size), val, val_frames, anns)
+    return frame_instances(_InMemorySegmenter(net, cats, input_size), val, val_frames, anns)
 
 
 def frame_instances(seg, val: list[dict], val_frames: list, anns: dict) -> list:
@@ -370,8 +361,8 @@ class _InMemorySegmenter(S.Segmenter):
     """A :class:`~biovln_ms.perception.segmenter.Segmenter` around a net being trained (every instance
     kept: ``min_score`` 0)."""
 
-    def __init__(self, net, categories: list[str], size: tuple[int, int] = S.INPUT_SIZE) -> None:
-        self.net, self.categories, self.input_size, self.path = net, categories, tuple(size), None
+    def __init__(self, net, categories: list[str], input_size: tuple[int, int] = S.INPUT_SIZE) -> None:
+        self.net, self.categories, self.input_size, self.path = net, categories, tuple(input_size), None
         self.header, self.min_score = {}, 0.0
 
 
