@@ -70,6 +70,7 @@ def column(train: dict, ev: dict, ms: list[float]) -> list:
     epochs = np.diff([0.0] + [h["seconds"] for h in train["history"]])
     out = [
         "x".join(map(str, train["input_size"])),
+        f"{train['train_frames']:,} / {train['validation_frames']:,}",
         train["epochs_run"],
         round(train["seconds"] / 60, 1),
         f"{epochs.min():.0f}-{epochs.max():.0f}",
@@ -92,7 +93,13 @@ def column(train: dict, ev: dict, ms: list[float]) -> list:
 
 
 def row_names() -> list[str]:
-    names = ["input (W x H)", "epochs", "training loop, wall (min)", "an epoch (s, fastest-slowest)"]
+    names = [
+        "input (W x H)",
+        "frames trained on / validated on",
+        "epochs",
+        "training loop, wall (min)",
+        "an epoch (s, fastest-slowest)",
+    ]
     names += ["operating point (min_score)", "validation at it: mean precision / recall / harmonic mean"]
     names += ["detection at 640x480, median (ms)", "detection at 640x480, p90 (ms)"]
     names += [f"{cond}, {part}: mean precision / recall" for cond in CONDITIONS for part in PARTS]
