@@ -16,14 +16,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 from pathlib import Path
 
 import numpy as np
 
 from biovln_ms.measured import docs_data_dir, write_table
 from biovln_ms.perception import segmenter as S
-from biovln_ms.perception.evaluate_detector import file_sha256
+from biovln_ms.perception.evaluate_detector import file_sha256, head_frame, target_mask_ms
 from biovln_ms.perception.train_detector import read_frame, read_part
 
 CONDITIONS = ("fast/ideal", "fast/realistic", "quality/ideal", "quality/realistic")
@@ -48,19 +47,14 @@ def read_run(folder: Path) -> tuple[dict, dict]:
 
 def detection_ms(weights: list[Path], frame: np.ndarray, blocks: int, per_block: int) -> list[list[float]]:
     """Milliseconds of one target mask at 640x480 for each weights file, in interleaved blocks."""
-    from PIL import Image
-
-    big = np.asarray(Image.fromarray(frame).resize((640, 480), Image.BILINEAR))
+    big = head_frame(frame)
     segs = [S.Segmenter(w, threads=2) for w in weights]
     for seg in segs:
         seg.target_mask(big, seg.categories[0])  # warm-up
     times: list[list[float]] = [[] for _ in segs]
     for b in range(blocks):
         for seg, out in zip(segs, times):
-            for k in range(per_block):
-                t = time.perf_counter()
-                seg.target_mask(big, seg.categories[(b * per_block + k) % len(seg.categories)])
-                out.append(1000 * (time.perf_counter() - t))
+            out += target_mask_ms(seg, big, per_block, b * per_block)
     return times
 
 

@@ -41,6 +41,11 @@ def one_line(text: str, limit: int | None = None) -> str:
     return text if limit is None or len(text) <= limit else text[: limit - 3] + "..."
 
 
+def shown(value: object, limit: int = 40) -> str:
+    """``repr(value)`` as :func:`one_line` cut to ``limit`` characters: a value echoed in an error."""
+    return one_line(repr(value), limit)
+
+
 class CatalogError(BioVLNError):
     """Malformed catalog data, or an unknown instrument name."""
 

@@ -60,9 +60,3 @@ def parse_size(text: str) -> tuple[int, int] | None:
     """(width, height) of ``WIDTHxHEIGHT`` text, or None when it is not that (the caller names the field)."""
     m = re.fullmatch(SIZE_TEXT, text.strip()) if isinstance(text, str) else None
     return (int(m[1]), int(m[2])) if m else None
-
-
-def shown(text: object, limit: int = 40) -> str:
-    """``repr(text)``, cut to ``limit`` characters: a value echoed in a one-line error."""
-    r = repr(text)
-    return r if len(r) <= limit else r[: limit - 3] + "..."

@@ -18,7 +18,7 @@ from biovln_ms.perception import frames as F
 from biovln_ms.perception import segmenter as S
 from biovln_ms.perception.detectors import TrainedDetector, drop_floor, make_detector
 from biovln_ms.perception.frames import FramesError
-from biovln_ms.perception.matching import MISS_CAUSES, Tally, box_iou, box_of, match_frame, wilson
+from biovln_ms.perception.matching import MISS_CAUSES, Tally, annotated, box_iou, box_of, match_frame, wilson
 from biovln_ms.perception.scorers import PerceptionError
 
 runner = CliRunner()
@@ -38,7 +38,7 @@ def test_matching_counts_hits_misses_false_alarms_and_ignores_small_instances():
     inst[20:80, 20:100] = 1  # big, category 0
     inst[150:200, 200:300] = 2  # big, category 1
     inst[5:9, 300:305] = 3  # 20 pixels < min_pixels (37.5 at 320x240): ignored
-    anns = _ann(inst, {1: CATS[0], 2: CATS[1], 3: CATS[2]})
+    anns = annotated(_ann(inst, {1: CATS[0], 2: CATS[1], 3: CATS[2]}), CATS, inst.shape)
     labels = np.zeros_like(inst, np.uint8)
     for k, c in ((1, 0), (2, 1), (3, 2)):
         labels[inst == k] = c + 1
@@ -78,7 +78,7 @@ def test_each_miss_gets_its_cause():
     boxes |= {5: (120, 160, 0, 40), 6: (120, 160, 60, 100), 7: (180, 220, 0, 40), 8: (180, 220, 100, 140)}
     for k, (y0, y1, x0, x1) in boxes.items():
         inst[y0:y1, x0:x1] = k
-    anns = _ann(inst, {**{k: CATS[0] for k in range(1, 8)}, 8: CATS[1]})
+    anns = annotated(_ann(inst, {**{k: CATS[0] for k in range(1, 8)}, 8: CATS[1]}), CATS, inst.shape)
     labels = np.zeros_like(inst, np.uint8)
     labels[inst > 0] = 1
     labels[inst == 8] = 2
@@ -113,7 +113,7 @@ def test_an_outline_found_as_a_filled_region_matches_by_box_not_by_mask():
     """The pipette stand's case: annotated as its rails (an outline), detected as the region they enclose."""
     inst = np.zeros((240, 320), np.uint16)
     inst[40:140, 100:104] = inst[40:140, 156:160] = inst[40:44, 100:160] = 1  # a frame of 4-pixel rails
-    anns = _ann(inst, {1: CATS[4]})
+    anns = annotated(_ann(inst, {1: CATS[4]}), CATS, inst.shape)
     labels = np.where(inst > 0, 5, 0).astype(np.uint8)
     filled = np.zeros(inst.shape, bool)
     filled[40:140, 100:160] = True  # box IoU 1, mask IoU 0.2

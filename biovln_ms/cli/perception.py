@@ -93,7 +93,8 @@ def perception_train(
     On a frame dataset's train part: a segmentation net (EfficientNet-Lite0 encoder, small decoder) over
     background and the catalog's goal categories; a tenth of the training groups validates each epoch.
     The held-out parts are not read."""
-    from biovln_ms.limits import parse_size, shown
+    from biovln_ms.errors import shown
+    from biovln_ms.limits import parse_size
     from biovln_ms.perception.segmenter import INPUT_SIZE, PerceptionError
     from biovln_ms.perception.train_detector import install_weights, train_detector
 

@@ -36,7 +36,8 @@ import numpy as np
 from biovln_ms.catalog import load_catalog
 from biovln_ms.cluster import exit_on_sigterm
 from biovln_ms.episodes.writer import partial_folder, put_in_place
-from biovln_ms.limits import parse_size, shown
+from biovln_ms.errors import shown
+from biovln_ms.limits import parse_size
 from biovln_ms.perception import frames as F
 from biovln_ms.perception.frames import FramesError, SceneSource
 from biovln_ms.perception.render_frames import NEAR, TASK

@@ -136,23 +136,31 @@ def box_iou(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> float
     return inter / union if union > 0 else 0.0
 
 
+def annotated(
+    anns: list[dict], categories: list[str], shape: tuple[int, int]
+) -> list[tuple[str, np.ndarray, bool]]:
+    """A frame's COCO annotations as (category, mask, counted) each, decoded once for every tally they
+    go to; ``counted``: at least :func:`~biovln_ms.perception.segmenter.min_pixels` for a frame of
+    ``shape`` (smaller ones are ignored)."""
+    smallest = S.min_pixels(*shape)
+    return [
+        (categories[a["category_id"] - 1], decode_mask(a["segmentation"]), a["area"] >= smallest)
+        for a in anns
+    ]
+
+
 def match_frame(
     tally: Tally,
     preds: list[S.Instance],
-    anns: list[dict],
+    gts: list[tuple[str, np.ndarray, bool]],
     categories: list[str],
     labels: np.ndarray,
     net: np.ndarray | None = None,
 ) -> None:
-    """Add one frame: detections ``preds``, its COCO annotations ``anns`` and semantic ``labels`` (0:
-    background, 1 + category index); with ``net``, the net's label map at the frame's size, each counted
-    miss's cause (:func:`miss_cause`) for a tally that keeps them."""
+    """Add one frame: detections ``preds``, its annotated instances ``gts`` (:func:`annotated`) and
+    semantic ``labels`` (0: background, 1 + category index); with ``net``, the net's label map at the
+    frame's size, each counted miss's cause (:func:`miss_cause`) for a tally that keeps them."""
     tally.frames += 1
-    smallest = S.min_pixels(*labels.shape)
-    gts = [
-        (categories[a["category_id"] - 1], decode_mask(a["segmentation"]), a["area"] >= smallest)
-        for a in anns
-    ]
     for c, _, counted in gts:
         tally.gt[c] += counted
     used = [False] * len(gts)

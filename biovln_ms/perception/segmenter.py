@@ -28,7 +28,7 @@ import numpy as np
 
 from biovln_ms.catalog import load_catalog
 from biovln_ms.io_utils import atomic_write_bytes, read_regular_file
-from biovln_ms.limits import shown
+from biovln_ms.errors import shown
 from biovln_ms.paths import ASSET_DIR
 from biovln_ms.perception.scorers import PerceptionError
 

@@ -29,7 +29,7 @@ from biovln_ms.io_utils import atomic_write_bytes, atomic_write_text, parse_json
 from biovln_ms.paths import ASSET_DIR
 from biovln_ms.perception import segmenter as S
 from biovln_ms.perception.frames import FORMAT_VERSION, FramesError, stable_hash
-from biovln_ms.perception.matching import Tally, match_frame
+from biovln_ms.perception.matching import Tally, annotated, match_frame
 
 #: share of the training groups kept aside for validation
 VAL_SHARE = 0.1
@@ -316,14 +316,17 @@ def validation_instances(
     anns: dict,
     input_size: tuple[int, int] = S.INPUT_SIZE,
 ) -> list:
-    """(instances, semantic labels, annotations) of each validation frame, every instance kept."""
+    """(instances, semantic labels, annotated instances) of each validation frame, every instance kept."""
     net.eval()
     return frame_instances(_InMemorySegmenter(net, cats, input_size), val, val_frames, anns)
 
 
 def frame_instances(seg, val: list[dict], val_frames: list, anns: dict) -> list:
-    """(instances, semantic labels, annotations) of each frame as segmenter ``seg`` finds them."""
-    return [(seg.instances(rgb), lab, anns[im["id"]]) for im, (rgb, lab) in zip(val, val_frames)]
+    """(instances, semantic labels, annotated instances) of each frame as segmenter ``seg`` finds them."""
+    return [
+        (seg.instances(rgb), lab, annotated(anns[im["id"]], seg.categories, lab.shape))
+        for im, (rgb, lab) in zip(val, val_frames)
+    ]
 
 
 def choose_min_score(points: list[dict]) -> float:
@@ -336,8 +339,8 @@ def tally_at(found: list, cats: list[str], min_score: float) -> Tally:
     """The validation tally of the instances scoring at least ``min_score`` (the segmenter's rule: an
     instance's score, its mean probability, at least the threshold)."""
     tally = Tally(cats)
-    for preds, lab, ann in found:
-        match_frame(tally, [p for p in preds if p.score >= min_score], ann, cats, lab)
+    for preds, lab, gts in found:
+        match_frame(tally, [p for p in preds if p.score >= min_score], gts, cats, lab)
     return tally
 
 
