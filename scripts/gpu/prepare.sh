@@ -3,15 +3,19 @@
 #
 #     bash scripts/gpu/prepare.sh
 #
-# Fills the two git-ignored folders that travel with the call (carry: [".whl", ".gl"]):
-#   .whl/  the cp312 manylinux wheels the GPU machine lacks (scripts/gpu/wheels.txt, versions from
-#          scripts/constraints.txt); mani-skill and sapien repacked without unused assets
-#          (scripts/gpu/repack_maniskill.py)
+# Fills the git-ignored folders that travel with the call (carry: [".site", ".gl"]):
+#   .site/site.tar.xz  the cp312 manylinux wheels the GPU machine lacks (scripts/gpu/wheels.txt, versions
+#          from scripts/constraints.txt; mani-skill and sapien repacked without unused assets by
+#          scripts/gpu/repack_maniskill.py), installed into one folder and xz-packed (pack_site.sh); the
+#          wheels themselves stay in .whl/ here
+#   .site/dataset/biovln  the default dataset built here (deterministic), so the GPU machine checks it
+#          instead of building it
 #   .gl/   the Vulkan / EGL / GL loaders as Debian packages (the device docs' recipe), and in .gl/x11/
 #          libX11 and its libraries (SAPIEN's libsvulkan2.so links libX11.so.6; run_all.sh unpacks them
 #          into /tmp/x11root only where the machine has no libX11)
 # then checks the wheels' dependency closure against the machine's package list
-# (scripts/gpu/check_closure.py) and the size of everything that travels (fails over 60 MiB).
+# (scripts/gpu/check_closure.py) and the size of what travels with the tree slimmed by slim_tree.sh
+# (fails over 60 MiB).
 # Originals are cached in ${BIOVLN_GPU_CACHE:-~/.cache/biovln_ms/gpu-wheels}; a second run downloads nothing.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -26,7 +30,7 @@ PLATFORMS=(--platform manylinux_2_28_x86_64 --platform manylinux_2_27_x86_64 --p
 mkdir -p "$(git rev-parse --git-path info)"
 EXCLUDE=$(git rev-parse --git-path info/exclude)
 touch "$EXCLUDE"
-for p in /.whl/ /.gl/; do grep -qxF "$p" "$EXCLUDE" || echo "$p" >>"$EXCLUDE"; done
+for p in /.whl/ /.gl/ /.site/; do grep -qxF "$p" "$EXCLUDE" || echo "$p" >>"$EXCLUDE"; done
 
 # 2. wheels: name==version from constraints.txt, cp312 manylinux, no deps (the closure is checked below)
 pinned() {  # the version scripts/constraints.txt pins for $1 (names compared as PEP 503 normalises them)
@@ -78,18 +82,29 @@ fi
 # 4. the dependency closure of the wheels, against the GPU machine's package list
 "$PY" scripts/gpu/check_closure.py .whl
 
-# 5. what travels: tracked + untracked-not-ignored files (the working tree) + the carried folders
+# 5. the wheels as one packed site folder, and the default dataset
+bash scripts/gpu/pack_site.sh .whl .site/site.tar.xz --python-version 3.12 --implementation cp \
+  --only-binary=:all: "${PLATFORMS[@]}" --platform manylinux_2_24_x86_64 --root-user-action=ignore
+rm -rf .site/dataset
+if data=$("$PY" -c "from biovln_ms.splits import ensure_default_dataset; print(ensure_default_dataset())" | tail -1); then
+  mkdir -p .site/dataset && cp -r "$data" .site/dataset/biovln
+else
+  echo "prepare.sh: biovln_ms is not importable here; run_all.sh will build the dataset there (minutes)"
+fi
+
+# 6. what travels: the working tree as slim_tree.sh leaves it, and the carried folders
 echo
 echo "what travels to the GPU machine:"
-ls -l .whl/*.whl .gl/*.deb .gl/x11/*.deb | awk '{printf "  %10d  %s\n", $5, $9}'
-tree_b=$(git ls-files -z --cached --others --exclude-standard | du --files0-from=- -cb 2>/dev/null | tail -1 | cut -f1)
-whl_b=$(du -cb .whl/*.whl | tail -1 | cut -f1)
+ls -l .site/site.tar.xz .gl/*.deb .gl/x11/*.deb | awk '{printf "  %10d  %s\n", $5, $9}'
+tree_b=$(bash scripts/gpu/slim_tree.sh size)
+site_b=$(du -sb .site | cut -f1)
 gl_b=$(du -cb .gl/*.deb .gl/x11/*.deb | tail -1 | cut -f1)
-total=$((tree_b + whl_b + gl_b))
+total=$((tree_b + site_b + gl_b))
 mib() { awk -v b="$1" 'BEGIN{printf "%.1f MiB", b/1048576}'; }
-echo "  working tree $(mib "$tree_b") + .whl $(mib "$whl_b") + .gl $(mib "$gl_b") = $(mib $total) (limit ${LIMIT_MIB} MiB here, 64 MiB there)"
+echo "  slimmed working tree $(mib "$tree_b") + .site $(mib "$site_b") + .gl $(mib "$gl_b") = $(mib $total) (limit ${LIMIT_MIB} MiB here, 64 MiB there)"
 if [ "$total" -gt $((LIMIT_MIB * 1048576)) ]; then
   echo "prepare.sh: FAIL: $(mib $total) would travel, over ${LIMIT_MIB} MiB" >&2
   exit 1
 fi
-echo "prepare.sh: OK. Next: the run call in scripts/gpu/README.md (carry [\".whl\", \".gl\"])."
+echo "prepare.sh: OK. Next: bash scripts/gpu/slim_tree.sh slim, the run call in scripts/gpu/README.md"
+echo "(carry [\".site\", \".gl\"]), then bash scripts/gpu/slim_tree.sh restore."

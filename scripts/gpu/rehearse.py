@@ -9,10 +9,11 @@ Builds ``/tmp/biovln_rehearsal`` (``--root``):
   list, ``check_closure.DEVICE_HAS``), standing in for the image's site-packages (on ``PYTHONPATH``, last);
 * ``wheels/``: ``.whl``'s wheels, the binary ones (cp312) swapped for the same versions built for this
   Python (sapien repacked by the same rules), since cp312 wheels do not install into another Python;
+  ``site.tar.xz``: them packed by ``pack_site.sh``, as ``prepare.sh`` packs the GPU machine's;
 
 then runs ``run_all.sh`` with the knobs that point it there (``BIOVLN_WHEELS``, ``BIOVLN_SITE``,
 ``BIOVLN_SHIM``, ``BIOVLN_GL=none``, ``BIOVLN_GPU_SMOKE=1``: tiny sizes on physx_cpu). What it proves:
-the wheels install with ``--no-index --no-deps``, their import closure is complete next to the image's
+the packed site folder unpacks, the import closure of its packages is complete next to the image's
 packages, ``biovln_ms`` resolves through the shim without an install, the repacked sapien and mani-skill
 run the benchmark, and run_all.sh's plumbing (timeouts, results, logs) works. Versions of the image's
 packages are not rehearsed (this venv's are used).
@@ -132,11 +133,15 @@ def main() -> None:
     print(f"image stand-in: {len(linked)} packages linked from {sys.prefix}")
     print(f"  beyond the image's list (needed by this venv's versions): {sorted(set(linked) - DEVICE_HAS)}")
     wheels_for_this_python(REPO / ".whl", root / "wheels")
+    # packed as prepare.sh packs the GPU machine's (run_all.sh unpacks the archive, as it will there)
+    pack = [str(HERE / "pack_site.sh"), str(root / "wheels"), str(root / "site.tar.xz")]
+    subprocess.run(["bash", *pack], check=True, env={**os.environ, "PYTHON": sys.executable})
     env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "PYTHONPATH", "PYTHONHOME")}
     env.update(
         PYTHON=str(root / "venv" / "bin" / "python"),
         PYTHONPATH=str(root / "image"),
         BIOVLN_WHEELS=str(root / "wheels"),
+        BIOVLN_SITE_TAR=str(root / "site.tar.xz"),
         BIOVLN_SITE=str(root / "site"),
         BIOVLN_SHIM=str(root / "shim"),
         BIOVLN_GL="none",

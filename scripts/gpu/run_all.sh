@@ -2,7 +2,7 @@
 # Runs ON a lent GPU machine (x86-64, Python 3.12, torch with CUDA, no package index), from the repo root,
 # in one `run` call that carries the folders scripts/gpu/prepare.sh filled here:
 #
-#     bash scripts/gpu/run_all.sh [SECTIONS]      # carry: [".whl", ".gl"] (and ".physx" if you have it)
+#     bash scripts/gpu/run_all.sh [SECTIONS]      # carry: [".site", ".gl"] (and ".physx" if you have it)
 #
 # SECTIONS: a comma-separated list of benchmarks/gpu_speed.py's sections (default: all, in this order:
 # meta,state,pickcube,equivalence,state_autoreset,rgbd,render,depth_pack,cpu_ref,lighting; `ppo`, which
@@ -10,14 +10,15 @@
 # runs in its own process under `timeout`, so a crash or a hang in one still leaves the others' results;
 # every figure is written to $OUT/gpu_speed.json and $OUT/gpu_speed.md as soon as it is measured.
 #
-# Steps: 1. unpack the Vulkan/EGL/GL loaders (.gl/*.deb) and find the NVIDIA ICDs; 2. install the wheels
-# (.whl/*.whl) with pip --no-index --no-deps --target /tmp/site (skipped when a warm machine already has
-# them); 3. make biovln_ms importable without installing it: /tmp/biovln_shim/biovln_ms holds symlinks to
-# the repo's biovln_ms/* plus tasks/, agents/, assets/ (what pyproject's package-dir maps); 4. SAPIEN's PhysX
-# GPU library: from .physx/ (libPhysXGpu_64.so or linux-so.zip) when carried, else wherever the image has
+# Steps: 1. unpack the Vulkan/EGL/GL loaders (.gl/*.deb) and find the NVIDIA ICDs; 2. unpack the packed
+# site folder (.site/site.tar.xz) into /tmp/site, or, without it, install the wheels (.whl/*.whl) there
+# with pip --no-index --no-deps --target (skipped when a warm machine already has them); 3. make
+# biovln_ms importable without installing it: /tmp/biovln_shim/biovln_ms holds symlinks to the repo's
+# biovln_ms/* plus tasks/, agents/, assets/ (what pyproject's package-dir maps); 4. SAPIEN's PhysX GPU
+# library: from .physx/ (libPhysXGpu_64.so or linux-so.zip) when carried, else wherever the image has
 # one; SAPIEN would download it, and this machine has no network; 5. GPU / Vulkan summaries into
-# $OUT/system.txt; 6. the default dataset into /tmp/biovln_data; 7. the sections, within
-# $BIOVLN_GPU_BUDGET_S seconds in all (default 560, the run's limit being 600).
+# $OUT/system.txt; 6. the default dataset into /tmp/biovln_data (carried in .site/dataset, else built);
+# 7. the sections, within $BIOVLN_GPU_BUDGET_S seconds in all (default 560, the run's limit being 600).
 # Files back ($OUT): run_all.log, system.txt, gpu_speed.json, gpu_speed.md, render_check.png.
 set -uo pipefail # no -e: one failing step must not stop the rest
 cd "$(dirname "$0")/../.."
@@ -37,6 +38,7 @@ stamp() { echo "[run_all +$(($(date +%s) - T0))s] $*"; }
 PY=${PYTHON:-python3}
 # knobs for a rehearsal on a CPU machine (scripts/gpu/rehearse.py); leave them unset on the GPU machine
 WHEELS=${BIOVLN_WHEELS:-.whl}
+SITE_TAR=${BIOVLN_SITE_TAR:-.site/site.tar.xz}
 GL=${BIOVLN_GL:-.gl} # "none": leave the system's loaders alone
 SITE=${BIOVLN_SITE:-/tmp/site}
 SHIM=${BIOVLN_SHIM:-/tmp/biovln_shim}
@@ -68,15 +70,26 @@ for egl in /usr/share/glvnd/egl_vendor.d/10_nvidia.json /usr/local/nvidia/share/
 done
 echo "  VK_DRIVER_FILES=${VK_DRIVER_FILES:-unset} __EGL_VENDOR_LIBRARY_FILENAMES=${__EGL_VENDOR_LIBRARY_FILENAMES:-unset}"
 
-# 2. wheels
-stamp "wheels"
-STAMP_FILE=$SITE/.biovln_wheels
-want=$(ls "$WHEELS"/*.whl 2>/dev/null | xargs -n1 basename | sort | md5sum | cut -c1-16)
-if [ "$(cat "$STAMP_FILE" 2>/dev/null)" != "$want" ]; then
-  "$PY" -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target "$SITE" "$WHEELS"/*.whl \
-    && echo "$want" >"$STAMP_FILE" || stamp "pip install FAILED"
+# 2. the packages the image lacks: .site/site.tar.xz (prepare.sh's packed site folder) unpacked into
+# $SITE, else the wheels of .whl/ installed there; skipped when a warm machine already has them
+stamp "packages"
+STAMP_FILE=$SITE/.biovln_packages
+if [ -f "$SITE_TAR" ]; then
+  want=$(md5sum "$SITE_TAR" | cut -c1-16)
+  if [ "$(cat "$STAMP_FILE" 2>/dev/null)" != "$want" ]; then
+    rm -rf "$SITE" && mkdir -p "$SITE" && tar -xJf "$SITE_TAR" -C "$SITE" \
+      && echo "$want" >"$STAMP_FILE" && echo "  unpacked $SITE_TAR into $SITE" || stamp "unpacking $SITE_TAR FAILED"
+  else
+    echo "  already unpacked in $SITE"
+  fi
 else
-  echo "  already installed in $SITE"
+  want=$(ls "$WHEELS"/*.whl 2>/dev/null | xargs -n1 basename | sort | md5sum | cut -c1-16)
+  if [ "$(cat "$STAMP_FILE" 2>/dev/null)" != "$want" ]; then
+    "$PY" -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target "$SITE" "$WHEELS"/*.whl \
+      && echo "$want" >"$STAMP_FILE" || stamp "pip install FAILED"
+  else
+    echo "  already installed in $SITE"
+  fi
 fi
 
 # 3. biovln_ms without installing it
@@ -121,8 +134,12 @@ stamp "system"
 } >"$OUT/system.txt" 2>&1
 head -40 "$OUT/system.txt"
 
-# 6. the dataset (deterministic, built once per machine)
+# 6. the dataset (deterministic): prepare.sh's copy when carried, checked (rebuilt only if stale)
 stamp "dataset"
+if [ ! -d "$BIOVLN_DATA_DIR" ] && [ -d .site/dataset/biovln ]; then
+  mkdir -p "$(dirname "$BIOVLN_DATA_DIR")" && cp -r .site/dataset/biovln "$BIOVLN_DATA_DIR"
+  echo "  copied .site/dataset/biovln to $BIOVLN_DATA_DIR"
+fi
 timeout 180 "$PY" -c "from biovln_ms.splits import ensure_default_dataset; print(ensure_default_dataset())" \
   || stamp "dataset build failed"
 
