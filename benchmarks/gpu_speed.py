@@ -25,6 +25,10 @@ before):
   renderer: depth and segmentation of ``depth+segmentation`` against the minimal pack's
   (``rgb+depth+segmentation``) over one episode's steps with the same actions at 640x480 (physx_cpu,
   num_envs = 1, rendered by the GPU; needs no PhysX GPU library), and both step rates.
+* ``noise``: the ``realistic`` noise preset against ``ideal`` at 640x480 RGB-D + segmentation (physx_cpu,
+  num_envs = 1, rendered by the GPU; needs no PhysX GPU library): the images' devices, the goal category
+  per pixel against the segmentation read on the CPU, the realistic reset frame against the ideal one (the
+  same view, noise added), and both step rates.
 * ``cpu_ref``: the same env on ``physx_cpu`` (num_envs = 1): state-only, and RGB-D 128x128 rendered by the
   GPU (needs no PhysX GPU library), and PickCube-v1 on the CPU.
 * ``ppo``: the GPU training recipe: Stable-Baselines3 PPO on one batched ``BioVLN-OpFace-RL-v0`` of
@@ -69,6 +73,7 @@ SECTIONS = (
     "equivalence",
     "render",
     "depth_pack",
+    "noise",
     "cpu_ref",
     "lighting",
     "ppo",
@@ -586,6 +591,51 @@ def depth_pack_check(sizes: Sizes) -> dict:
     return out
 
 
+def noise_check(sizes: Sizes) -> dict:
+    """The ``realistic`` preset on this machine's renderer against ``ideal``: the same episode and actions,
+    each image's device, ``semantic_category``
+    against the segmentation's lookup done on the CPU, how much noise the realistic frames carry, and the
+    step rate of each (physx_cpu, one sub-env)."""
+    import torch
+
+    actions = [2, 2, 3, 2, 3, 3, 2, 2]
+    frames, out = {}, {}
+    for preset in ("ideal", "realistic"):
+        env = make_nav(
+            1, "rgb+depth+segmentation", sizes.smoke, (640, 480), sim_backend="physx_cpu", noise=preset
+        )
+        try:
+            obs, _ = env.reset(seed=0, options={"episode_index": 3})
+            head = obs["sensor_data"]["head"]
+            out[f"{preset}_devices"] = {k: str(v.device) for k, v in head.items()} | {
+                "semantic_category": str(obs["extra"]["semantic_category"].device)
+            }
+            lookup = env.unwrapped._segmentation_lookup.cpu()
+            sem_ok = True
+            seen = []
+            for a in actions:
+                head = obs["sensor_data"]["head"]
+                seg = head["segmentation"].cpu().long().clamp(0, len(lookup) - 1)
+                sem_ok &= torch.equal(lookup[seg], obs["extra"]["semantic_category"].cpu())
+                seen.append((head["rgb"].cpu().clone(), head["depth"].cpu().clone()))
+                obs, *_ = env.step(a)
+            frames[preset] = seen
+            out[f"{preset}_semantic_category_matches"] = bool(sem_ok)
+            t, k = time.perf_counter(), 0
+            while k < sizes.steps and time.perf_counter() - t < sizes.budget_s / 4:
+                env.step(actions[k % len(actions)])
+                k += 1
+            sync()
+            out[f"{preset}_steps_per_s"] = round(k / (time.perf_counter() - t), 1)
+        finally:
+            env.close()
+    # the reset frames: the same pose in both envs (later steps add actuation noise, so other views)
+    (rgb_i, depth_i), (rgb_r, depth_r) = frames["ideal"][0], frames["realistic"][0]
+    out["rgb_mean_abs_diff"] = round(float((rgb_i.float() - rgb_r.float()).abs().mean()), 2)
+    out["depth_pixels_changed"] = round(float((depth_i != depth_r).float().mean()), 3)
+    return out
+
+
 def save_montage(tiles: list[np.ndarray], path: Path) -> None:
     """One row per resolution (sub-envs side by side), each image scaled to 160 px high."""
     if not tiles:
@@ -696,6 +746,8 @@ def run_section(name: str, results: Results, sizes: Sizes) -> None:
         render_check(results, sizes)
     elif name == "depth_pack":
         guarded(results, "depth_pack", "640x480", depth_pack_check, sizes)
+    elif name == "noise":
+        guarded(results, "noise", "640x480", noise_check, sizes)
     elif name == "cpu_ref":
         cpu = Sizes(smoke=True)
         cpu.steps, cpu.warmup, cpu.budget_s = (10, 2, 10.0) if sizes.smoke else (300, 10, 30.0)
@@ -840,6 +892,18 @@ def markdown(data: dict) -> str:
             f"at most {e['depth_max_diff_mm']} mm; {e['depth_dtype']}), segmentation identical "
             f"{e['segmentation_identical']}; steps/s {e['depth+segmentation_steps_per_s']} against "
             f"{e['rgb+depth+segmentation_steps_per_s']}"
+        ),
+    )
+    bullets(
+        "noise",
+        "The realistic noise preset against ideal (640x480 RGB-D + segmentation, physx_cpu, N = 1)",
+        "realistic_steps_per_s",
+        lambda k, e: (
+            f"- {k}: images on {e['realistic_devices']}; goal category per pixel matches the segmentation "
+            f"(ideal / realistic) {e['ideal_semantic_category_matches']} / "
+            f"{e['realistic_semantic_category_matches']}; reset frame: RGB mean |realistic - ideal| "
+            f"{e['rgb_mean_abs_diff']} levels, depth pixels changed {e['depth_pixels_changed']:.1%}; "
+            f"steps/s {e['realistic_steps_per_s']} against {e['ideal_steps_per_s']}"
         ),
     )
     bullets(

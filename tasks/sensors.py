@@ -96,6 +96,7 @@ def rl_state(x: SensorInputs) -> np.ndarray:
 
 def semantic_category(segmentation: torch.Tensor, lookup: torch.Tensor) -> torch.Tensor:
     """Per pixel, 1 + the goal-category index of the object seen there (0: none): ``lookup`` maps
-    segmentation ids to those values."""
+    segmentation ids to those values. The result is on the image's device (a GPU renderer returns images on
+    the GPU while a ``physx_cpu`` env keeps its other tensors on the CPU)."""
     seg = segmentation.long().clamp(min=0, max=len(lookup) - 1)
-    return lookup[seg]
+    return lookup.to(seg.device)[seg]

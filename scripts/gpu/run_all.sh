@@ -5,7 +5,7 @@
 #     bash scripts/gpu/run_all.sh [SECTIONS]      # carry: [".site", ".gl"] (and ".physx" if you have it)
 #
 # SECTIONS: a comma-separated list of benchmarks/gpu_speed.py's sections (default: all, in this order:
-# meta,state,pickcube,equivalence,state_autoreset,rgbd,render,depth_pack,cpu_ref,lighting; `ppo`, which
+# meta,state,pickcube,equivalence,state_autoreset,rgbd,render,depth_pack,noise,cpu_ref,lighting; `ppo`, which
 # trains for minutes, only when named: `bash scripts/gpu/run_all.sh meta,ppo`). Each section
 # runs in its own process under `timeout`, so a crash or a hang in one still leaves the others' results;
 # every figure is written to $OUT/gpu_speed.json and $OUT/gpu_speed.md as soon as it is measured.
@@ -32,7 +32,7 @@ export PYTHONUNBUFFERED=1
 export PYTHONSAFEPATH=1
 T0=$(date +%s)
 BUDGET=${BIOVLN_GPU_BUDGET_S:-560}
-SECTIONS=${1:-meta,state,pickcube,equivalence,state_autoreset,rgbd,render,depth_pack,cpu_ref,lighting}
+SECTIONS=${1:-meta,state,pickcube,equivalence,state_autoreset,rgbd,render,depth_pack,noise,cpu_ref,lighting}
 left() { echo $((BUDGET - ($(date +%s) - T0))); }
 stamp() { echo "[run_all +$(($(date +%s) - T0))s] $*"; }
 PY=${PYTHON:-python3}
@@ -47,7 +47,7 @@ SMOKE=()
 
 # section timeouts (s): what each may take at most on an H100 (make + first reset + timed steps)
 declare -A LIMIT=([meta]=60 [state]=200 [pickcube]=100 [equivalence]=150 [state_autoreset]=90
-                  [rgbd]=170 [render]=100 [depth_pack]=60 [cpu_ref]=110 [lighting]=150 [ppo]=540)
+                  [rgbd]=170 [render]=100 [depth_pack]=60 [noise]=90 [cpu_ref]=110 [lighting]=150 [ppo]=540)
 
 # 1. loaders (the device docs' recipe) and the NVIDIA ICDs
 stamp "loaders"
