@@ -627,6 +627,7 @@ def noise_check(sizes: Sizes) -> dict:
                 k += 1
             sync()
             out[f"{preset}_steps_per_s"] = round(k / (time.perf_counter() - t), 1)
+            out[f"{preset}_profile"] = step_profile(env, actions, max(10, sizes.steps // 3))
         finally:
             env.close()
     # the reset frames: the same pose in both envs (later steps add actuation noise, so other views)
@@ -634,6 +635,30 @@ def noise_check(sizes: Sizes) -> dict:
     out["rgb_mean_abs_diff"] = round(float((rgb_i.float() - rgb_r.float()).abs().mean()), 2)
     out["depth_pixels_changed"] = round(float((depth_i != depth_r).float().mean()), 3)
     return out
+
+
+def step_profile(env, actions: list[int], n: int, top: int = 12) -> list[dict]:
+    """cProfile of ``n`` env steps: the ``top`` functions by their own time (ms per step, own and
+    cumulative), so that a slow preset says where its time goes."""
+    import cProfile
+    import pstats
+
+    prof = cProfile.Profile()
+    prof.enable()
+    for k in range(n):
+        env.step(actions[k % len(actions)])
+    sync()
+    prof.disable()
+    stats = pstats.Stats(prof).stats
+    rows = sorted(stats.items(), key=lambda kv: -kv[1][2])[:top]
+    return [
+        {
+            "function": f"{Path(f).name}:{line}({name})",
+            "own_ms_per_step": round(tt * 1000 / n, 3),
+            "cum_ms_per_step": round(ct * 1000 / n, 3),
+        }
+        for (f, line, name), (_, _, tt, ct, _) in rows
+    ]
 
 
 def save_montage(tiles: list[np.ndarray], path: Path) -> None:
