@@ -112,16 +112,18 @@ def write_table(
     notes: list[str] = (),
     render_device: str | None = None,
     provenance: str | None = None,
+    measured_on: str | None = None,
 ) -> Path:
     """Write a measured table; ``command`` is this process's command line, ``written`` today's date,
-    ``provenance`` (optional) where rows this command did not measure come from."""
+    ``provenance`` (optional) where rows this command did not measure come from, ``measured_on``
+    (optional) the machine that measured them when it is not this one."""
     script = Path(sys.argv[0]).resolve()
     root = docs_data_dir().parents[1]
     name = script.relative_to(root).as_posix() if script.is_relative_to(root) else script.name
     data = {
         "title": title,
         "command": "python " + shlex.join([name, *sys.argv[1:]]),
-        "machine": machine(render_device),
+        "machine": measured_on or machine(render_device),
         "written": datetime.date.today().isoformat(),
         **({"provenance": provenance} if provenance else {}),
         "columns": list(columns),

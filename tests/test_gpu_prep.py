@@ -238,3 +238,47 @@ def test_wheel_list_is_pinned_by_the_constraints():
     }
     assert {"sapien", "mani-skill"} <= {closure.norm(n) for n in names if n}
     assert all(closure.norm(n) in pinned for n in names if n)
+
+
+@pytest.mark.skipif(shutil.which("xz") is None, reason="needs xz")
+def test_packed_site_is_what_pip_installs_and_reproducible(tmp_path):
+    """pack_site.sh: the wheels' files as ``pip install --target`` lays them out, with no console scripts,
+    and the same archive bytes from the same wheels."""
+    import tarfile
+
+    wheels = tmp_path / "wheels"
+    wheels.mkdir()
+    make_wheel(wheels, "tinypkg", "1.0", {"tinypkg/__init__.py": b"X = 1\n", "tinypkg/data.txt": b"d"})
+    env = {**os.environ, "PYTHON": sys.executable}
+    a, b = tmp_path / "a.tar.xz", tmp_path / "b.tar.xz"
+    for out in (a, b):
+        subprocess.run(["bash", str(GPU / "pack_site.sh"), str(wheels), str(out)], check=True, env=env)
+    assert a.read_bytes() == b.read_bytes()
+    with tarfile.open(a) as t:
+        names = {n.removeprefix("./") for n in t.getnames()}
+        assert t.extractfile("./tinypkg/__init__.py").read() == b"X = 1\n"
+    assert {"tinypkg/__init__.py", "tinypkg/data.txt", "tinypkg-1.0.dist-info/METADATA"} <= names
+    assert not any(n == "bin" or n.startswith("bin/") for n in names)
+
+
+def test_slimmed_tree_leaves_docs_tests_and_weights_behind():
+    """slim_tree.sh size: what travels without docs/, tests/ and the detector's weights."""
+    out = subprocess.run(
+        ["bash", str(GPU / "slim_tree.sh"), "size"], capture_output=True, text=True, check=True
+    )
+    slim = int(out.stdout.strip())
+    left = sum(
+        p.stat().st_size
+        for d in ("docs", "tests", "assets/perception")
+        for p in (REPO / d).rglob("*")
+        if p.is_file() and "__pycache__" not in p.parts
+    )
+    listed = subprocess.run(
+        ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+        cwd=REPO,
+        capture_output=True,
+        check=True,
+    ).stdout.split(b"\0")
+    whole = sum((REPO / n.decode()).stat().st_size for n in listed if n and (REPO / n.decode()).is_file())
+    assert 0 < slim < whole
+    assert whole - slim >= 0.9 * left  # what is left behind is those folders (ignored files aside)
