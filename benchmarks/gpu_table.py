@@ -17,17 +17,19 @@ from pathlib import Path
 from biovln_ms.measured import docs_data_dir, write_table
 
 
-def _entries(runs: list[dict], section: str, key: str) -> list[dict]:
-    """``runs``' entries for ``section``/``key`` that were measured (no error, not blocked)."""
+def _measured(runs: list[dict], section: str, *keys: str) -> list[tuple[dict, ...]]:
+    """Per run that measured every one of ``keys`` in ``section`` (no error, not blocked), its entries, so
+    that a ratio divides figures of the same run."""
     out = []
     for r in runs:
-        e = r.get(section, {}).get(key)
-        if isinstance(e, dict) and "error" not in e and "blocked" not in e:
-            out.append(e)
+        es = tuple(r.get(section, {}).get(k) for k in keys)
+        if all(isinstance(e, dict) and "error" not in e and "blocked" not in e for e in es):
+            out.append(es)
     return out
 
 
 def _errors(runs: list[dict], section: str, key: str) -> list[str]:
+    """The errors ``section``/``key`` recorded, one per run that failed it."""
     return [
         f"run {i + 1}: {e['error']}"
         for i, r in enumerate(runs)
@@ -44,71 +46,70 @@ def joined(values, fmt="{:,.0f}") -> str:
 
 def rows_of(runs: list[dict]) -> list[list[str]]:
     rows = []
-    state = _entries(runs, "cpu_ref", "state_physx_cpu")
-    pick = _entries(runs, "cpu_ref", "pickcube_physx_cpu")
-    rgbd = _entries(runs, "cpu_ref", "rgbd128_physx_cpu")
-    if state:
+    cpu = _measured(runs, "cpu_ref", "state_physx_cpu", "pickcube_physx_cpu")
+    if cpu:
         rows.append(
             [
                 "state only, physx_cpu, 1 env",
-                f"{joined(e['steps_per_s'] for e in state)} steps/s",
-                f"PickCube-v1 {joined(e['steps_per_s'] for e in pick)} "
-                f"({joined((a['steps_per_s'] / b['steps_per_s'] for a, b in zip(state, pick)), '{:.2f}×')})",
+                f"{joined(s['steps_per_s'] for s, _ in cpu)} steps/s",
+                f"PickCube-v1 {joined(p['steps_per_s'] for _, p in cpu)} "
+                f"({joined((s['steps_per_s'] / p['steps_per_s'] for s, p in cpu), X)})",
             ]
         )
+    rgbd = _measured(runs, "cpu_ref", "rgbd128_physx_cpu")
     if rgbd:
         rows.append(
             [
                 "RGB-D 128×128, physx_cpu, rendered by the GPU",
-                f"{joined(e['steps_per_s'] for e in rgbd)} steps/s",
+                f"{joined(e['steps_per_s'] for (e,) in rgbd)} steps/s",
                 "–",
             ]
         )
-    light = {
-        k: _entries(runs, "lighting", k)
-        for k in ("fast_640x480", "fast_128x128", "quality_640x480", "quality_128x128")
-    }
     for size in ("640x480", "128x128"):
-        fast = light[f"fast_{size}"]
+        label = size.replace("x", "×")
+        fast = _measured(runs, "lighting", f"fast_{size}")
         if fast:
             rows.append(
                 [
-                    f"RGB-D {size.replace('x', '×')} step, `fast` lighting",
-                    f"{joined((e['ms_per_step'] for e in fast), '{:.2f}')} ms",
-                    f"raw SAPIEN frame {joined((e['raw_ms_per_frame'] for e in fast), '{:.2f}')} ms "
-                    f"({joined((e['raw_ms_per_frame'] / e['ms_per_step'] for e in fast), X)} of raw speed)",
+                    f"RGB-D {label} step, `fast` lighting",
+                    f"{joined((e['ms_per_step'] for (e,) in fast), '{:.2f}')} ms",
+                    f"raw SAPIEN frame {joined((e['raw_ms_per_frame'] for (e,) in fast), '{:.2f}')} ms "
+                    f"({joined((e['raw_ms_per_frame'] / e['ms_per_step'] for (e,) in fast), X)} raw speed)",
                 ]
             )
-        q = light[f"quality_{size}"]
-        if q and fast:
+        both = _measured(runs, "lighting", f"quality_{size}", f"fast_{size}")
+        if both:
             rows.append(
                 [
-                    f"RGB-D {size.replace('x', '×')} step, `quality` lighting",
-                    f"{joined((e['ms_per_step'] for e in q), '{:.2f}')} ms",
-                    f"{joined((a['ms_per_step'] / b['ms_per_step'] for a, b in zip(q, fast)), X)} `fast`",
+                    f"RGB-D {label} step, `quality` lighting",
+                    f"{joined((q['ms_per_step'] for q, _ in both), '{:.2f}')} ms",
+                    f"{joined((q['ms_per_step'] / f['ms_per_step'] for q, f in both), X)} `fast`",
                 ]
             )
-    for e in _entries(runs, "depth_pack", "640x480"):
+    depth = _measured(runs, "depth_pack", "640x480")
+    if depth:
+        same = all(e["depth_identical"] and e["segmentation_identical"] for (e,) in depth)
         rows.append(
             [
                 "640×480 depth + segmentation, depth-only shader pack",
-                f"{e['depth+segmentation_steps_per_s']:,.0f} steps/s",
-                f"minimal pack {e['rgb+depth+segmentation_steps_per_s']:,.0f} steps/s; depth identical "
-                f"{e['depth_identical']}, segmentation identical {e['segmentation_identical']}",
+                f"{joined(e['depth+segmentation_steps_per_s'] for (e,) in depth)} steps/s",
+                f"minimal pack {joined(e['rgb+depth+segmentation_steps_per_s'] for (e,) in depth)} steps/s; "
+                f"depth and segmentation identical {same}",
             ]
         )
-    noise = _entries(runs, "noise", "640x480")
+    noise = _measured(runs, "noise", "640x480")
     if noise:
         matches = all(
-            e["realistic_semantic_category_matches"] and e["ideal_semantic_category_matches"] for e in noise
+            e["realistic_semantic_category_matches"] and e["ideal_semantic_category_matches"]
+            for (e,) in noise
         )
         rows.append(
             [
                 "640×480 RGB-D + segmentation, `realistic` noise",
-                f"{joined(e['realistic_steps_per_s'] for e in noise)} steps/s",
-                f"`ideal` {joined(e['ideal_steps_per_s'] for e in noise)} "
-                f"({joined((e['realistic_steps_per_s'] / e['ideal_steps_per_s'] for e in noise), X)}); "
-                f"images on {noise[-1]['realistic_devices']['rgb']}, goal category per pixel matches "
+                f"{joined(e['realistic_steps_per_s'] for (e,) in noise)} steps/s",
+                f"`ideal` {joined(e['ideal_steps_per_s'] for (e,) in noise)} "
+                f"({joined((e['realistic_steps_per_s'] / e['ideal_steps_per_s'] for (e,) in noise), X)}); "
+                f"images on {noise[-1][0]['realistic_devices']['rgb']}, goal category per pixel matches "
                 f"{matches}",
             ]
         )
@@ -125,7 +126,14 @@ def main() -> None:
     ap.add_argument("runs", nargs="+", type=Path)
     ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "gpu_speed.json")
     args = ap.parse_args()
-    runs = [json.loads(p.read_text()) for p in args.runs]
+    runs = []
+    for p in args.runs:
+        try:
+            runs.append(json.loads(p.read_text()))
+        except (OSError, ValueError) as e:
+            ap.error(
+                f"{p}: not a run's gpu_speed.json ({type(e).__name__}: {e}); pass the files run_all.sh wrote"
+            )
     meta = next((r["meta"] for r in runs if isinstance(r.get("meta"), dict) and "gpu" in r["meta"]), {})
     measured_on = (
         f"{meta.get('gpu', '?')} (driver {meta.get('driver', '?')}), {meta.get('cpu', '?')}, Python "

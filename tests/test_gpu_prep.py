@@ -240,45 +240,53 @@ def test_wheel_list_is_pinned_by_the_constraints():
     assert all(closure.norm(n) in pinned for n in names if n)
 
 
-@pytest.mark.skipif(shutil.which("xz") is None, reason="needs xz")
+def _packs_here() -> bool:
+    """pack_site.sh's tools: xz, GNU tar (--sort) and pip in this Python."""
+    tar = (
+        subprocess.run(["tar", "--version"], capture_output=True, text=True) if shutil.which("tar") else None
+    )
+    pip = subprocess.run([sys.executable, "-m", "pip", "--version"], capture_output=True)
+    return bool(shutil.which("xz") and tar and "GNU tar" in tar.stdout and pip.returncode == 0)
+
+
+@pytest.mark.skipif(not _packs_here(), reason="needs xz, GNU tar and pip")
 def test_packed_site_is_what_pip_installs_and_reproducible(tmp_path):
-    """pack_site.sh: the wheels' files as ``pip install --target`` lays them out, with no console scripts,
-    and the same archive bytes from the same wheels."""
+    """pack_site.sh: the wheels' files as ``pip install --target`` lays them out, with no console scripts
+    and no record of where the wheels were, so the same wheels in another folder give the same bytes."""
     import tarfile
 
-    wheels = tmp_path / "wheels"
-    wheels.mkdir()
-    make_wheel(wheels, "tinypkg", "1.0", {"tinypkg/__init__.py": b"X = 1\n", "tinypkg/data.txt": b"d"})
     env = {**os.environ, "PYTHON": sys.executable}
-    a, b = tmp_path / "a.tar.xz", tmp_path / "b.tar.xz"
-    for out in (a, b):
+    packed = []
+    for where in ("a", "b/deeper"):
+        wheels = tmp_path / where / "wheels"
+        wheels.mkdir(parents=True)
+        make_wheel(wheels, "tinypkg", "1.0", {"tinypkg/__init__.py": b"X = 1\n", "tinypkg/data.txt": b"d"})
+        out = tmp_path / where / "site.tar.xz"
         subprocess.run(["bash", str(GPU / "pack_site.sh"), str(wheels), str(out)], check=True, env=env)
-    assert a.read_bytes() == b.read_bytes()
-    with tarfile.open(a) as t:
+        packed.append(out)
+    assert packed[0].read_bytes() == packed[1].read_bytes()
+    with tarfile.open(packed[0]) as t:
         names = {n.removeprefix("./") for n in t.getnames()}
         assert t.extractfile("./tinypkg/__init__.py").read() == b"X = 1\n"
     assert {"tinypkg/__init__.py", "tinypkg/data.txt", "tinypkg-1.0.dist-info/METADATA"} <= names
-    assert not any(n == "bin" or n.startswith("bin/") for n in names)
+    assert not any(n == "bin" or n.startswith("bin/") or n.endswith("direct_url.json") for n in names)
 
 
 def test_slimmed_tree_leaves_docs_tests_and_weights_behind():
-    """slim_tree.sh size: what travels without docs/, tests/ and the detector's weights."""
+    """slim_tree.sh size: what travels without docs/, tests/ and the detector's weights, exactly."""
+
+    def listed_bytes(*paths: str) -> int:
+        names = subprocess.run(
+            ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard", "--", *paths],
+            cwd=REPO,
+            capture_output=True,
+            check=True,
+        ).stdout.split(b"\0")
+        return sum((REPO / n.decode()).stat().st_size for n in names if n and (REPO / n.decode()).is_file())
+
     out = subprocess.run(
         ["bash", str(GPU / "slim_tree.sh"), "size"], capture_output=True, text=True, check=True
     )
-    slim = int(out.stdout.strip())
-    left = sum(
-        p.stat().st_size
-        for d in ("docs", "tests", "assets/perception")
-        for p in (REPO / d).rglob("*")
-        if p.is_file() and "__pycache__" not in p.parts
-    )
-    listed = subprocess.run(
-        ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
-        cwd=REPO,
-        capture_output=True,
-        check=True,
-    ).stdout.split(b"\0")
-    whole = sum((REPO / n.decode()).stat().st_size for n in listed if n and (REPO / n.decode()).is_file())
-    assert 0 < slim < whole
-    assert whole - slim >= 0.9 * left  # what is left behind is those folders (ignored files aside)
+    left = listed_bytes("docs", "tests", "assets/perception")
+    assert left > 0
+    assert int(out.stdout.strip()) == listed_bytes(".") - left

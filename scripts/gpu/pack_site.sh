@@ -17,8 +17,11 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 "$PY" -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --disable-pip-version-check \
   --target "$tmp/site" "$@" "$WHEELS"/*.whl
-# the wheels' console scripts name this machine's interpreter; nothing runs them there
+# the wheels' console scripts name this machine's interpreter, and pip's direct_url.json this folder's
+# path: neither belongs to the packed folder (nothing runs the scripts there)
 rm -rf "$tmp/site/bin"
+find "$tmp/site" -path '*.dist-info/direct_url.json' -delete
+find "$tmp/site" -path '*.dist-info/RECORD' -exec sed -i '/\.dist-info\/direct_url\.json,/d' {} +
 mkdir -p "$(dirname "$OUT_TAR")"
 tar --sort=name --mtime=@0 --owner=0 --group=0 --numeric-owner --mode=u+rwX,go+rX,go-w \
   -C "$tmp/site" -cf - . | xz -T2 -6 >"$tmp/site.tar.xz"
