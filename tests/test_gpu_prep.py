@@ -287,6 +287,6 @@ def test_slimmed_tree_leaves_docs_tests_and_weights_behind():
     out = subprocess.run(
         ["bash", str(GPU / "slim_tree.sh"), "size"], capture_output=True, text=True, check=True
     )
-    left = listed_bytes("docs", "tests", "assets/perception")
+    left = listed_bytes("docs", "tests", "assets/perception", "assets/scenes")
     assert left > 0
     assert int(out.stdout.strip()) == listed_bytes(".") - left

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The working tree travels whole with every GPU call (64 MiB with what is carried). These tracked paths
-# are not read by run_all.sh's sections, so a call can leave them behind:
+# are not read by run_all.sh's sections (the carried dataset holds the LSAT split built from
+# assets/scenes), so a call can leave them behind:
 #
 #     bash scripts/gpu/slim_tree.sh size      # bytes that travel with them left behind
 #     bash scripts/gpu/slim_tree.sh slim      # remove them from the index and the disk (clean tree only)
@@ -11,7 +12,7 @@
 # the paths `slim` removed.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-LEFT_BEHIND=(docs tests assets/perception) # documentation, the test suite, the detector's weights
+LEFT_BEHIND=(docs tests assets/perception assets/scenes) # docs, tests, detector weights, the LSAT scene
 NOTE=$(git rev-parse --git-path biovln-slim)
 case "${1:-}" in
   size)
