@@ -75,29 +75,29 @@ def evaluation(folder: Path) -> dict:
 
 
 def summaries(runs: list[dict]) -> dict:
-    """{preset: {split: [each run's summary]}}: SR (Wilson 95 % interval), SPL and timeouts on the episodes
-    every run played, and in the first run's McNemar's p against the second (the same episodes: paired)."""
+    """{preset: {split: {run index: summary}}} over the runs evaluated there: SR (Wilson 95 % interval),
+    SPL and timeouts on the episodes all of them played, and in the first run's McNemar's p against the
+    second (the same episodes: paired) when both were evaluated there."""
     out: dict = {}
     for preset in PRESETS:
         for split in SPLITS:
-            played = [r["eval"].get(preset, {}).get(split) for r in runs]
-            if not all(played):
+            played = {i: r["eval"].get(preset, {}).get(split) for i, r in enumerate(runs)}
+            played = {i: p for i, p in played.items() if p}
+            if not played:
                 continue
-            keys = sorted(set.intersection(*(set(p) for p in played)))
-            cells = []
-            for p in played:
+            keys = sorted(set.intersection(*(set(p) for p in played.values())))
+            cells = {}
+            for i, p in played.items():
                 k = sum(p[e][0] for e in keys)
-                cells.append(
-                    {
-                        "episodes": len(keys),
-                        "sr": round(100 * k / len(keys), 1),
-                        "sr_ci95": [round(100 * v, 1) for v in wilson_interval(k, len(keys))],
-                        "spl": round(float(np.mean([p[e][1] for e in keys])), 3),
-                        "timeouts": int(sum(p[e][2] for e in keys)),
-                    }
-                )
-            if len(played) > 1:
-                first, second = ([p[e][0] for e in keys] for p in played[:2])
+                cells[i] = {
+                    "episodes": len(keys),
+                    "sr": round(100 * k / len(keys), 1),
+                    "sr_ci95": [round(100 * v, 1) for v in wilson_interval(k, len(keys))],
+                    "spl": round(float(np.mean([p[e][1] for e in keys])), 3),
+                    "timeouts": int(sum(p[e][2] for e in keys)),
+                }
+            if 0 in played and 1 in played:
+                first, second = ([played[i][e][0] for e in keys] for i in (0, 1))
                 cells[0]["mcnemar_p"] = round(mcnemar(first, second).p_value, 4)
             out.setdefault(preset, {})[split] = cells
     return out
@@ -130,7 +130,7 @@ def report(a: argparse.Namespace) -> None:
     runs = [read_run(Path(f), a.steps, a.window) for f in a.runs]
     summary = summaries(runs)
     for k, r in enumerate(runs):
-        r["eval"] = {p: {s: cells[k] for s, cells in d.items()} for p, d in summary.items()}
+        r["eval"] = {p: {s: cells[k] for s, cells in d.items() if k in cells} for p, d in summary.items()}
     write_runs(a.data_out / "ppo_scenes_curves.json", runs, window_steps=a.window)
 
     def cell(r: dict, preset: str, split: str) -> str:
@@ -144,16 +144,51 @@ def report(a: argparse.Namespace) -> None:
         p = runs[0]["eval"].get(preset, {}).get(split, {}).get("mcnemar_p")
         return "–" if p is None else f"p = {p:.2g}"
 
-    def late(r: dict) -> str:  # training success over the last quarter of the steps
+    def late_rate(r: dict) -> float | None:  # training success over the last quarter of the steps
         pts = [p for p in r["curve"] if p[0] > 3 * a.steps // 4 and p[1] is not None]
         n = sum(p[2] for p in pts)
-        return "–" if not n else f"{100 * sum(p[1] * p[2] for p in pts) / n:.0f}"
+        return None if not n else 100 * sum(p[1] * p[2] for p in pts) / n
+
+    def late(r: dict) -> str:
+        v = late_rate(r)
+        return "–" if v is None else f"{v:.0f}"
+
+    def over_seeds(group: list[dict]) -> list[str]:
+        """A training split's runs: the mean (lowest-highest) of each figure over its seeds."""
+
+        def span(values: list[float], fmt: str) -> str:
+            if len(values) < len(group):
+                return "–"
+            return f"{fmt.format(np.mean(values))} ({fmt.format(min(values))}-{fmt.format(max(values))})"
+
+        def cells(preset: str, split: str) -> str:
+            es = [r["eval"].get(preset, {}).get(split) for r in group]
+            if not all(es):
+                return "–"
+            return f"{span([e['sr'] for e in es], '{:.1f}')} / {span([e['spl'] for e in es], '{:.2f}')}"
+
+        first = group[0]
+        return [
+            f"{first['scenes']:,}: mean (range) over {len(group)} seeds",
+            ", ".join(str(r["seed"]) for r in group),
+            span([r["scenes_seen"] for r in group], "{:,.0f}"),
+            span([r["episodes"] for r in group], "{:,.0f}"),
+            span([v for r in group if (v := late_rate(r)) is not None], "{:.0f}"),
+            "",
+            *(cells(p, s) for p in PRESETS for s in SPLITS),
+        ]
+
+    groups: dict[str, list[dict]] = {}
+    for r in runs:
+        groups.setdefault(r["split"], []).append(r)
+    seeded = [g for g in groups.values() if len(g) > 1 and len({r["seed"] for r in g}) == len(g)]
 
     write_table(
         a.data_out / "ppo_scenes.json",
         f"PPO on {RL_ENV}: training scenes, the same steps",
         [
             "training scenes (templates)",
+            "seed",
             "scenes met in training",
             "episodes",
             "training success % (last quarter)",
@@ -163,6 +198,7 @@ def report(a: argparse.Namespace) -> None:
         [
             [
                 f"{r['scenes']:,} ({r['templates']})",
+                str(r["seed"]),
                 f"{r['scenes_seen']:,}",
                 f"{r['episodes']:,}",
                 late(r),
@@ -171,9 +207,20 @@ def report(a: argparse.Namespace) -> None:
             ]
             for r in runs
         ]
-        + [["McNemar (paired episodes)", "", "", "", "", *(p_cell(p, s) for p in PRESETS for s in SPLITS)]],
+        + [
+            [
+                "McNemar, the first two rows (paired episodes)",
+                "",
+                "",
+                "",
+                "",
+                "",
+                *(p_cell(p, s) for p in PRESETS for s in SPLITS),
+            ]
+        ]
+        + [over_seeds(g) for g in seeded],
         notes=[
-            f"Seed {', '.join(sorted({str(r['seed']) for r in runs}))}, one run per row, "
+            "One run per row (the seed in its column), "
             f"{runs[0]['steps']:,} steps each, the SB3 recipe of the learning guide, "
             f"{', '.join(sorted({str(r['scene_visit_episodes']) for r in runs}))} episodes of a scene per "
             "pass (scene_visit_episodes).",
@@ -182,6 +229,8 @@ def report(a: argparse.Namespace) -> None:
             "where an evaluation was cut short).",
             "McNemar: the first two runs' outcomes on the same episodes (biovln_ms.eval.stats.mcnemar).",
             "steps/s: each run's own on this machine at the time.",
+            "Mean (range) over seeds: a training split's runs, the figures all its seeds have; a cell that "
+            "not every seed has is left out (–).",
         ],
     )
     plot(runs, a.image, a.window)
@@ -195,10 +244,20 @@ def plot(runs: list[dict], path: Path, window: int) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    groups: dict[str, list[dict]] = {}
     for r in runs:
-        pts = [(p[0] / 1000, 100 * p[1]) for p in r["curve"] if p[1] is not None]
-        label = f"{r['scenes']:,} training scenes ({r['scenes_seen']:,} met)"
-        ax.plot(*zip(*pts), marker=".", label=label)
+        groups.setdefault(r["split"], []).append(r)
+    for group in groups.values():  # one line per training split: the mean over its seeds, their range shaded
+        steps = sorted({p[0] for r in group for p in r["curve"] if p[1] is not None})
+        by_run = [{p[0]: 100 * p[1] for p in r["curve"] if p[1] is not None} for r in group]
+        steps = [t for t in steps if all(t in c for c in by_run)]
+        values = np.array([[c[t] for t in steps] for c in by_run])
+        x = np.array(steps) / 1000
+        seeds = f", mean of {len(group)} seeds" if len(group) > 1 else ""
+        label = f"{group[0]['scenes']:,} training scenes{seeds}"
+        (line,) = ax.plot(x, values.mean(0), marker=".", label=label)
+        if len(group) > 1:
+            ax.fill_between(x, values.min(0), values.max(0), color=line.get_color(), alpha=0.2, lw=0)
     ax.set(xlabel="env steps (thousands)", ylabel=f"training success % (per {window:,} steps)")
     ax.set_ylim(-2, 102)
     ax.grid(alpha=0.3)

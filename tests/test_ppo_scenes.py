@@ -10,10 +10,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _run(folder: Path, dataset: str, outcomes: dict[str, list[bool]]) -> None:
+def _run(folder: Path, dataset: str, outcomes: dict[str, list[bool]], seed: int = 0) -> None:
     """A run folder as train ppo and eval write it: 2 envs, episodes ending every 100 steps."""
     folder.mkdir()
-    config = {"split": "train", "dataset": dataset, "seed": 0, "n_envs": 2, "scene_visit_episodes": 2}
+    config = {"split": "train", "dataset": dataset, "seed": seed, "n_envs": 2, "scene_visit_episodes": 2}
     train = {"config": config, "timesteps": 2000, "steps_per_second": 50.0}
     (folder / "train.json").write_text(json.dumps(train))
     rows = ["timesteps,env,return,length,success,seconds"]
@@ -39,18 +39,44 @@ def test_report_pairs_the_runs_episodes(held_out_dataset, tmp_path):
     cmd += ["--window", "500", "--data-out", str(data), "--image", str(image)]
     subprocess.run([*cmd, str(tmp_path / "a"), str(tmp_path / "b")], check=True, capture_output=True)
     table = json.loads((data / "ppo_scenes.json").read_text())
-    a, b, p = table["rows"]
-    assert a[:5] == [
+    a, b, p = table["rows"]  # the same seed twice: no row over seeds
+    assert a[:6] == [
         "1 (1 single_room)",
+        "0",
         "1",
         "20",
         "100",
         "50",
     ]  # one scene in the split, met; last quarter all successes
-    assert a[5] == "100.0 [72, 100] / 0.50 (n 10)" and b[5] == "80.0 [49, 94] / 0.40 (n 10)"
-    assert p[5] == "p = 0.5"  # 2 discordant pairs: the exact test
-    assert set(a[6:]) == {"–"}  # no hard_test, no realistic runs
+    assert a[6] == "100.0 [72, 100] / 0.50 (n 10)" and b[6] == "80.0 [49, 94] / 0.40 (n 10)"
+    assert p[6] == "p = 0.5"  # 2 discordant pairs: the exact test
+    assert set(a[7:]) == {"–"}  # no hard_test, no realistic runs
     curves = json.loads((data / "ppo_scenes_curves.json").read_text())["runs"]
     assert [pt[0] for pt in curves[0]["curve"]] == [500, 1000, 1500, 2000]
     assert curves[0]["eval"]["ideal"]["ms_test"]["mcnemar_p"] == 0.5
     assert image.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_report_averages_a_splits_seeds(held_out_dataset, tmp_path):
+    """Runs of one training split with different seeds get a row of means (ranges) over them; a cell only
+    some seeds have (realistic, say) is left out of it."""
+    dataset = held_out_dataset(train=6)
+    _run(tmp_path / "s0", dataset, {"ms_test": [True] * 10})
+    _run(tmp_path / "s1", dataset, {"ms_test": [True] * 6 + [False] * 4}, seed=1)
+    realistic = tmp_path / "s0" / "eval" / "realistic" / "ppo@opface-rl+realistic" / "ms_test"
+    realistic.mkdir(parents=True)
+    realistic.joinpath("episodes.jsonl").write_text(
+        json.dumps({"scene_id": "s", "episode_id": "0", "success": True, "spl": 1.0, "truncated": False})
+        + "\n"
+    )
+    data = tmp_path / "data"
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "ppo_scenes.py"), "report", "--steps", "2000"]
+    cmd += ["--window", "500", "--data-out", str(data), "--image", str(tmp_path / "x.png")]
+    subprocess.run([*cmd, str(tmp_path / "s0"), str(tmp_path / "s1")], check=True, capture_output=True)
+    table = json.loads((data / "ppo_scenes.json").read_text())
+    s0, s1, _, mean = table["rows"]
+    assert (s0[1], s1[1]) == ("0", "1")
+    assert s0[8] == "100.0 [21, 100] / 1.00 (n 1)" and s1[8] == "–"  # realistic: seed 0 only
+    assert mean[0] == "1: mean (range) over 2 seeds" and mean[1] == "0, 1"
+    assert mean[6] == "80.0 (60.0-100.0) / 0.40 (0.30-0.50)"  # SR and SPL over the seeds
+    assert mean[8] == "–"
