@@ -142,7 +142,9 @@ def report(a: argparse.Namespace) -> None:
 
     def p_cell(preset: str, split: str) -> str:
         p = runs[0]["eval"].get(preset, {}).get(split, {}).get("mcnemar_p")
-        return "–" if p is None else f"p = {p:.2g}"
+        if p is None:
+            return "–"
+        return "p < 0.0001" if p < 1e-4 else f"p = {p:.2g}"
 
     def late_rate(r: dict) -> float | None:  # training success over the last quarter of the steps
         pts = [p for p in r["curve"] if p[0] > 3 * a.steps // 4 and p[1] is not None]
@@ -176,6 +178,27 @@ def report(a: argparse.Namespace) -> None:
             span([v for r in group if (v := late_rate(r)) is not None], "{:.0f}"),
             "",
             *(cells(p, s) for p in PRESETS for s in SPLITS),
+        ]
+
+    def welch_row(a_runs: list[dict], b_runs: list[dict]) -> list[str]:
+        """Welch's t-test of two training splits' SRs across their seeds (each seed one sample)."""
+        from scipy.stats import ttest_ind
+
+        def cell(preset: str, split: str) -> str:
+            a_sr, b_sr = ([r["eval"].get(preset, {}).get(split) for r in g] for g in (a_runs, b_runs))
+            if not (all(a_sr) and all(b_sr)):
+                return "–"
+            p = ttest_ind([e["sr"] for e in a_sr], [e["sr"] for e in b_sr], equal_var=False).pvalue
+            return f"p = {p:.2g}"
+
+        return [
+            "Welch's t over seeds (SR)",
+            "",
+            "",
+            "",
+            "",
+            "",
+            *(cell(p, s) for p in PRESETS for s in SPLITS),
         ]
 
     groups: dict[str, list[dict]] = {}
@@ -218,7 +241,8 @@ def report(a: argparse.Namespace) -> None:
                 *(p_cell(p, s) for p in PRESETS for s in SPLITS),
             ]
         ]
-        + [over_seeds(g) for g in seeded],
+        + [over_seeds(g) for g in seeded]
+        + ([welch_row(*seeded)] if len(seeded) == 2 else []),
         notes=[
             "One run per row (the seed in its column), "
             f"{runs[0]['steps']:,} steps each, the SB3 recipe of the learning guide, "
