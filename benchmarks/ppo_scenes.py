@@ -3,18 +3,22 @@ split of 10,000 scenes, evaluated on MS TEST and the Hard track under both noise
 
     biovln-ms dataset build --template single_room --scenes 10000 --episodes-per-scene 20 -o data/gen10k
     biovln-ms train ppo --timesteps 100000 --n-envs 2 --stop-penalty 10 --stop-penalty-steps 50000 \\
-        --scene-visit-episodes 2 --eval-split '' -o runs/scenes39
-    biovln-ms train ppo ... (the same) --dataset data/gen10k -o runs/scenes10k
-    biovln-ms eval -m ppo --checkpoint runs/scenes39/model.zip -s ms_test --noise ideal \\
-        -o runs/scenes39/eval/ideal        # and hard_test; --noise realistic --max-episodes 40 into
-                                           # .../realistic
-    python benchmarks/ppo_scenes.py report runs/scenes39 runs/scenes10k
+        --scene-visit-episodes 2 --eval-split '' --seed S -o runs/scenes39_sS      # S = 0, 1, 2
+    biovln-ms train ppo ... (the same) --dataset data/gen10k -o runs/scenes10k_sS
+    biovln-ms eval -m ppo --checkpoint runs/scenes39_s0/model.zip -s ms_test --noise ideal \\
+        -o runs/scenes39_s0/eval/ideal     # and hard_test; --noise realistic --max-episodes 40 into
+                                           # .../realistic (the published table: seed 0 only)
+    python benchmarks/ppo_scenes.py report runs/scenes39_s0 runs/scenes10k_s0 runs/scenes39_s1 \\
+        runs/scenes39_s2 runs/scenes10k_s1 runs/scenes10k_s2
 
-Both runs use the learning guide's SB3 recipe (2 envs, STOP penalty in the first half) and take two
-episodes of a scene in a row (``--scene-visit-episodes 2``), so the only difference is the training split.
-A run folder's ``eval/<preset>/`` holds ``biovln-ms eval`` results folders of any splits. ``report`` writes
-``docs/data/learning/ppo_scenes.json`` (the table), ``docs/data/learning/ppo_scenes_curves.json`` and
-``docs/images/ppo_scenes.png`` (training success per window of steps, both runs).
+All runs use the learning guide's SB3 recipe (2 envs, STOP penalty in the first half) and take two
+episodes of a scene in a row (``--scene-visit-episodes 2``), so the only differences are the training
+split and the seed. A run folder's ``eval/<preset>/`` holds ``biovln-ms eval`` results folders of any
+splits. ``report`` gives a row per run, McNemar's test between the first two (so: the two seed-0 runs
+first), and, for a training split run with several seeds, the mean (range) over them and Welch's t between
+two such splits. It writes ``docs/data/learning/ppo_scenes.json`` (the table),
+``docs/data/learning/ppo_scenes_curves.json`` and ``docs/images/ppo_scenes.png`` (training success per
+window of steps, one line per training split).
 """
 
 from __future__ import annotations
@@ -86,6 +90,8 @@ def summaries(runs: list[dict]) -> dict:
             if not played:
                 continue
             keys = sorted(set.intersection(*(set(p) for p in played.values())))
+            if not keys:
+                raise SystemExit(f"ppo_scenes: the runs evaluated on {split} ({preset}) share no episode")
             cells = {}
             for i, p in played.items():
                 k = sum(p[e][0] for e in keys)
@@ -98,7 +104,7 @@ def summaries(runs: list[dict]) -> dict:
                 }
             if 0 in played and 1 in played:
                 first, second = ([played[i][e][0] for e in keys] for i in (0, 1))
-                cells[0]["mcnemar_p"] = round(mcnemar(first, second).p_value, 4)
+                cells[0]["mcnemar_p"] = float(f"{mcnemar(first, second).p_value:.2g}")
             out.setdefault(preset, {})[split] = cells
     return out
 
@@ -271,7 +277,10 @@ def plot(runs: list[dict], path: Path, window: int) -> None:
     groups: dict[str, list[dict]] = {}
     for r in runs:
         groups.setdefault(r["split"], []).append(r)
-    for group in groups.values():  # one line per training split: the mean over its seeds, their range shaded
+    lines = []  # one per training split (the mean over its seeds, their range shaded); one per run if a
+    for group in groups.values():  # split's runs repeat a seed (then they are not seeds of one recipe)
+        lines += [group] if len({r["seed"] for r in group}) == len(group) else [[r] for r in group]
+    for group in lines:
         steps = sorted({p[0] for r in group for p in r["curve"] if p[1] is not None})
         by_run = [{p[0]: 100 * p[1] for p in r["curve"] if p[1] is not None} for r in group]
         steps = [t for t in steps if all(t in c for c in by_run)]

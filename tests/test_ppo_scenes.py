@@ -10,10 +10,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _run(folder: Path, dataset: str, outcomes: dict[str, list[bool]], seed: int = 0) -> None:
+def _run(
+    folder: Path, dataset: str, outcomes: dict[str, list[bool]], seed: int = 0, split: str = "train"
+) -> None:
     """A run folder as train ppo and eval write it: 2 envs, episodes ending every 100 steps."""
     folder.mkdir()
-    config = {"split": "train", "dataset": dataset, "seed": seed, "n_envs": 2, "scene_visit_episodes": 2}
+    config = {"split": split, "dataset": dataset, "seed": seed, "n_envs": 2, "scene_visit_episodes": 2}
     train = {"config": config, "timesteps": 2000, "steps_per_second": 50.0}
     (folder / "train.json").write_text(json.dumps(train))
     rows = ["timesteps,env,return,length,success,seconds"]
@@ -80,3 +82,27 @@ def test_report_averages_a_splits_seeds(held_out_dataset, tmp_path):
     assert mean[0] == "1: mean (range) over 2 seeds" and mean[1] == "0, 1"
     assert mean[6] == "80.0 (60.0-100.0) / 0.40 (0.30-0.50)"  # SR and SPL over the seeds
     assert mean[8] == "–"
+
+
+def test_report_tests_two_splits_over_their_seeds(held_out_dataset, tmp_path):
+    """Two training splits with two seeds each: a mean row for each, Welch's t on their SRs across seeds,
+    and a McNemar p below the table's precision shown as a bound."""
+    from scipy.stats import ttest_ind
+
+    dataset = held_out_dataset(train=6, other=6)
+    outcomes = {"a0": [True] * 30, "b0": [False] * 30, "a1": [True] * 27 + [False] * 3}
+    outcomes["b1"] = [True] * 6 + [False] * 24
+    for name, ok in outcomes.items():
+        split = "train" if name[0] == "a" else "other"
+        _run(tmp_path / name, dataset, {"ms_test": ok}, seed=int(name[1]), split=split)
+    data = tmp_path / "data"
+    cmd = [sys.executable, str(ROOT / "benchmarks" / "ppo_scenes.py"), "report", "--steps", "2000"]
+    cmd += ["--window", "500", "--data-out", str(data), "--image", str(tmp_path / "x.png")]
+    folders = [str(tmp_path / n) for n in ("a0", "b0", "a1", "b1")]
+    subprocess.run([*cmd, *folders], check=True, capture_output=True)
+    rows = json.loads((data / "ppo_scenes.json").read_text())["rows"]
+    mcnemar_row, mean_a, mean_b, welch = rows[4:]
+    assert mcnemar_row[6] == "p < 0.0001"  # 30 discordant pairs, all one way
+    assert mean_a[6].startswith("95.0 (90.0-100.0)") and mean_b[6].startswith("10.0 (0.0-20.0)")
+    p = ttest_ind([100.0, 90.0], [0.0, 20.0], equal_var=False).pvalue
+    assert welch[0] == "Welch's t over seeds (SR)" and welch[6] == f"p = {p:.2g}"
