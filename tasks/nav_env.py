@@ -174,7 +174,7 @@ class BioVLNNavEnv(FreezesLiveObjects, CapturesDuringStep, BaseEnv):
         self._done = np.zeros(self.num_envs, dtype=bool)  # the episode has ended
         self._frozen = self._done.copy()  # ... already before the current step
         if self._head_noise is None:
-            self._head_noise = HeadCameraNoise(c)
+            self._head_noise = HeadCameraNoise(c, self.device)
 
     def reset(self, seed=None, options=None):
         """ManiSkill's, after checking the seed and options (``env_idx`` as the base env's index tensor) and

@@ -22,32 +22,26 @@ class HeadCameraNoise:
     """The noise config's image noise and pose-free extrinsics for the head camera (noise models built on
     first use)."""
 
-    def __init__(self, cfg: NavTaskConfig) -> None:
-        self.cfg = cfg
-        self._models: dict[str, tuple[RGBNoise | None, DepthNoise | None]] = {}
+    def __init__(self, cfg: NavTaskConfig, device) -> None:
+        self.cfg, self.device = cfg, device
+        self._models: tuple[RGBNoise | None, DepthNoise | None] | None = None
 
-    def models(self, device="cpu") -> tuple[RGBNoise | None, DepthNoise | None]:
-        """The RGB and depth noise models on ``device`` (None where the config has none), built on first use:
-        on the images' device, which is the GPU's for a GPU renderer even when the physics runs on the CPU."""
-        device = torch.device(device)
-        key = str(device)
-        if key not in self._models:
+    def models(self) -> tuple[RGBNoise | None, DepthNoise | None]:
+        """The RGB and depth noise models (None where the config has none)."""
+        if self._models is None:
             c, noise = self.cfg, self.cfg.noise
             h, w, seed = c.camera_height, c.camera_width, IMAGE_NOISE_SEED
             focal = w / (2 * math.tan(c.hfov / 2))  # pixels, as the camera's intrinsic matrix has it
-            self._models[key] = (
-                RGBNoise(h, w, sigma=noise.rgb, seed=seed, device=device) if noise.rgb > 0 else None,
-                DepthNoise(h, w, focal_px=focal, seed=seed, device=device) if noise.depth else None,
+            self._models = (
+                RGBNoise(h, w, sigma=noise.rgb, seed=seed, device=self.device) if noise.rgb > 0 else None,
+                DepthNoise(h, w, focal_px=focal, seed=seed, device=self.device) if noise.depth else None,
             )
-        return self._models[key]
+        return self._models
 
     def apply_image_noise(self, head: dict, episode_seed: np.ndarray, steps: np.ndarray) -> None:
         """RGB and depth noise on the head camera's images (in place), keyed by each sub-env's (episode seed,
         step) so that a recorded episode replays exactly."""
-        image = head.get("rgb", head.get("depth"))
-        if image is None:
-            return
-        rgb_noise, depth_noise = self.models(image.device)
+        rgb_noise, depth_noise = self.models()
         if (rgb_noise and "rgb" in head) or (depth_noise and "depth" in head):
             keys = frame_keys(episode_seed, steps)
             if rgb_noise and "rgb" in head:
