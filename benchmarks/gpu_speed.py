@@ -573,12 +573,7 @@ def depth_pack_check(sizes: Sizes) -> dict:
                 seen.append((head["depth"].clone(), head["segmentation"].clone()))
                 obs, *_ = env.step(a)
             frames[mode] = seen
-            t, k = time.perf_counter(), 0
-            while k < sizes.steps and time.perf_counter() - t < sizes.budget_s / 4:
-                env.step(actions[k % len(actions)])
-                k += 1
-            sync()
-            out[f"{mode}_steps_per_s"] = round(k / (time.perf_counter() - t), 1)
+            out[f"{mode}_steps_per_s"] = cycled_step_rate(env, actions, sizes)
             out[f"{mode}_shader"] = env.unwrapped._sensors["head"].config.shader_config.shader_pack
         finally:
             env.close()
@@ -593,13 +588,13 @@ def depth_pack_check(sizes: Sizes) -> dict:
 
 def noise_check(sizes: Sizes) -> dict:
     """The ``realistic`` preset on this machine's renderer against ``ideal``: the same episode and actions,
-    each image's device, ``semantic_category``
-    against the segmentation's lookup done on the CPU, how much noise the realistic frames carry, and the
-    step rate of each (physx_cpu, one sub-env)."""
+    each image's device, ``semantic_category`` against the segmentation's lookup done on the CPU, how much
+    noise the realistic reset frame carries, and the step rate and a profile of each (physx_cpu, one
+    sub-env)."""
     import torch
 
     actions = [2, 2, 3, 2, 3, 3, 2, 2]
-    frames, out = {}, {}
+    reset_frames, out = {}, {}
     for preset in ("ideal", "realistic"):
         env = make_nav(
             1, "rgb+depth+segmentation", sizes.smoke, (640, 480), sim_backend="physx_cpu", noise=preset
@@ -610,31 +605,34 @@ def noise_check(sizes: Sizes) -> dict:
             out[f"{preset}_devices"] = {k: str(v.device) for k, v in head.items()} | {
                 "semantic_category": str(obs["extra"]["semantic_category"].device)
             }
+            # the reset frames: the same pose in both envs (later steps add actuation noise, so other views)
+            reset_frames[preset] = (head["rgb"].cpu().clone(), head["depth"].cpu().clone())
             lookup = env.unwrapped._segmentation_lookup.cpu()
             sem_ok = True
-            seen = []
             for a in actions:
-                head = obs["sensor_data"]["head"]
-                seg = head["segmentation"].cpu().long().clamp(0, len(lookup) - 1)
+                seg = obs["sensor_data"]["head"]["segmentation"].cpu().long().clamp(0, len(lookup) - 1)
                 sem_ok &= torch.equal(lookup[seg], obs["extra"]["semantic_category"].cpu())
-                seen.append((head["rgb"].cpu().clone(), head["depth"].cpu().clone()))
                 obs, *_ = env.step(a)
-            frames[preset] = seen
             out[f"{preset}_semantic_category_matches"] = bool(sem_ok)
-            t, k = time.perf_counter(), 0
-            while k < sizes.steps and time.perf_counter() - t < sizes.budget_s / 4:
-                env.step(actions[k % len(actions)])
-                k += 1
-            sync()
-            out[f"{preset}_steps_per_s"] = round(k / (time.perf_counter() - t), 1)
+            out[f"{preset}_steps_per_s"] = cycled_step_rate(env, actions, sizes)
             out[f"{preset}_profile"] = step_profile(env, actions, max(10, sizes.steps // 3))
         finally:
             env.close()
-    # the reset frames: the same pose in both envs (later steps add actuation noise, so other views)
-    (rgb_i, depth_i), (rgb_r, depth_r) = frames["ideal"][0], frames["realistic"][0]
+    (rgb_i, depth_i), (rgb_r, depth_r) = reset_frames["ideal"], reset_frames["realistic"]
     out["rgb_mean_abs_diff"] = round(float((rgb_i.float() - rgb_r.float()).abs().mean()), 2)
     out["depth_pixels_changed"] = round(float((depth_i != depth_r).float().mean()), 3)
     return out
+
+
+def cycled_step_rate(env, actions: list[int], sizes: Sizes) -> float:
+    """Steps per second of ``env`` cycling through ``actions``, for ``sizes.steps`` steps or a quarter of
+    ``sizes.budget_s``, whichever ends first."""
+    t, k = time.perf_counter(), 0
+    while k < sizes.steps and time.perf_counter() - t < sizes.budget_s / 4:
+        env.step(actions[k % len(actions)])
+        k += 1
+    sync()
+    return round(k / (time.perf_counter() - t), 1)
 
 
 def step_profile(env, actions: list[int], n: int, top: int = 12) -> list[dict]:
