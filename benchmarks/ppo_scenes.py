@@ -109,6 +109,18 @@ def summaries(runs: list[dict]) -> dict:
     return out
 
 
+def seed_groups(runs: list[dict]) -> list[list[dict]]:
+    """The runs grouped by training split, a split's runs together when their seeds differ (seeds of one
+    recipe); where a split's runs repeat a seed, each run alone."""
+    by_split: dict[str, list[dict]] = {}
+    for r in runs:
+        by_split.setdefault(r["split"], []).append(r)
+    out = []
+    for group in by_split.values():
+        out += [group] if len({r["seed"] for r in group}) == len(group) else [[r] for r in group]
+    return out
+
+
 def read_run(folder: Path, end: int, window: int) -> dict:
     train = json.loads((folder / "train.json").read_text())
     cfg = train["config"]
@@ -207,10 +219,7 @@ def report(a: argparse.Namespace) -> None:
             *(cell(p, s) for p in PRESETS for s in SPLITS),
         ]
 
-    groups: dict[str, list[dict]] = {}
-    for r in runs:
-        groups.setdefault(r["split"], []).append(r)
-    seeded = [g for g in groups.values() if len(g) > 1 and len({r["seed"] for r in g}) == len(g)]
+    seeded = [g for g in seed_groups(runs) if len(g) > 1]
 
     write_table(
         a.data_out / "ppo_scenes.json",
@@ -274,13 +283,7 @@ def plot(runs: list[dict], path: Path, window: int) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.4, 3.6))
-    groups: dict[str, list[dict]] = {}
-    for r in runs:
-        groups.setdefault(r["split"], []).append(r)
-    lines = []  # one per training split (the mean over its seeds, their range shaded); one per run if a
-    for group in groups.values():  # split's runs repeat a seed (then they are not seeds of one recipe)
-        lines += [group] if len({r["seed"] for r in group}) == len(group) else [[r] for r in group]
-    for group in lines:
+    for group in seed_groups(runs):  # a line each: the mean over its seeds, their range shaded
         steps = sorted({p[0] for r in group for p in r["curve"] if p[1] is not None})
         by_run = [{p[0]: 100 * p[1] for p in r["curve"] if p[1] is not None} for r in group]
         steps = [t for t in steps if all(t in c for c in by_run)]
