@@ -371,14 +371,17 @@ def test_bad_weights_and_frames_are_one_line_errors(tmp_path):
     no_intrinsics = {**obs, "sensor_param": {"head": {"extrinsic_cv": ext}}}
     with pytest.raises(PerceptionError, match="no head camera depth"):
         drop_floor(np.ones((480, 640), bool), no_intrinsics)
-    for frame in (
-        np.zeros((480, 480, 3), np.uint8),
-        np.zeros((480, 640), np.uint8),
-        np.zeros((480, 640, 3), np.float32),
+    for frame, fix in (  # each wrong frame gets its own fix
+        (np.zeros((480, 480, 3), np.uint8), "4:3 size"),
+        (np.zeros((480, 640), np.uint8), "RGB: \\(H, W, 3\\)"),
+        (np.zeros((480, 640, 4), np.uint8), "RGB: \\(H, W, 3\\)"),
+        (np.zeros((480, 640, 3), np.float32), "uint8 RGB in \\[0, 255\\]"),
     ):
-        with pytest.raises(PerceptionError, match="field 'rgb'.*4:3") as e:
+        with pytest.raises(PerceptionError, match=f"field 'rgb'.*width:height.*fix: .*{fix}") as e:
             det.segmenter.target_mask(frame, CATS[0])
         assert "\n" not in str(e.value)
+    with pytest.raises(PerceptionError, match="a folder, not a detector weights file.*detector.safetensors"):
+        S.Segmenter(tmp_path)
     with pytest.raises(PerceptionError, match="not one of the detector's"):
         det.segmenter.target_mask(np.zeros((120, 160, 3), np.uint8), "flux_capacitor")
 

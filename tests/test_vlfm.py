@@ -3,6 +3,7 @@ harness."""
 
 import math
 import string
+import sys
 
 import numpy as np
 import pytest
@@ -203,7 +204,7 @@ def test_the_gt_detector_is_its_own_method_not_a_vlfm_option():
         with pytest.raises(BioVLNError, match="vlfm_gt") as err:
             METHODS[name].preflight(detector="gt")
         assert err.value.field == "detector"
-        METHODS[name].preflight(detector="trained:/some/weights.safetensors")  # the others are its own
+        METHODS[name].preflight(detector="trained")  # the others are its own: the shipped weights read
     assert "detector" not in METHODS["vlfm_gt"].options
     for learned, ablation in GT_ABLATION.items():  # each learned-detector method's GT ablation, registered
         assert METHODS[learned].obs_mode == "rgb+depth" and METHODS[ablation].obs_mode == GT_OBS
@@ -296,3 +297,44 @@ def test_a_run_folder_of_the_gt_detector_is_not_resumed_by_the_learned_one(tmp_p
     kwargs = EvalConfig("vlfm", "ms_val", str(tmp_path), env_id="BioVLN-OpFace-v0", method_kwargs={"x": 1})
     with pytest.raises(BioVLNError, match="method options"):
         check_resume(kwargs, {**old, "label": "VLFM (learned detector)"}, recs)
+
+
+@pytest.mark.parametrize(
+    "spec, field, message",
+    [
+        ("yolo", "detector", "unknown detector 'yolo'"),
+        ("trained:{tmp}/none.safetensors", None, "weights file missing"),
+        ("trained:{tmp}", "weights", "a folder, not a detector weights file"),
+        ("trained:{tmp}/junk.safetensors", None, "not a safetensors weights file"),
+        ("owlvit:{tmp}", "detector", "not a saved Hugging Face model"),
+    ],
+)
+def test_a_detector_that_cannot_run_is_refused_before_any_env(
+    spec, field, message, tmp_path, monkeypatch, capsys
+):
+    """eval's preflight reads the weights' header (no torch) or finds the model folder; a bad spec is one
+    line naming the field and the fix, before a worker builds an env."""
+    from biovln_ms import cli
+    from biovln_ms.eval import harness
+    from biovln_ms.eval.methods import METHODS
+    from biovln_ms.perception.scorers import PerceptionError
+
+    (tmp_path / "junk.safetensors").write_bytes(b"not weights")
+    spec = spec.format(tmp=tmp_path)
+    with pytest.raises(PerceptionError, match=message) as err:
+        METHODS["vlfm"].preflight(detector=spec)
+    assert err.value.field == field and err.value.fix
+    with pytest.raises(PerceptionError, match="no config.json"):
+        METHODS["protocol_vlfm"].preflight(scorer=f"clip:{tmp_path}")
+
+    def no_env(*a, **k):
+        raise AssertionError("an env was built")
+
+    monkeypatch.setattr(harness, "_evaluate_locked", no_env)
+    argv = ["biovln-ms", "eval", "-m", "vlfm", "-s", "ms_val", "--detector", spec, "-o", str(tmp_path)]
+    monkeypatch.setattr(sys, "argv", argv)
+    with pytest.raises(SystemExit) as exit_:
+        cli.main()
+    captured = capsys.readouterr()
+    out = (captured.out + captured.err).strip()
+    assert exit_.value.code == 2 and message in out and len(out.splitlines()) == 1, out

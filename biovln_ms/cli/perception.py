@@ -12,7 +12,9 @@ from biovln_ms.cli.common import app, given_path
 from biovln_ms.measured import source_commit
 
 perception_app = typer.Typer(
-    help="Object detector data.\n\nLabelled frames rendered from the simulator.", no_args_is_help=True
+    help="The instrument detector.\n\nLabelled frames rendered from the simulator (dataset), its training "
+    "(train) and its evaluation on held-out scenes and looks (evaluate).",
+    no_args_is_help=True,
 )
 app.add_typer(perception_app, name="perception")
 

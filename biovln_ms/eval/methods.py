@@ -13,7 +13,16 @@ from biovln_ms.variants import PROTOCOL_ENV, RL_ENV
 from biovln_ms.errors import BioVLNError
 from biovln_ms.learning.algorithms import SB3_CONTROL_MODES
 from biovln_ms.llm.client import LLMConfig
-from biovln_ms.perception.detector_specs import GT_OBS, GT_SPEC, IMAGE_OBS, LABELS, TRAINED_SPEC
+from biovln_ms.perception.detector_specs import (
+    DEFAULT_DETECTOR,
+    GT_OBS,
+    GT_SPEC,
+    IMAGE_OBS,
+    LABELS,
+    TRAINED_SPEC,
+    check_spec,
+)
+from biovln_ms.perception.scorers import check_scorer_spec
 
 
 @dataclass(frozen=True)
@@ -72,14 +81,18 @@ def _language_preflight(parser: str = "rule", **_) -> None:
         _llm_preflight()
 
 
-def _image_detector_preflight(detector: str | None = None, **_) -> None:
-    """The GT detector reads a sensor these methods' observation leaves out: it has its own method."""
+def _image_detector_preflight(detector: str | None = None, scorer: str | None = None, **_) -> None:
+    """The detector and scorer specs must build here (the weights' header read, a model folder found)
+    before any env is; the GT detector reads a sensor these methods' observation leaves out: it has its
+    own method."""
     if detector == GT_SPEC:
         raise BioVLNError(
             "the GT detector is the ablation method, not a detector option",
             field="detector",
             fix="run -m vlfm_gt (or protocol_vlfm_gt), which `biovln-ms eval --detector gt` picks",
         )
+    check_spec(detector or DEFAULT_DETECTOR)
+    check_scorer_spec(scorer or "default")
 
 
 _VLFM_OPTIONS = ("detector", "scorer", "detect_every", "score_every", "erode_px", "cluster_eps")

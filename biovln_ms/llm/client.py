@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from biovln_ms.errors import BioVLNError
+from biovln_ms.paths import cache_dir
 
 log = logging.getLogger(__name__)
 
@@ -191,8 +192,7 @@ def default_cache_path() -> Path | None:
     env = os.environ.get("BIOVLN_LLM_CACHE")
     if env is not None:
         return None if env.strip().lower() in ("", "off", "none", "0") else Path(env).expanduser()
-    root = os.environ.get("BIOVLN_CACHE_DIR") or Path.home() / ".cache" / "biovln_ms"
-    return Path(root) / "llm" / "responses.jsonl"
+    return cache_dir() / "llm" / "responses.jsonl"
 
 
 @dataclass

@@ -1,10 +1,14 @@
-"""VLFM's detector specs by name: the label its results carry and the observation it reads.
+"""VLFM's detector specs by name: the label its results carry, the observation it reads, and whether it
+can run here (:func:`check_spec`, before any env is built).
 
 Light on purpose (no torch, no SciPy): the method registry imports it. The detectors themselves are built
 by :func:`biovln_ms.perception.detectors.make_detector`.
 """
 
 from __future__ import annotations
+
+from biovln_ms.perception import segmenter
+from biovln_ms.perception.scorers import PerceptionError, check_saved_model
 
 #: the spec of the segmentation net trained on our renders (``trained:FILE``: other weights), VLFM's default
 TRAINED_SPEC = "trained"
@@ -35,3 +39,23 @@ def label(detector) -> str:
     """The result label of VLFM with ``detector`` ("VLFM (owlvit:DIR)" for others)."""
     name = name_of(detector)
     return LABELS.get(name, f"VLFM ({name})")
+
+
+def check_spec(spec: str) -> None:
+    """A one-line error for a spec :func:`~biovln_ms.perception.detectors.make_detector` cannot build: an
+    unknown name, weights whose header does not read for this catalog, a folder without a saved OWL-ViT."""
+    if spec == GT_SPEC:
+        return
+    if spec == TRAINED_SPEC:
+        segmenter.read_header(segmenter.shipped_weights())
+    elif isinstance(spec, str) and spec.startswith(f"{TRAINED_SPEC}:"):
+        segmenter.read_header(spec.removeprefix(f"{TRAINED_SPEC}:"))
+    elif isinstance(spec, str) and spec.startswith("owlvit:"):
+        check_saved_model(spec.removeprefix("owlvit:"), "detector", "OWL-ViT")
+    else:
+        raise PerceptionError(
+            f"unknown detector '{spec}'",
+            field="detector",
+            fix="use 'gt', 'trained', 'trained:/path/to/detector.safetensors' or "
+            "'owlvit:/path/to/saved/owlvit'",
+        )

@@ -23,7 +23,7 @@ from typing import Protocol
 import numpy as np
 
 from biovln_ms.constants import FLOOR_HEIGHT
-from biovln_ms.perception.detector_specs import GT_NAME, GT_OBS, GT_SPEC, TRAINED_SPEC
+from biovln_ms.perception.detector_specs import GT_NAME, GT_OBS, GT_SPEC, TRAINED_SPEC, check_spec
 from biovln_ms.perception.scorers import PerceptionError, load_local_model
 from biovln_ms.perception.segmenter import MIN_PIXELS, Segmenter
 from biovln_ms.task_config import TaskSpec
@@ -159,16 +159,11 @@ def _numpy(x) -> np.ndarray:
 def make_detector(spec: str) -> Detector:
     """``"gt"`` (the simulator's semantic sensor), ``"trained"`` (the shipped weights),
     ``"trained:<weights file>"`` or ``"owlvit:<directory>"``."""
+    check_spec(spec)
     if spec == GT_SPEC:
         return GTSegmentationDetector()
     if spec == TRAINED_SPEC:
         return TrainedDetector()
     if spec.startswith(f"{TRAINED_SPEC}:"):
         return TrainedDetector(spec.removeprefix(f"{TRAINED_SPEC}:"))
-    if spec.startswith("owlvit:"):
-        return OwlViTDetector(spec.removeprefix("owlvit:"))
-    raise PerceptionError(
-        f"unknown detector '{spec}'",
-        field="detector",
-        fix="use 'gt', 'trained', 'trained:/path/to/detector.safetensors' or 'owlvit:/path/to/saved/owlvit'",
-    )
+    return OwlViTDetector(spec.removeprefix("owlvit:"))

@@ -21,7 +21,7 @@ import numpy as np
 
 from biovln_ms.errors import BioVLNError
 from biovln_ms.io_utils import atomic_write_bytes
-from biovln_ms.scene.shell import cache_dir
+from biovln_ms.paths import cache_dir
 
 PROMPT = "Seems like there is a {} ahead."  # VLFM's prompt template
 
@@ -37,8 +37,10 @@ class PerceptionError(BioVLNError):
     """A perception model that cannot be loaded here."""
 
 
-def load_local_model(model_dir: Path, field: str, what: str, model_class: str, processor_class: str):
-    """(model in eval mode, processor) saved with ``save_pretrained`` in ``model_dir``; never downloads."""
+def check_saved_model(model_dir: str | Path, field: str, what: str) -> Path:
+    """``model_dir`` if it holds a model saved with ``save_pretrained`` (its ``config.json``); a one-line
+    error otherwise."""
+    model_dir = Path(model_dir)
     if not (model_dir / "config.json").is_file():
         raise PerceptionError(
             "not a saved Hugging Face model (no config.json)",
@@ -46,6 +48,12 @@ def load_local_model(model_dir: Path, field: str, what: str, model_class: str, p
             field=field,
             fix=f"save a {what} model and its processor there with save_pretrained()",
         )
+    return model_dir
+
+
+def load_local_model(model_dir: Path, field: str, what: str, model_class: str, processor_class: str):
+    """(model in eval mode, processor) saved with ``save_pretrained`` in ``model_dir``; never downloads."""
+    check_saved_model(model_dir, field, what)
     try:
         import transformers
     except ImportError:
@@ -173,10 +181,20 @@ class CLIPScorer:
 
 def make_scorer(spec: str = "default") -> ImageTextScorer:
     """``"default"`` (packaged EfficientNet-Lite0 + MiniLM) or ``"clip:<directory>"``."""
+    check_scorer_spec(spec)
     if spec == "default":
         return ClassifierTextScorer()
-    if spec.startswith("clip:"):
-        return CLIPScorer(spec.removeprefix("clip:"))
+    return CLIPScorer(spec.removeprefix("clip:"))
+
+
+def check_scorer_spec(spec: str) -> None:
+    """A one-line error for a scorer spec :func:`make_scorer` cannot build (an unknown name, a folder
+    without a saved model), found without loading a model."""
+    if spec == "default":
+        return
+    if isinstance(spec, str) and spec.startswith("clip:"):
+        check_saved_model(spec.removeprefix("clip:"), "scorer", "CLIP")
+        return
     raise PerceptionError(
         f"unknown scorer '{spec}'", field="scorer", fix="use 'default' or 'clip:/path/to/saved/clip'"
     )

@@ -236,10 +236,17 @@ def _bad(path: Path, message: str, field: str | None = None) -> PerceptionError:
     )
 
 
-def read_weights(path: str | Path) -> tuple[dict, dict]:
-    """(header, state dict of float32 tensors) of a weights file, checked against the catalog; never
-    unpickles (safetensors holds tensors only)."""
+def read_header(path: str | Path) -> tuple[dict, bytes]:
+    """(header, the file's bytes) of a weights file, the header checked against the catalog: format,
+    architecture, categories, input size, operating point. No torch: a method's preflight reads it."""
     path = Path(path)
+    if path.is_dir():
+        raise PerceptionError(
+            "a folder, not a detector weights file",
+            source=str(path),
+            field="weights",
+            fix=f"pass the weights file in it: {path / 'detector.safetensors'}",
+        )
     if not path.is_file():
         raise _bad(path, "detector weights file missing")
     data = read_regular_file(path, MAX_WEIGHTS_BYTES, "detector weights", error=PerceptionError)
@@ -279,6 +286,13 @@ def read_weights(path: str | Path) -> tuple[dict, dict]:
     score = header.get("min_score", 0.0)
     if isinstance(score, bool) or not isinstance(score, (int, float)) or not 0.0 <= score <= 1.0:
         raise _bad(path, f"min_score {score!r} is not a number in [0, 1]", "min_score")
+    return header, data
+
+
+def read_weights(path: str | Path) -> tuple[dict, dict]:
+    """(header, state dict of float32 tensors) of a weights file, checked against the catalog
+    (:func:`read_header`); never unpickles (safetensors holds tensors only)."""
+    header, data = read_header(path)
     try:
         from safetensors.torch import load
 
@@ -340,17 +354,20 @@ class Segmenter:
         """``rgb`` as an (H, W, 3) uint8 array of the net's aspect ratio; a one-line error otherwise."""
         arr = rgb.cpu().numpy() if hasattr(rgb, "cpu") else np.asarray(rgb)
         w0, h0 = self.input_size
-        ok = arr.ndim == 3 and arr.shape[2] == 3 and arr.dtype == np.uint8 and min(arr.shape[:2]) >= 32
-        if ok:
-            ok = abs(arr.shape[1] / arr.shape[0] - w0 / h0) <= ASPECT_TOLERANCE * w0 / h0
-        if not ok:
-            raise PerceptionError(
-                f"frame of shape {tuple(arr.shape)} and type {arr.dtype}: the detector takes (H, W, 3) uint8 "
-                f"RGB frames with width:height {w0}:{h0}, at least 32 pixels",
-                field="rgb",
-                fix="give the head camera a 4:3 size, e.g. 640x480 (the task's default)",
-            )
-        return arr
+        if arr.ndim != 3 or arr.shape[2] != 3:
+            fix = "pass the head camera's RGB: (H, W, 3), e.g. obs['sensor_data']['head']['rgb'][0]"
+        elif arr.dtype != np.uint8:
+            fix = "pass uint8 RGB in [0, 255] (the camera's own; a float image: (x * 255).astype(np.uint8))"
+        elif min(arr.shape[:2]) < 32 or abs(arr.shape[1] / arr.shape[0] / (w0 / h0) - 1) > ASPECT_TOLERANCE:
+            fix = "give the head camera a 4:3 size, e.g. 640x480 (the task's default)"
+        else:
+            return arr
+        raise PerceptionError(
+            f"frame of shape {tuple(arr.shape)} and type {arr.dtype}: the detector takes (H, W, 3) uint8 "
+            f"RGB frames with width:height {w0}:{h0}, at least 32 pixels",
+            field="rgb",
+            fix=fix,
+        )
 
     def probabilities(self, rgb: np.ndarray) -> np.ndarray:
         """Per-class softmax probabilities (C, h, w) at the net's input size."""
@@ -402,7 +419,7 @@ class Segmenter:
             raise PerceptionError(
                 f"'{target}' is not one of the detector's {len(self.categories)} categories",
                 field="target",
-                fix="a goal category of the catalog (biovln-ms catalog list)",
+                fix="a goal category of the catalog (biovln-ms catalog)",
             )
         arr = self.check_frame(rgb)
         mask = np.zeros(arr.shape[:2], bool)

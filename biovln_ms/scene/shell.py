@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from pathlib import Path
 
 import numpy as np
@@ -18,14 +17,11 @@ import trimesh
 from biovln_ms.assetgen import textures as tx
 from biovln_ms.assetgen.parts import Kit
 from biovln_ms.io_utils import atomic_write_bytes
+from biovln_ms.paths import cache_dir
 from biovln_ms.scene.spec import SceneSpec
 
 FLOOR_DEPTH = 0.05
 BASEBOARD = (0.10, 0.015)  # height, thickness
-
-
-def cache_dir() -> Path:
-    return Path(os.environ.get("BIOVLN_CACHE_DIR", Path.home() / ".cache" / "biovln_ms"))
 
 
 def _key(spec: SceneSpec) -> str:
