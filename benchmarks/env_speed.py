@@ -43,6 +43,11 @@ from biovln_ms.measured import BUSY_VAL_CROWDED, BUSY_VAL_EMPTY, docs_data_dir, 
 from biovln_ms.render.sapien_utils import raw_camera_rate, raw_camera_rate_at, vulkan_device_label
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
+NOTES = [
+    "The busy_val rows' steps/s are separate walks, each at its moment's machine load; the busy cost "
+    "(their budget column) is the median ratio of interleaved blocks of the same actions: the comparison "
+    "to read, where the two disagree."
+]
 
 
 def rss_mb() -> float:
@@ -354,6 +359,7 @@ def main() -> None:
         "BioVLN-OpFace-v0 speed, one env process",
         ["measure", "this version", "reference in the same run", "budget"],
         table,
+        NOTES,
         render_device=vulkan_device_label(),
     )
 

@@ -12,8 +12,10 @@ split of 10,000 scenes, evaluated on MS TEST and the Hard track under both noise
         runs/scenes39_s2 runs/scenes10k_s1 runs/scenes10k_s2
 
 All runs use the learning guide's SB3 recipe (2 envs, STOP penalty in the first half) and take two
-episodes of a scene in a row (``--scene-visit-episodes 2``), so the only differences are the training
-split and the seed. A run folder's ``eval/<preset>/`` holds ``biovln-ms eval`` results folders of any
+episodes of a scene in a row (``--scene-visit-episodes 2``), so the runs differ in the training split and
+the seed. The splits differ in more than their size: the 39 train scenes are 32 ``single_room`` and 7
+``two_room``, the generated ones all ``single_room``; neither holds the Hard track's ``suite`` or
+``open_plan`` layouts. A run folder's ``eval/<preset>/`` holds ``biovln-ms eval`` results folders of any
 splits. ``report`` gives a row per run, McNemar's test between the first two (so: the two seed-0 runs
 first), and, for a training split run with several seeds, the mean (range) over them and Welch's t between
 two such splits. It writes ``docs/data/learning/ppo_scenes.json`` (the table),
