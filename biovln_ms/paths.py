@@ -12,10 +12,15 @@ CATALOG_PATH: Path = ASSET_DIR / "catalog.json"
 COLLISION_DIR: Path = ASSET_DIR / "collision"
 
 
+def default_cache_root() -> Path:
+    """``~/.cache/biovln_ms``: where the caches and the default datasets live unless told otherwise."""
+    return Path.home() / ".cache" / "biovln_ms"
+
+
 def cache_dir() -> Path:
     """What the package caches on this machine (room shells, LLM replies, scorer embeddings):
-    ``$BIOVLN_CACHE_DIR`` (unset or empty: ``~/.cache/biovln_ms``)."""
-    return Path(os.environ.get("BIOVLN_CACHE_DIR") or Path.home() / ".cache" / "biovln_ms")
+    ``$BIOVLN_CACHE_DIR`` (unset or empty: :func:`default_cache_root`)."""
+    return Path(os.environ.get("BIOVLN_CACHE_DIR") or default_cache_root())
 
 
 def asset_glb(name: str) -> Path:

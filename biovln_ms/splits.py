@@ -47,6 +47,7 @@ from biovln_ms.episodes.samplers import AnyInstanceEpisodes, ProtocolEpisodes, S
 from biovln_ms.episodes.writer import SplitPlan, write_dataset
 from biovln_ms.lsat.designer_scene import target_glb_path
 from biovln_ms.lsat.importer import import_glb
+from biovln_ms.paths import default_cache_root
 from biovln_ms.people.crowd import step_seconds
 from biovln_ms.people.episodes import BusyEpisodes
 from biovln_ms.protocols.episodes import hosted_protocols
@@ -357,7 +358,7 @@ def default_dataset_dir(robot: str = DEFAULT_ROBOT) -> Path:
     """``$BIOVLN_DATA_DIR``, else ``~/.cache/biovln_ms/datasets/biovln``; another robot's is the sibling
     ``<that name>-<robot>`` (``biovln-fetch``)."""
     env = os.environ.get("BIOVLN_DATA_DIR")
-    root = Path(env) if env else Path.home() / ".cache" / "biovln_ms" / "datasets" / "biovln"
+    root = Path(env) if env else default_cache_root() / "datasets" / "biovln"
     return root if robot == DEFAULT_ROBOT else root.with_name(f"{root.name}-{robot_spec(robot, 'robot').uid}")
 
 

@@ -39,6 +39,7 @@ import zipfile
 from pathlib import Path
 
 from biovln_ms.io_utils import atomic_write_bytes
+from biovln_ms.measured import write_table
 
 SINGLE_GOAL = ("random", "oracle", "zone3_oracle", "frontier", "vlfm", "vlfm_gt", "ppo")
 SINGLE_GOAL_SPLITS = ("ms_val", "ms_test", "two_room", "lsat_target", "hard_val", "molbio_val")
@@ -211,8 +212,30 @@ def _load(path: Path) -> dict:
         return json.load(f)
 
 
-def compare(a: Path, b: Path, limit: int = 20) -> int:
-    """Print the differences between two record files; the number of differing items."""
+def run_differences(x: dict, y: dict) -> dict[str, list[tuple[str, str]]]:
+    """Per run (method, split, preset) of either file: what differs, as (what, the line that says it):
+    missing from a file, the episode count, an episode's field (``what`` the field's name); an empty list
+    where the run is identical."""
+    out = {}
+    for run in sorted(set(x["records"]) | set(y["records"])):
+        ra, rb = x["records"].get(run), y["records"].get(run)
+        if ra is None or rb is None:
+            where = f"only in {'the second' if ra is None else 'the first'}"
+            out[run] = [(where, f"{run}: {where}")]
+            continue
+        found = [("episode count", f"{run}: {len(ra)} != {len(rb)} records")] if len(ra) != len(rb) else []
+        for ea, eb in zip(ra, rb):
+            for k in sorted(set(ea) | set(eb)):
+                if ea.get(k) != eb.get(k):
+                    episode = f"{ea.get('scene_id')}/{ea.get('episode_id')}"
+                    found.append((k, f"{run} {episode} field '{k}' differs"))
+        out[run] = found
+    return out
+
+
+def compare(a: Path, b: Path, limit: int = 20, data_out: Path | None = None) -> int:
+    """Print the differences between two record files; the number of differing items. ``data_out``: also
+    write a table of every run (its records, what differs) for the docs."""
     x, y = _load(a), _load(b)
     diffs: list[str] = []
     for name in sorted(set(x["dataset"]) | set(y["dataset"])):
@@ -220,17 +243,9 @@ def compare(a: Path, b: Path, limit: int = 20) -> int:
             diffs.append(f"dataset file {name}: {x['dataset'].get(name)} != {y['dataset'].get(name)}")
     if x["checkpoint"] != y["checkpoint"]:
         diffs.append("ppo checkpoint differs")
-    for run in sorted(set(x["records"]) | set(y["records"])):
-        ra, rb = x["records"].get(run), y["records"].get(run)
-        if ra is None or rb is None:
-            diffs.append(f"{run}: only in {'the second' if ra is None else 'the first'}")
-            continue
-        if len(ra) != len(rb):
-            diffs.append(f"{run}: {len(ra)} != {len(rb)} records")
-        for ea, eb in zip(ra, rb):
-            for k in sorted(set(ea) | set(eb)):
-                if ea.get(k) != eb.get(k):
-                    diffs.append(f"{run} {ea.get('scene_id')}/{ea.get('episode_id')} field '{k}' differs")
+    by_run = run_differences(x, y)
+    for found in by_run.values():
+        diffs += [line for _, line in found]
     for d in diffs[:limit]:
         print(d)
     n = sum(len(v) for v in x["records"].values())
@@ -238,7 +253,31 @@ def compare(a: Path, b: Path, limit: int = 20) -> int:
         f"{len(diffs)} differences over {n} records and {len(x['dataset'])} dataset files"
         + (f" (first {limit} shown)" if len(diffs) > limit else "")
     )
+    if data_out is not None:
+        _table(x, y, by_run, a, b, data_out)
     return len(diffs)
+
+
+def _table(x: dict, y: dict, by_run: dict, a: Path, b: Path, path: Path) -> None:
+    """Per run: its episodes in each file and what differs (:func:`run_differences`, each named once)."""
+    rows = []
+    for run, found in by_run.items():
+        what = ", ".join(dict.fromkeys(w for w, _ in found)) or "identical"
+        rows.append([run, len(x["records"].get(run, [])), len(y["records"].get(run, [])), what])
+    same = sum(not found for found in by_run.values())
+    files = set(x["dataset"]) | set(y["dataset"])
+    files_same = sum(x["dataset"].get(f) == y["dataset"].get(f) for f in files)
+    write_table(
+        path,
+        "Records of a fixed set of episodes, two runs compared",
+        ["run", f"episodes ({a.name})", f"episodes ({b.name})", "what differs"],
+        rows,
+        [
+            f"{same} of {len(rows)} runs identical; dataset files identical: {files_same} of {len(files)}; "
+            f"PPO checkpoint {'identical' if x['checkpoint'] == y['checkpoint'] else 'different'}.",
+            f"Compared: {a} and {b}.",
+        ],
+    )
 
 
 def main() -> None:
@@ -260,6 +299,7 @@ def main() -> None:
     c = sub.add_parser("compare", help="compare two records files")
     c.add_argument("a", type=Path)
     c.add_argument("b", type=Path)
+    c.add_argument("--data-out", type=Path, help="also write a table of every run here (docs/data/records/)")
     args = p.parse_args()
     if args.cmd == "run":
 
@@ -275,7 +315,7 @@ def main() -> None:
         splits = chosen("--splits", args.splits, list(dict.fromkeys(x for _, g in MATRIX for x in g)))
         run(args.out, args.quick, args.jobs, methods, splits)
     else:
-        sys.exit(1 if compare(args.a, args.b) else 0)
+        sys.exit(1 if compare(args.a, args.b, data_out=args.data_out) else 0)
 
 
 if __name__ == "__main__":

@@ -184,3 +184,21 @@ def test_the_allowed_targets_are_heavy():
         members = [m for m in modules if _under(m, [prefix])]
         assert members, f"{prefix} is no module of the package"
         assert any(heavy[m] for m in members), f"{prefix} imports nothing heavy: drop it from the allow-list"
+
+
+@pytest.mark.parametrize(
+    "module, heavy",
+    [
+        ("biovln_ms.eval.methods", {"torch", "scipy", "sapien", "mani_skill"}),
+        ("biovln_ms.perception.detector_specs", {"torch", "scipy", "sapien", "mani_skill"}),
+        ("biovln_ms.eval.harness", {"torch", "sapien", "mani_skill"}),
+    ],
+)
+def test_the_method_registry_and_the_driver_load_no_model(module, heavy):
+    """The evaluation driver checks each method's inputs (weights' headers, model folders) before handing
+    episodes to workers and never loads a model itself: the registry and the spec checks pull in neither
+    torch nor SciPy nor SAPIEN, the harness no torch or SAPIEN."""
+    loaded = "{m.split('.')[0] for m in sys.modules}"
+    code = f"import sys, {module}\nprint(sorted({loaded} & set({sorted(heavy)})))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out

@@ -116,3 +116,59 @@ def test_the_changed_episodes_are_written_beside_the_table(tmp_path):
             }
         }
     }
+
+
+def _load_weights_script():
+    spec_w = importlib.util.spec_from_file_location("vlfm_weights", REPO / "benchmarks" / "vlfm_weights.py")
+    vw = importlib.util.module_from_spec(spec_w)
+    spec_w.loader.exec_module(vw)
+    return vw
+
+
+def _split(folder: Path, split: str, successes: int, n: int, spec: str, never: int = 0) -> None:
+    recs = [_rec(i, i < successes, seen=not (successes <= i < successes + never)) for i in range(n)]
+    (folder / split).mkdir(parents=True)
+    (folder / split / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
+    manifest = {"arguments": {"method_kwargs": {"detector": spec}}}
+    (folder / split / "manifest.json").write_text(json.dumps(manifest))
+
+
+def test_other_weights_are_set_beside_the_shipped_weights_runs(tmp_path):
+    """benchmarks/vlfm_weights.py: a split's row holds the shipped weights' published SR, these weights' SR
+    and traces, the difference and Fisher's exact p; a row per preset pools the splits; a folder must be of
+    one weights file, and of the published run's episode count."""
+    from scipy.stats import fisher_exact
+
+    vw = _load_weights_script()
+    weights = tmp_path / "w.safetensors"
+    weights.write_bytes(b"weights")
+    spec = f"trained:{weights}"
+    run = tmp_path / "vlfm"
+    _split(run, "ms_test", 30, 40, spec, never=4)
+    _split(run, "ms_val", 20, 50, spec)
+    cols = ["split", "noise", "detector", "n", "SR %"]
+    shipped = [
+        ["ms_test", "ideal", "learned", 40, "25.0 [x]"],
+        ["ms_val", "ideal", "learned", 50, "66.2 [x]"],
+    ]
+    published = tmp_path / "published.json"
+    published.write_text(json.dumps({"columns": cols, "rows": shipped}))
+    assert vw.published_rows(published)[("ms_val", "ideal")][1] == 33  # 66.2 % of 50, rounded back
+    rows, notes = vw.compare([run], vw.published_rows(published))
+    test, val, pooled = (dict(zip(vw.COLUMNS, r)) for r in rows)
+    assert test["split"] == "ms_test" and test["shipped weights: SR %"] == "25.0 [x]"
+    assert test["these weights: SR %"].startswith("75.0 [") and test["difference (points)"] == 50.0
+    assert (test["n (shipped)"], test["n (these)"], test["never detected"]) == (40, 40, 4)
+    assert test["Fisher p"] == round(fisher_exact([[10, 30], [30, 10]]).pvalue, 3) < 0.001
+    assert pooled["split"] == "all splits" and (pooled["n (shipped)"], pooled["n (these)"]) == (90, 90)
+    assert pooled["Fisher p"] == round(fisher_exact([[43, 47], [50, 40]]).pvalue, 3)
+    assert pooled["shipped weights: SR %"].startswith("47.8 [") and pooled["these weights: SR %"].startswith(
+        "55.6"
+    )
+    assert notes == [f"vlfm: weights {vw.hashlib.sha256(b'weights').hexdigest()[:16]}"]
+    _split(tmp_path / "short", "ms_test", 3, 9, spec)  # a run still going: refused, not compared
+    with pytest.raises(vw.RunsError, match="9 episodes, the shipped weights' run 40"):
+        vw.compare([tmp_path / "short"], vw.published_rows(published))
+    _split(run, "two_room", 1, 2, "trained")
+    with pytest.raises(vw.RunsError, match="2 detector specs"):
+        vw.compare([run], vw.published_rows(published))

@@ -41,21 +41,27 @@ def label(detector) -> str:
     return LABELS.get(name, f"VLFM ({name})")
 
 
+def parse_spec(spec: str) -> tuple[str, str | None]:
+    """(kind, argument) of a detector spec: ``("gt", None)``, ``("trained", None)`` (the shipped weights),
+    ``("trained", FILE)`` or ``("owlvit", DIR)``; a one-line error for anything else."""
+    if spec in (GT_SPEC, TRAINED_SPEC):
+        return spec, None
+    for kind in (TRAINED_SPEC, "owlvit"):
+        if isinstance(spec, str) and spec.startswith(f"{kind}:"):
+            return kind, spec.removeprefix(f"{kind}:")
+    raise PerceptionError(
+        f"unknown detector '{spec}'",
+        field="detector",
+        fix="use 'gt', 'trained', 'trained:/path/to/detector.safetensors' or 'owlvit:/path/to/saved/owlvit'",
+    )
+
+
 def check_spec(spec: str) -> None:
-    """A one-line error for a spec :func:`~biovln_ms.perception.detectors.make_detector` cannot build: an
-    unknown name, weights whose header does not read for this catalog, a folder without a saved OWL-ViT."""
-    if spec == GT_SPEC:
-        return
-    if spec == TRAINED_SPEC:
-        segmenter.read_header(segmenter.shipped_weights())
-    elif isinstance(spec, str) and spec.startswith(f"{TRAINED_SPEC}:"):
-        segmenter.read_header(spec.removeprefix(f"{TRAINED_SPEC}:"))
-    elif isinstance(spec, str) and spec.startswith("owlvit:"):
-        check_saved_model(spec.removeprefix("owlvit:"), "detector", "OWL-ViT")
-    else:
-        raise PerceptionError(
-            f"unknown detector '{spec}'",
-            field="detector",
-            fix="use 'gt', 'trained', 'trained:/path/to/detector.safetensors' or "
-            "'owlvit:/path/to/saved/owlvit'",
-        )
+    """A one-line error, before any env is built, for a spec
+    :func:`~biovln_ms.perception.detectors.make_detector` cannot build: an unknown name, weights whose header
+    does not read for this catalog, a folder without a saved OWL-ViT."""
+    kind, arg = parse_spec(spec)
+    if kind == TRAINED_SPEC:
+        segmenter.read_header(arg if arg is not None else segmenter.shipped_weights())
+    elif kind == "owlvit":
+        check_saved_model(arg, "detector", "OWL-ViT")

@@ -23,7 +23,7 @@ from typing import Protocol
 import numpy as np
 
 from biovln_ms.constants import FLOOR_HEIGHT
-from biovln_ms.perception.detector_specs import GT_NAME, GT_OBS, GT_SPEC, TRAINED_SPEC, check_spec
+from biovln_ms.perception.detector_specs import GT_NAME, GT_OBS, GT_SPEC, TRAINED_SPEC, parse_spec
 from biovln_ms.perception.scorers import PerceptionError, load_local_model
 from biovln_ms.perception.segmenter import MIN_PIXELS, Segmenter
 from biovln_ms.task_config import TaskSpec
@@ -159,11 +159,9 @@ def _numpy(x) -> np.ndarray:
 def make_detector(spec: str) -> Detector:
     """``"gt"`` (the simulator's semantic sensor), ``"trained"`` (the shipped weights),
     ``"trained:<weights file>"`` or ``"owlvit:<directory>"``."""
-    check_spec(spec)
-    if spec == GT_SPEC:
+    kind, arg = parse_spec(spec)
+    if kind == GT_SPEC:
         return GTSegmentationDetector()
-    if spec == TRAINED_SPEC:
-        return TrainedDetector()
-    if spec.startswith(f"{TRAINED_SPEC}:"):
-        return TrainedDetector(spec.removeprefix(f"{TRAINED_SPEC}:"))
-    return OwlViTDetector(spec.removeprefix("owlvit:"))
+    if kind == TRAINED_SPEC:
+        return TrainedDetector(arg)
+    return OwlViTDetector(arg)
