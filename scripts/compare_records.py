@@ -275,7 +275,7 @@ def _table(x: dict, y: dict, by_run: dict, a: Path, b: Path, path: Path) -> None
         [
             f"{same} of {len(rows)} runs identical; dataset files identical: {files_same} of {len(files)}; "
             f"PPO checkpoint {'identical' if x['checkpoint'] == y['checkpoint'] else 'different'}.",
-            f"Compared: {a} and {b}.",
+            f"Compared: {a.name} (first) and {b.name} (second).",
         ],
     )
 
