@@ -1,13 +1,15 @@
 """Step and reset time as the scene grows: the shipped templates, then a generated 30 x 20 m hall with 5 to
-40 instruments (the same floor, so only the instrument count changes).
+48 instruments (every slot it has; the same floor, so only the instrument count changes).
 
-    python benchmarks/scene_scale.py [--steps 1500] [--seeds 2]
+    python benchmarks/scene_scale.py [--steps 1500] [--seeds 3]
 
 For each scene: its rooms, instruments and floor area; the time to build it (``gym.make`` and the first
 reset: generation, episodes, meshes, SAPIEN actors); a reset within it; and the state-only step time, with
 the measures' share of it (the per-step part that reads the scene's geometry). The hall's rows answer
-whether a step costs more with more instruments faster than linearly. Writes
-``docs/data/benchmarks/scene_scale.json`` and ``docs/images/scene_scale.png``.
+whether a step costs more with more instruments faster than linearly: a line fitted to them, and each
+interval's cost per added instrument. A first scene is built untimed (the process's first build pays for
+imports and caches). Writes ``docs/data/benchmarks/scene_scale.json`` and ``docs/images/scene_scale.png``
+(step and reset against the hall's instruments, and every scene's against its floor area).
 """
 
 from __future__ import annotations
@@ -23,11 +25,14 @@ import shapely
 import torch
 
 import biovln_ms  # noqa: F401
+from biovln_ms.io_utils import save_figure
 from biovln_ms.measured import docs_data_dir, timed, write_table
 from biovln_ms.scene.generator import generate_scene
 from biovln_ms.scene.templates import register_template
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
+#: the hall's instrument counts (48: every slot)
+HALL_COUNTS = (5, 10, 20, 30, 40, 48)
 WALL = ["refrigerator", "incubator", "cabinet", "biosafety_cabinet", "fume_hood", "ultra_low_freezer"]
 TOP = ["centrifuge", "mini_centrifuge", "pipette", "thermal_cycler", "microscope", "shaker"]
 
@@ -137,15 +142,16 @@ def measure(template: str, seed: int, steps: int) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--steps", type=int, default=1500)
-    ap.add_argument("--seeds", type=int, default=2, help="scenes per row; the median is reported")
+    ap.add_argument("--seeds", type=int, default=3, help="scenes per row; the median is reported")
     ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "scene_scale.json")
     ap.add_argument("--plot", type=Path, default=docs_data_dir().parent / "images" / "scene_scale.png")
     args = ap.parse_args()
     torch.set_num_threads(1)
     names = ["single_room", "two_room", "suite", "open_plan"]
-    for n in (5, 10, 20, 30, 40):
+    for n in HALL_COUNTS:
         names.append(register_template(hall(n)).name)
-    rows, hall_pts = [], []
+    measure(names[0], args.seeds, 10)  # untimed, a seed no row uses: the first build pays for imports
+    rows, hall_pts, all_pts = [], [], []
     for name in names:
         runs = [measure(name, seed, args.steps) for seed in range(args.seeds)]
         r = {k: statistics.median(x[k] for x in runs) for k in runs[0]}
@@ -166,15 +172,20 @@ def main() -> None:
                 f"{1e3 * r['measures']:.3f} ms",
             ]
         )
+        all_pts.append((name, r["area"], 1e3 * r["step"], 1e3 * r["reset"]))
         if name.startswith("hall_"):
             hall_pts.append((r["instruments"], 1e3 * r["step"], 1e3 * r["measures"], 1e3 * r["reset"]))
     x, step, meas, reset = map(np.array, zip(*hall_pts))
     slope, icept = np.polyfit(x, step, 1)
     growth = (step[-1] / step[0]) / (x[-1] / x[0])
+    per_added = np.diff(step) / np.diff(x) * 1e3  # us per added instrument, interval by interval
     notes = [
         f"30 x 20 m hall: step time {step[0]:.3f} ms at {x[0]:.0f} instruments, {step[-1]:.3f} ms at "
         f"{x[-1]:.0f} (a line fits {icept:.3f} + {slope * 1e3:.2f} us per instrument); the step grew "
         f"{step[-1] / step[0]:.2f}x for {x[-1] / x[0]:.0f}x the instruments ({growth:.2f} of linear).",
+        "Per added instrument, interval by interval: "
+        + ", ".join(f"{a:.0f}-{b:.0f}: {c:+.1f} us" for a, b, c in zip(x[:-1], x[1:], per_added))
+        + " (the step's cost per instrument does not grow where these do not).",
         f"Median of {args.seeds} scenes per row; {args.steps} random state-only steps per scene.",
     ]
     print(*notes, sep="\n")
@@ -200,16 +211,25 @@ def main() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(1, 2, figsize=(9, 3.4))
+    fig, ax = plt.subplots(1, 3, figsize=(13, 3.6))
     ax[0].plot(x, step, "o-", label="whole step")
     ax[0].plot(x, meas, "s-", label="measures")
+    ax[0].plot(x, icept + slope * x, ":", color="grey", label="a line fitted to the step")
     ax[0].set(xlabel="instruments in the 30 x 20 m hall", ylabel="ms per state-only step", ylim=(0, None))
-    ax[0].legend()
+    ax[0].legend(fontsize=8)
     ax[1].plot(x, reset, "o-")
     ax[1].set(xlabel="instruments in the 30 x 20 m hall", ylabel="ms per reset in the scene", ylim=(0, None))
+    for i, (name, a, st, rs) in enumerate(all_pts):  # a colour per template, the hall's rows as one
+        hall_row = name.startswith("hall_")
+        colour = "grey" if hall_row else f"C{i}"
+        first_hall = hall_row and not any(n.startswith("hall_") for n, *_ in all_pts[:i])
+        label = "30 x 20 m hall" if first_hall else (None if hall_row else name)
+        ax[2].plot([a], [st], "o", color=colour, label=label)
+        ax[2].plot([a], [rs], "s", color=colour)
+    ax[2].set(xlabel="floor area (m2)", ylabel="ms: step (o), reset in the scene (s)", ylim=(0, None))
+    ax[2].legend(fontsize=8, loc="center right")
     fig.tight_layout()
-    args.plot.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(args.plot, dpi=110)
+    save_figure(fig, args.plot)
     print(f"wrote {args.plot}")
 
 

@@ -3,12 +3,17 @@
     python benchmarks/step_profile.py [--steps 3000] [--repeats 3]
     python benchmarks/step_profile.py --people [--steps 3000] [--repeats 3]
     python benchmarks/step_profile.py --crowd [--steps 400] [--repeats 7]
+    python benchmarks/step_profile.py --camera 128x128 [--steps 600] [--repeats 3]
 
 ``--people`` times the same parts on the ``busy_val`` episodes with their crowds and with ``people=0``,
 in interleaved blocks, plus the crowd's own step (``docs/data/benchmarks/busy_step_profile.json``).
 ``--crowd`` times the crowd's ``advance`` alone, replayed along the robot poses of 12 recorded ``busy_val``
 walks, and prints a digest of the crowds' final states, so two versions can be compared for time and
 sameness (``docs/data/benchmarks/crowd_step.json``).
+``--camera WxH`` times an RGB-D step's parts at that head-camera size, the camera's two besides: submitting
+the render (``start_capture``: the scene's render update and the pictures taken) and waiting for it and
+reading it back (``_get_obs_sensor_data``, taken out of the observation's share), beside a raw SAPIEN frame of
+the same camera timed in the same run (``docs/data/benchmarks/camera_step_profile.json``).
 
 Each part of ``env.step`` is timed by a wrapper around the method that does it (no profiler, whose
 overhead would inflate the Python parts): SAPIEN's physics (the control step's substeps), the robot's
@@ -30,7 +35,9 @@ import numpy as np
 import torch
 
 import biovln_ms  # noqa: F401
+from biovln_ms.limits import parse_size
 from biovln_ms.measured import BUSY_VAL_CROWDED, BUSY_VAL_EMPTY, docs_data_dir, timed, write_table
+from biovln_ms.render.sapien_utils import raw_camera_rate
 from biovln_ms.sim.maniskill_compat import maniskill_task_id
 
 CPU = dict(sim_backend="physx_cpu", render_backend="cpu")
@@ -45,6 +52,10 @@ PARTS = (
     "observation",
     "reward",
 )
+
+
+#: an RGB-D step's camera parts (:func:`camera_profile`)
+SUBMIT, READ = "camera: render submitted", "camera: render waited for and read back"
 
 
 def _parts(env, spent: dict | None = None) -> dict[str, float]:
@@ -64,6 +75,8 @@ def _parts(env, spent: dict | None = None) -> dict[str, float]:
     if u._people is not None:
         spent.setdefault("the crowd's step", 0.0)
         targets.append((u._people, "step", "the crowd's step"))
+    if SUBMIT in spent:  # camera_profile's parts
+        targets += [(u, "start_capture", SUBMIT), (u, "_get_obs_sensor_data", READ)]
     for owner, name, key in targets:
         fn = getattr(owner, name)
         if not getattr(fn, "timed_part", False):  # a wrapper stays once: an object kept over a reset
@@ -125,6 +138,45 @@ def people_profile(steps: int, repeats: int, out: Path) -> None:
     write_table(out, "A state-only step with people: where the extra time goes", columns, rows, notes)
     for env in envs.values():
         env.close()
+
+
+def camera_profile(size: tuple[int, int], steps: int, repeats: int, out: Path) -> None:
+    """The parts of an RGB-D step at head-camera ``size``, the camera's submit and read-back apart, beside
+    a raw SAPIEN frame (render update, picture, read-back) of the same camera in the same run."""
+    w, h = size
+    env = gym.make(
+        "BioVLN-OpFace-v0", split="ms_val", obs_mode="rgbd", camera_width=w, camera_height=h, **CPU
+    )
+    env.reset(seed=0, options={"episode_index": 0})
+    _run(env, 50)  # warm-up: shaders, the scenes' geometry
+    spent = _parts(env, {**dict.fromkeys(PARTS, 0.0), SUBMIT: 0.0, READ: 0.0})
+    total, raw = 0.0, []
+    for r in range(repeats):  # interleaved with the raw frames, so a busy moment costs both
+        total += _run(env, steps, r, spent)
+        raw.append(1e3 / raw_camera_rate(env, steps // 4))
+    n = steps * repeats
+    ms = {k: 1e3 * v / n for k, v in spent.items()}
+    ms["observation"] -= ms[READ]  # the read-back runs inside get_obs: each part counted once
+    step_ms = 1e3 * total / n
+    ms["the rest (ManiSkill's and gymnasium's step code)"] = step_ms - sum(ms.values())
+    rows = [[part, f"{v:.3f}", f"{100 * v / step_ms:.0f} %"] for part, v in ms.items()]
+    rows.append(["whole step", f"{step_ms:.3f}", "100 %"])
+    frame = float(np.median(raw))
+    pictures = ms[SUBMIT] + ms[READ]
+    notes = [
+        f"{w}x{h} RGB-D, {repeats} blocks of {steps} random FORWARD/LEFT/RIGHT steps, each followed by "
+        f"{steps // 4} raw SAPIEN frames of the same camera at the block's last view.",
+        f"For scale, a raw SAPIEN frame at those views: {frame:.3f} ms (median of the blocks); a frame's "
+        f"cost varies with the view, so the budget's ratio is env_speed.py's, over the walk's own views. The "
+        f"step's camera parts {pictures:.3f} ms, its other parts {step_ms - pictures:.3f} ms.",
+    ]
+    for r in rows:
+        print(f"{r[0]:<52} {r[1]:>8} ms {r[2]:>6}")
+    print(*notes, sep="\n")
+    write_table(
+        out, f"Where a {w}x{h} RGB-D step spends its time", ["part", "ms per step", "share"], rows, notes
+    )
+    env.close()
 
 
 def crowd_alone(steps: int, repeats: int, out: Path, episodes: int = 12) -> None:
@@ -189,6 +241,7 @@ def main() -> None:
     mode = ap.add_mutually_exclusive_group()
     mode.add_argument("--people", action="store_true", help="the busy_val episodes with and without people")
     mode.add_argument("--crowd", action="store_true", help="the crowd's advance alone, replayed")
+    mode.add_argument("--camera", metavar="WxH", help="an RGB-D step at this head-camera size")
     args = ap.parse_args()
     torch.set_num_threads(1)
     data = docs_data_dir() / "benchmarks"
@@ -198,8 +251,14 @@ def main() -> None:
             ap.error("--crowd needs --repeats 2 or more (a cold pass and a warm one)")
         out = args.data_out or data / "crowd_step.json"
         return crowd_alone(400 if args.steps is None else args.steps, repeats, out)
-    args.steps = 3000 if args.steps is None else args.steps
     args.repeats = 3 if args.repeats is None else args.repeats
+    if args.camera:
+        size = parse_size(args.camera)
+        if size is None:
+            ap.error(f"--camera {args.camera!r}: give WIDTHxHEIGHT, e.g. 128x128")
+        out = args.data_out or data / "camera_step_profile.json"
+        return camera_profile(size, 600 if args.steps is None else args.steps, args.repeats, out)
+    args.steps = 3000 if args.steps is None else args.steps
     if args.people:
         return people_profile(args.steps, args.repeats, args.data_out or data / "busy_step_profile.json")
     args.data_out = args.data_out or data / "step_profile.json"

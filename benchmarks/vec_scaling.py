@@ -8,9 +8,11 @@ Rows: one env in this process (the reference); ``gym.make_vec(..., vectorization
 ``GroupedSubprocVecEnv`` (2 processes of 4), random actions, state observations of ``BioVLN-OpFace-RL-v0``;
 ``biovln-ms train ppo``'s SB3 PPO at its defaults with 1 and 2 envs, and with 8 envs (``n_steps`` 256,
 so an update sees the same 2,048 steps as with 2) in 8 processes and in 2 (rollouts and updates:
-``learn``'s time, after the worker processes have started). The two 8-env PPO runs see the same
-transitions: the note says whether their learning curves are identical. Writes
-``docs/data/benchmarks/vec_scaling.json``.
+``learn``'s time, after the worker processes have started; PPO with 1 env steps it in the trainer's
+process, as ``train ppo`` does). The two 8-env PPO runs see the same transitions: the note says whether
+their learning curves are identical. Writes ``docs/data/benchmarks/vec_scaling.json``, the PPO runs'
+training success per 5,000 env steps in ``vec_scaling_curves.json`` beside it and their plot in
+``docs/images/vec_scaling_ppo.png`` (the published run: ``--ppo-steps 100352``, long enough to learn).
 """
 
 from __future__ import annotations
@@ -25,11 +27,14 @@ import numpy as np
 import torch
 
 import biovln_ms  # noqa: F401
-from biovln_ms.measured import docs_data_dir, vec_step_rate, write_table
+from biovln_ms.io_utils import save_figure
+from biovln_ms.learning.rl import CURVE_WINDOW, success_curve
+from biovln_ms.measured import docs_data_dir, vec_step_rate, write_runs, write_table
 from biovln_ms.variants import RL_ENV
 from biovln_ms.wrappers import make_gym_env
 
 ENV = dict(split="train", obs_mode="state")
+IMAGE = docs_data_dir().parent / "images" / "vec_scaling_ppo.png"
 
 
 def _factories(n: int) -> list:
@@ -89,16 +94,39 @@ def ppo(n: int, timesteps: int, out: Path, envs_per_process: int = 1) -> tuple[f
     return rate, read_episode_log(run / "episodes.csv")
 
 
+def plot_curves(runs: list[dict], path: Path, window: int) -> None:
+    """Training success per ``window`` env steps of each PPO run, one line each."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    for i, r in enumerate(runs):
+        pts = [(p[0] / 1000, 100 * p[1]) for p in r["curve"] if p[1] is not None]
+        style = dict(ls="--", lw=2.5, alpha=0.6) if i == len(runs) - 1 else dict(marker=".")
+        ax.plot(*zip(*pts), label=f"{r['how']}: {r['steps_per_second']:.0f} env steps/s", **style)
+    ax.set(xlabel="env steps (thousands)", ylabel=f"training success % (per {window:,} steps)")
+    ax.set_ylim(-2, 102)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", fontsize=8)
+    ax.set_title(f"SB3 PPO on {RL_ENV}: learning per env step, by how the envs run", fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--steps", type=int, default=3000)
     ap.add_argument("--ppo-steps", type=int, default=20480)
     ap.add_argument("--data-out", type=Path, default=docs_data_dir() / "benchmarks" / "vec_scaling.json")
     ap.add_argument("--work", type=Path, default=Path("outputs/vec_scaling"))
+    ap.add_argument("--image", type=Path, default=IMAGE)
     args = ap.parse_args()
     torch.set_num_threads(1)
     one = single(args.steps)
-    rows = [["one env in this process", "1", "1", f"{one:.0f}", "1.00x"]]
+    rows = [["one env in this process", "0", "1", f"{one:.0f}", "1.00x"]]
+    runs = []  # the PPO runs' curves
 
     def row(label: str, processes: int, envs: int, rate: float) -> None:
         rows.append([label, str(processes), str(envs), f"{rate:.0f}", f"{rate / one:.2f}x"])
@@ -112,14 +140,24 @@ def main() -> None:
     row("GroupedSubprocVecEnv", 2, 8, grouped(8, args.steps))
     print(f"8 envs: SubprocVecEnv {rows[-2][3]}, grouped in 2 processes {rows[-1][3]} env steps/s")
     label = "SB3 PPO, train ppo's defaults (learn)"
-    for n in (1, 2):
-        row(label, n, n, ppo(n, args.ppo_steps, args.work)[0])
-        print(f"PPO with {n} env(s): {rows[-1][3]} env steps/s")
-    r8, log8 = ppo(8, args.ppo_steps, args.work)
-    row(label + ", n_steps 256", 8, 8, r8)
-    g8, glog8 = ppo(8, args.ppo_steps, args.work, envs_per_process=4)
-    row(label + ", n_steps 256, --envs-per-process 4", 2, 8, g8)
+
+    def ppo_row(how: str, label: str, n: int, envs_per_process: int = 1) -> list[dict]:
+        processes = 0 if n == 1 else -(-n // envs_per_process)  # train ppo steps one env in its process
+        rate, log = ppo(n, args.ppo_steps, args.work, envs_per_process)
+        row(label, processes, n, rate)
+        episodes = [(r["timesteps"], r["success"]) for r in log]
+        curve = success_curve(episodes, args.ppo_steps, CURVE_WINDOW)
+        runs.append({"how": how, "processes": processes, "envs": n, "steps_per_second": round(rate, 1),
+                     "episodes": len(log), "curve": curve})  # fmt: skip
+        print(f"PPO, {how}: {rate:.0f} env steps/s")
+        return log
+
+    ppo_row("1 env in the trainer's process", label, 1)
+    ppo_row("2 envs, 2 processes (the default)", label, 2)
+    log8 = ppo_row("8 envs, 8 processes", label + ", n_steps 256", 8)
+    glog8 = ppo_row("8 envs, 2 processes of 4", label + ", n_steps 256, --envs-per-process 4", 8, 4)
     same = "identical" if log8 == glog8 else "different"
+    r8, g8 = runs[-2]["steps_per_second"], runs[-1]["steps_per_second"]
     print(f"PPO with 8 envs: {r8:.0f} (8 processes) and {g8:.0f} (2 processes) env steps/s; curves {same}")
     write_table(
         args.data_out,
@@ -132,6 +170,8 @@ def main() -> None:
             f"The two 8-env PPO runs' episode logs (returns, lengths, successes, in order) are {same}.",
         ],
     )
+    write_runs(args.data_out.with_name("vec_scaling_curves.json"), runs, window_steps=CURVE_WINDOW)
+    plot_curves(runs, args.image, CURVE_WINDOW)
 
 
 if __name__ == "__main__":
