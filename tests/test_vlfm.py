@@ -326,6 +326,7 @@ def test_a_detector_that_cannot_run_is_refused_before_any_env(
     assert err.value.field == field and err.value.fix
     with pytest.raises(PerceptionError, match="no config.json"):
         METHODS["protocol_vlfm"].preflight(scorer=f"clip:{tmp_path}")
+    METHODS["vlfm"].preflight(detector=GTSegmentationDetector(), scorer=object())  # built objects: theirs
 
     def no_env(*a, **k):
         raise AssertionError("an env was built")

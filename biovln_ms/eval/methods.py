@@ -91,8 +91,10 @@ def _image_detector_preflight(detector: str | None = None, scorer: str | None = 
             field="detector",
             fix="run -m vlfm_gt (or protocol_vlfm_gt), which `biovln-ms eval --detector gt` picks",
         )
-    check_spec(detector or DEFAULT_DETECTOR)
-    check_scorer_spec(scorer or "default")
+    if detector is None or isinstance(detector, str):  # a built detector or scorer object is the caller's
+        check_spec(detector or DEFAULT_DETECTOR)
+    if scorer is None or isinstance(scorer, str):
+        check_scorer_spec(scorer or "default")
 
 
 _VLFM_OPTIONS = ("detector", "scorer", "detect_every", "score_every", "erode_px", "cluster_eps")
