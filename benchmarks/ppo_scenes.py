@@ -36,7 +36,7 @@ from biovln_ms.episodes.source import DatasetEpisodes, EpisodeCursor, seed_posit
 from biovln_ms.eval.harness import episode_key, load_records
 from biovln_ms.eval.stats import mcnemar, wilson_interval
 from biovln_ms.io_utils import save_figure
-from biovln_ms.learning.rl import CURVE_WINDOW as WINDOW, read_episode_log, success_curve
+from biovln_ms.learning.rl import CURVE_WINDOW as WINDOW, read_episode_log, success_axes, success_curve
 from biovln_ms.measured import docs_data_dir, write_runs, write_table
 from biovln_ms.splits import default_dataset_dir
 from biovln_ms.variants import RL_ENV
@@ -296,9 +296,7 @@ def plot(runs: list[dict], path: Path, window: int) -> None:
         (line,) = ax.plot(x, values.mean(0), marker=".", label=label)
         if len(group) > 1:
             ax.fill_between(x, values.min(0), values.max(0), color=line.get_color(), alpha=0.2, lw=0)
-    ax.set(xlabel="env steps (thousands)", ylabel=f"training success % (per {window:,} steps)")
-    ax.set_ylim(-2, 102)
-    ax.grid(alpha=0.3)
+    success_axes(ax, window)
     ax.legend(loc="lower right", fontsize=8)
     ax.set_title(f"PPO on {RL_ENV}: training scenes", fontsize=10)
     fig.tight_layout()

@@ -56,6 +56,19 @@ PARTS = (
 
 #: an RGB-D step's camera parts (:func:`camera_profile`)
 SUBMIT, READ = "camera: render submitted", "camera: render waited for and read back"
+#: what a step spends outside the timed parts
+REST = "the rest (ManiSkill's and gymnasium's step code)"
+
+
+def share_rows(per_step: dict[str, float], step_ms: float) -> list[list[str]]:
+    """Table rows (part, ms per step, share) of the timed parts, the rest of the step and the whole step;
+    printed as they go to the table."""
+    parts = {**per_step, REST: step_ms - sum(per_step.values())}
+    rows = [[part, f"{ms:.3f}", f"{100 * ms / step_ms:.0f} %"] for part, ms in parts.items()]
+    rows.append(["whole step", f"{step_ms:.3f}", "100 %"])
+    for r in rows:
+        print(f"{r[0]:<52} {r[1]:>8} ms {r[2]:>6}")
+    return rows
 
 
 def _parts(env, spent: dict | None = None) -> dict[str, float]:
@@ -158,9 +171,7 @@ def camera_profile(size: tuple[int, int], steps: int, repeats: int, out: Path) -
     ms = {k: 1e3 * v / n for k, v in spent.items()}
     ms["observation"] -= ms[READ]  # the read-back runs inside get_obs: each part counted once
     step_ms = 1e3 * total / n
-    ms["the rest (ManiSkill's and gymnasium's step code)"] = step_ms - sum(ms.values())
-    rows = [[part, f"{v:.3f}", f"{100 * v / step_ms:.0f} %"] for part, v in ms.items()]
-    rows.append(["whole step", f"{step_ms:.3f}", "100 %"])
+    rows = share_rows(ms, step_ms)
     frame = float(np.median(raw))
     pictures = ms[SUBMIT] + ms[READ]
     notes = [
@@ -170,8 +181,6 @@ def camera_profile(size: tuple[int, int], steps: int, repeats: int, out: Path) -
         f"cost varies with the view, so the budget's ratio is env_speed.py's, over the walk's own views. The "
         f"step's camera parts {pictures:.3f} ms, its other parts {step_ms - pictures:.3f} ms.",
     ]
-    for r in rows:
-        print(f"{r[0]:<52} {r[1]:>8} ms {r[2]:>6}")
     print(*notes, sep="\n")
     write_table(
         out, f"Where a {w}x{h} RGB-D step spends its time", ["part", "ms per step", "share"], rows, notes
@@ -279,20 +288,13 @@ def main() -> None:
     spent = _parts(nav)
     total = _run(nav, args.steps, 99, spent)
     per_step = {k: 1e3 * v / args.steps for k, v in spent.items()}
-    per_step["the rest (ManiSkill's and gymnasium's step code)"] = 1e3 * total / args.steps - sum(
-        per_step.values()
-    )
-    step_ms = 1e3 * total / args.steps
-    rows = [[part, f"{ms:.3f}", f"{100 * ms / step_ms:.0f} %"] for part, ms in per_step.items()]
-    rows.append(["whole step", f"{step_ms:.3f}", "100 %"])
+    rows = share_rows(per_step, 1e3 * total / args.steps)
     notes = [
         f"State-only steps/s, best of {args.repeats} interleaved blocks of {args.steps}: BioVLN-OpFace-v0 "
         f"{nav_rate:.0f}, ManiSkill {cube_id} {cube_rate:.0f} ({nav_rate / cube_rate:.2f}x).",
         f"A control step is {u.sim_freq // u.control_freq} physics substeps (sim {u.sim_freq} Hz, control "
         f"{u.control_freq} Hz); the parts are timed in a block of their own, with the wrappers in place.",
     ]
-    for r in rows:
-        print(f"{r[0]:<52} {r[1]:>8} ms {r[2]:>6}")
     print(notes[0])
     write_table(args.data_out, "Where a state-only step spends its time", ["part", "ms per step", "share"],
                 rows, notes)  # fmt: skip

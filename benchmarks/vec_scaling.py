@@ -28,7 +28,7 @@ import torch
 
 import biovln_ms  # noqa: F401
 from biovln_ms.io_utils import save_figure
-from biovln_ms.learning.rl import CURVE_WINDOW, success_curve
+from biovln_ms.learning.rl import CURVE_WINDOW, success_axes, success_curve
 from biovln_ms.measured import docs_data_dir, vec_step_rate, write_runs, write_table
 from biovln_ms.variants import RL_ENV
 from biovln_ms.wrappers import make_gym_env
@@ -106,9 +106,7 @@ def plot_curves(runs: list[dict], path: Path, window: int) -> None:
         pts = [(p[0] / 1000, 100 * p[1]) for p in r["curve"] if p[1] is not None]
         style = dict(ls="--", lw=2.5, alpha=0.6) if i == len(runs) - 1 else dict(marker=".")
         ax.plot(*zip(*pts), label=f"{r['how']}: {r['steps_per_second']:.0f} env steps/s", **style)
-    ax.set(xlabel="env steps (thousands)", ylabel=f"training success % (per {window:,} steps)")
-    ax.set_ylim(-2, 102)
-    ax.grid(alpha=0.3)
+    success_axes(ax, window)
     ax.legend(loc="upper left", fontsize=8)
     ax.set_title(f"SB3 PPO on {RL_ENV}: learning per env step, by how the envs run", fontsize=10)
     fig.tight_layout()

@@ -237,10 +237,9 @@ def compare(a: Path, b: Path, limit: int = 20, data_out: Path | None = None) -> 
     """Print the differences between two record files; the number of differing items. ``data_out``: also
     write a table of every run (its records, what differs) for the docs."""
     x, y = _load(a), _load(b)
-    diffs: list[str] = []
-    for name in sorted(set(x["dataset"]) | set(y["dataset"])):
-        if x["dataset"].get(name) != y["dataset"].get(name):
-            diffs.append(f"dataset file {name}: {x['dataset'].get(name)} != {y['dataset'].get(name)}")
+    files = sorted(set(x["dataset"]) | set(y["dataset"]))
+    differing = [name for name in files if x["dataset"].get(name) != y["dataset"].get(name)]
+    diffs = [f"dataset file {f}: {x['dataset'].get(f)} != {y['dataset'].get(f)}" for f in differing]
     if x["checkpoint"] != y["checkpoint"]:
         diffs.append("ppo checkpoint differs")
     by_run = run_differences(x, y)
@@ -254,26 +253,25 @@ def compare(a: Path, b: Path, limit: int = 20, data_out: Path | None = None) -> 
         + (f" (first {limit} shown)" if len(diffs) > limit else "")
     )
     if data_out is not None:
-        _table(x, y, by_run, a, b, data_out)
+        _table(x, y, by_run, (len(files) - len(differing), len(files)), a, b, data_out)
     return len(diffs)
 
 
-def _table(x: dict, y: dict, by_run: dict, a: Path, b: Path, path: Path) -> None:
-    """Per run: its episodes in each file and what differs (:func:`run_differences`, each named once)."""
+def _table(x: dict, y: dict, by_run: dict, files: tuple[int, int], a: Path, b: Path, path: Path) -> None:
+    """Per run: its episodes in each file and what differs (:func:`run_differences`, each named once);
+    ``files``: (identical dataset files, all of them)."""
     rows = []
     for run, found in by_run.items():
         what = ", ".join(dict.fromkeys(w for w, _ in found)) or "identical"
         rows.append([run, len(x["records"].get(run, [])), len(y["records"].get(run, [])), what])
     same = sum(not found for found in by_run.values())
-    files = set(x["dataset"]) | set(y["dataset"])
-    files_same = sum(x["dataset"].get(f) == y["dataset"].get(f) for f in files)
     write_table(
         path,
         "Records of a fixed set of episodes, two runs compared",
         ["run", f"episodes ({a.name})", f"episodes ({b.name})", "what differs"],
         rows,
         [
-            f"{same} of {len(rows)} runs identical; dataset files identical: {files_same} of {len(files)}; "
+            f"{same} of {len(rows)} runs identical; dataset files identical: {files[0]} of {files[1]}; "
             f"PPO checkpoint {'identical' if x['checkpoint'] == y['checkpoint'] else 'different'}.",
             f"Compared: {a.name} (first) and {b.name} (second).",
         ],

@@ -323,6 +323,14 @@ def success_curve(episodes: list[tuple[int, float]], end: int, window: int) -> l
     return out
 
 
+def success_axes(ax, window: int) -> None:
+    """Label and scale a matplotlib axes for :func:`success_curve` lines (x in thousands of env steps,
+    success in %)."""
+    ax.set(xlabel="env steps (thousands)", ylabel=f"training success % (per {window:,} steps)")
+    ax.set_ylim(-2, 102)
+    ax.grid(alpha=0.3)
+
+
 #: the columns of a run's ``episodes.csv`` (EpisodeLog's rows)
 EPISODE_LOG_FIELDS = ("timesteps", "env", "return", "length", "success", "seconds")
 
