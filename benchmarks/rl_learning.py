@@ -18,6 +18,7 @@ from pathlib import Path
 
 from biovln_ms.eval.harness import EvalConfig, evaluate
 from biovln_ms.eval.learned import train_and_evaluate
+from biovln_ms.io_utils import atomic_write_text
 from biovln_ms.variants import RL_ENV
 from biovln_ms.learning.rl import RLConfig
 from biovln_ms.measured import docs_data_dir, write_table
@@ -71,10 +72,11 @@ def main() -> None:
     ]
     text = "\n".join(lines)
     print(text)
-    (args.out / "summary.md").write_text(
-        text + f"\n\nLearning curve: {args.out / 'ppo' / 'learning_curve.png'}\n"
+    atomic_write_text(
+        args.out / "summary.md", text + f"\n\nLearning curve: {args.out / 'ppo' / 'learning_curve.png'}\n"
     )
-    (args.out / "summary.json").write_text(
+    atomic_write_text(
+        args.out / "summary.json",
         json.dumps(
             {
                 "ppo": ppo,
@@ -85,7 +87,7 @@ def main() -> None:
                 "env_state_steps_per_second": raw,
             },
             indent=1,
-        )
+        ),
     )
     write_table(
         args.data_out,
@@ -98,7 +100,8 @@ def main() -> None:
         notes=[
             f"{r.timesteps:,} timesteps in {r.minutes:.1f} min with {args.n_envs} envs: "
             f"{r.steps_per_second:.0f} steps/s, {r.steps_per_second / raw:.2f}× one env process alone "
-            f"({raw:.0f} steps/s)."
+            f"({raw:.0f} steps/s). Training success over the last 100 episodes: "
+            f"{100 * r.final_success_rate:.0f} %."
         ],
     )
 
