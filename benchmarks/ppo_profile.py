@@ -8,17 +8,19 @@ that does it (no profiler): waiting for the env processes (``step_wait``: their 
 pipes), handing them the actions (``step_async``), the policy's action choice in the rollout, the update
 (``train``: the epochs over the rollout), and the rest (SB3's rollout buffer, callbacks, obs conversion).
 Beside it, one env alone under random actions with STOP (PPO's early episodes are as short), in this
-process and in one worker process. The table goes
-to ``docs/data/benchmarks/ppo_profile.json``.
+process and in one worker process, its time split into the env's step, its resets and what is around them;
+and a bare pipe round trip for scale. The table goes to ``docs/data/benchmarks/ppo_profile.json``.
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing as mp
 import time
-from functools import partial
 from pathlib import Path
 
+import gymnasium as gym
+import numpy as np
 import torch
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
@@ -37,13 +39,77 @@ PARTS = (
 )
 
 
-def env_alone(steps: int, worker: bool) -> float:
-    """Env steps/s of one env under random actions with STOP (episodes of a few steps, as early in PPO's
-    training): in this process (DummyVecEnv), or in one worker process (SubprocVecEnv: a pipe round trip
-    per step)."""
-    factory = partial(make_gym_env, RL_ENV, split="train", obs_mode="state", control_mode="discrete")
-    vec = SubprocVecEnv([factory], start_method="spawn") if worker else DummyVecEnv([factory])
-    return vec_step_rate(vec, steps, 1, actions=(0, 4), seed=True)
+class _Clocked(gym.Wrapper):
+    """Seconds spent in the env's own ``step`` and ``reset``, read back with ``env_method("clock")``."""
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        self.spent = {"step": 0.0, "reset": 0.0, "resets": 0}
+
+    def step(self, action):
+        t = time.perf_counter()
+        out = self.env.step(action)
+        self.spent["step"] += time.perf_counter() - t
+        return out
+
+    def reset(self, **kwargs):
+        t = time.perf_counter()
+        out = self.env.reset(**kwargs)
+        self.spent["reset"] += time.perf_counter() - t
+        self.spent["resets"] += 1
+        return out
+
+    def clock(self) -> dict:
+        return dict(self.spent)
+
+
+def _clocked_env() -> gym.Env:
+    return _Clocked(make_gym_env(RL_ENV, split="train", obs_mode="state", control_mode="discrete"))
+
+
+def env_alone(steps: int, worker: bool) -> dict[str, float]:
+    """One env under random actions with STOP (episodes of a few steps, as early in PPO's training), in this
+    process (DummyVecEnv) or in one worker process (SubprocVecEnv: a pipe round trip per step): env steps/s,
+    and per env step the ms spent in the env's ``step``, in its resets, and around them (the vector env, the
+    pipe and the processes' wake-ups)."""
+    vec = SubprocVecEnv([_clocked_env], start_method="spawn") if worker else DummyVecEnv([_clocked_env])
+    with closing_vec_env(vec):
+        vec.seed(0)
+        vec.reset()
+        vec_step_rate(vec, 20, 1, actions=(0, 4))  # warm-up
+        before = vec.env_method("clock")[0]
+        t = time.perf_counter()
+        rate = vec_step_rate(vec, steps, 1, actions=(0, 4))
+        wall = time.perf_counter() - t
+        after = vec.env_method("clock")[0]
+    step, reset = (after[k] - before[k] for k in ("step", "reset"))
+    ms = 1e3 / steps
+    return {"rate": rate, "step": step * ms, "reset": reset * ms, "around": (wall - step - reset) * ms}
+
+
+def _echo(conn) -> None:
+    while (msg := conn.recv()) is not None:
+        conn.send(msg)
+
+
+def pipe_round_trip(n: int = 5000) -> float:
+    """Microseconds of a bare round trip of a step-sized message through a pipe to a spawned process."""
+    ctx = mp.get_context("spawn")
+    here, there = ctx.Pipe()
+    proc = ctx.Process(target=_echo, args=(there,), daemon=True)
+    proc.start()
+    msg = (np.zeros(32, np.float32), 0.0, False, {"success": False})
+    for _ in range(200):
+        here.send(msg)
+        here.recv()
+    t = time.perf_counter()
+    for _ in range(n):
+        here.send(msg)
+        here.recv()
+    us = (time.perf_counter() - t) / n * 1e6
+    here.send(None)
+    proc.join()
+    return us
 
 
 def ppo_parts(timesteps: int, n_envs: int) -> tuple[dict[str, float], float, int]:
@@ -71,6 +137,7 @@ def main() -> None:
     args = ap.parse_args()
     spent, total, steps = ppo_parts(args.timesteps, args.n_envs)
     alone, worker = env_alone(3000, worker=False), env_alone(3000, worker=True)
+    pipe_us = pipe_round_trip()
     rows = [[label, f"{spent[k] / steps * 1e3:.3f}", f"{100 * spent[k] / total:.0f} %"] for k, label in PARTS]
     rest = total - sum(spent.values())
     rows.append(["the rest (SB3's rollout buffer, callbacks, obs conversion)", f"{rest / steps * 1e3:.3f}",
@@ -81,8 +148,12 @@ def main() -> None:
     notes = [
         f"PPO at train ppo's defaults, {args.n_envs} SubprocVecEnv workers, {steps} timesteps: "
         f"{steps / total:.0f} env steps/s; ms per env step (a vector step is {args.n_envs} env steps).",
-        f"One env alone, random actions with STOP: {alone:.0f} env steps/s in this process, {worker:.0f} in "
-        "one worker process (a pipe round trip a step).",
+        f"One env alone, random actions with STOP: {alone['rate']:.0f} env steps/s in this process, "
+        f"{worker['rate']:.0f} in one worker process. Per env step (ms), in this process / in the worker: "
+        f"the env's step {alone['step']:.3f} / {worker['step']:.3f}, its resets {alone['reset']:.3f} / "
+        f"{worker['reset']:.3f}, around them {alone['around']:.3f} / {worker['around']:.3f} (the vector env; "
+        f"in the worker also the pipe and both processes' wake-ups). A bare pipe round trip between two "
+        f"processes that do nothing else: {pipe_us:.0f} us.",
     ]
     print(*notes, sep="\n")
     columns = ["part", "ms per env step", "share"]

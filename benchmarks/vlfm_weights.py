@@ -24,8 +24,17 @@ from pathlib import Path
 from scipy.stats import fisher_exact
 
 from biovln_ms.measured import docs_data_dir, write_table
+from biovln_ms.eval.harness import episode_key
 from biovln_ms.eval.stats import wilson_interval
-from vlfm_detectors import OUTCOMES, RunsError, outcome, runs_by_split, sr, sr_cell  # the script beside this
+from vlfm_detectors import (
+    OUTCOMES,
+    RunsError,
+    outcome,
+    runs_by_split,
+    sr,
+    sr_cell,
+    uncounted_goals,
+)  # the script beside this
 
 PUBLISHED = docs_data_dir() / "perception" / "vlfm_detectors.json"
 COLUMNS = ["split", "noise", "shipped weights: SR %", "n (shipped)", "these weights: SR %", "n (these)"]
@@ -60,12 +69,12 @@ def weights_of(folder: Path) -> str:
     return hashlib.sha256(Path(spec.removeprefix("trained:")).read_bytes()).hexdigest()
 
 
-def row(split: str, noise: str, shipped: tuple[str, int, int], recs: list[dict]) -> list:
-    """One split's (or the pooled splits') row: the shipped SR, these weights' SR and traces, the
-    difference and Fisher's exact p."""
+def row(split: str, noise: str, shipped: tuple[str, int, int], recs: list[dict], others: dict) -> list:
+    """One split's (or the pooled splits') row: the shipped SR, these weights' SR and traces (``others``:
+    ``uncounted_goals`` of the episodes), the difference and Fisher's exact p."""
     cell, k0, n0 = shipped
     k1, n1 = sum(r["success"] for r in recs), len(recs)
-    counts = Counter(outcome(r) for r in recs)
+    counts = Counter(outcome(r, others.get(episode_key(r), ())) for r in recs)
     p = fisher_exact([[k0, n0 - k0], [k1, n1 - k1]]).pvalue
     diff = round(100 * (k1 / n1 - k0 / n0), 1)
     traces = [counts.get(o, 0) for o in OUTCOMES[1:]]
@@ -88,14 +97,17 @@ def compare(folders: list[Path], published: dict) -> tuple[list[list], list[str]
                     f"{folder}/{split}: {len(recs)} episodes, the shipped weights' run {n0} "
                     "(finish the run: biovln-ms eval resumes it)"
                 )
-            rows.append(row(split, noise, published[(split, noise)], recs))
-            pool = pooled.setdefault(noise, [0, 0, []])
+            others = uncounted_goals(folder / split)
+            rows.append(row(split, noise, published[(split, noise)], recs, others))
+            pool = pooled.setdefault(noise, [0, 0, [], {}])
             pool[0] += published[(split, noise)][1]
             pool[1] += published[(split, noise)][2]
             pool[2] += recs
-    for noise, (k0, n0, recs) in pooled.items():
+            pool[3].update(others)
+    for noise, (k0, n0, recs, others) in pooled.items():
         lo, hi = wilson_interval(k0, n0)
-        rows.append(row("all splits", noise, (sr_cell(100 * k0 / n0, 100 * lo, 100 * hi), k0, n0), recs))
+        cell = sr_cell(100 * k0 / n0, 100 * lo, 100 * hi)
+        rows.append(row("all splits", noise, (cell, k0, n0), recs, others))
     return rows, notes
 
 

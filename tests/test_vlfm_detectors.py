@@ -37,6 +37,38 @@ def test_each_failure_is_traced_to_one_outcome():
     assert vd.outcome(_rec(0, False, stopped=False)) == "step limit"
     assert vd.outcome(_rec(0, False, dtg=vd.FAR + 0.1)) == "STOP far from the target"
     assert vd.outcome(_rec(0, False, dtg=vd.FAR - 0.1)) == "STOP near the target"
+    far = {**_rec(0, False, dtg=4.0), "positions": [[0.0, 0.0], [3.0, 1.0]]}
+    assert vd.outcome(far, [[3.5, 2.0]]) == "STOP at another instance"  # 1.1 m from the other's goal
+    assert vd.outcome(far, [[3.0, 3.0]]) == "STOP far from the target"  # 2 m from it
+    near = {**_rec(0, False, dtg=1.0), "positions": [[3.0, 1.0]]}
+    assert vd.outcome(near, [[3.0, 1.0]]) == "STOP near the target"  # near the named one wins
+
+
+def test_episodes_that_name_one_of_two_instances_are_found(tmp_path):
+    """uncounted_goals reads the dataset a run's manifest names: seed 150's scene holds two centrifuges and
+    a paper-style episode counts only the one it names."""
+    from biovln_ms.episodes.writer import SplitPlan, write_dataset
+    from biovln_ms.scene.generator import generate_scene
+    from biovln_ms.splits import FOUR_CATEGORIES
+
+    scene = generate_scene("single_room", 150, required_categories=FOUR_CATEGORIES)
+    root = tmp_path / "ds"
+    write_dataset(root, [SplitPlan("ms_dev", [(scene, 12, False)])], progress=False)
+    run = tmp_path / "run" / "ms_dev"
+    run.mkdir(parents=True)
+    assert vd.uncounted_goals(run) == {}  # no manifest: nothing reads as another instance
+    (run / "manifest.json").write_text(json.dumps({"dataset": str(root), "robot": "biovln_base"}))
+    others = vd.uncounted_goals(run)
+    centrifuges = {o.id: list(o.goal) for o in scene.instruments if o.category == "centrifuge"}
+    assert len(centrifuges) == 2 and others
+    from biovln_ms.episodes.dataset import EpisodeDataset
+
+    for ep in EpisodeDataset(root).episodes("ms_dev"):
+        key = f"{ep['scene_id']}/{ep['episode_id']}"
+        if ep["object_category"] == "centrifuge":
+            assert others[key] == [g for i, g in centrifuges.items() if i != ep["object_id"]]
+        else:
+            assert key not in others
 
 
 def _write(folder: Path, records: list[dict]) -> Path:
@@ -54,7 +86,7 @@ def test_two_runs_are_compared_on_the_episodes_both_played(tmp_path):
     gt = _write(tmp_path / "gt", [_rec(i, True, steps=40) for i in range(6)])
     learned = [_rec(0, True, steps=60), _rec(1, True, steps=80), _rec(2, False, seen=False)]
     learned += [_rec(3, False, dtg=4.0), _rec(4, False, stopped=False)]  # episode 5: not played
-    rows, traces = vd.compare(_write(tmp_path / "learned", learned), [gt], PUBLISHED)
+    rows, traces, twins = vd.compare(_write(tmp_path / "learned", learned), [gt], PUBLISHED)
     gt_row, row = (dict(zip(vd.COLUMNS, r)) for r in rows)
     assert (gt_row["detector"], row["detector"]) == ("GT", "learned") and row["split"] == "ms_test"
     assert row["noise"] == "ideal"
@@ -66,6 +98,7 @@ def test_two_runs_are_compared_on_the_episodes_both_played(tmp_path):
     assert 0 < row["McNemar p"] <= 1 and gt_row["McNemar p"] is None
     assert row["paper SR %"] is gt_row["paper SR %"] is None  # the paper's VLFM has no MS TEST row
     assert set(traces["ms_test (ideal)"]) == {"lab_s1_v0/2", "lab_s1_v0/3", "lab_s1_v0/4"}
+    assert row["STOP at another instance"] == 0 and twins == {"ms_test": (0, vd.Counter())}  # no manifest
 
 
 def test_a_split_without_a_gt_run_stands_beside_the_published_one(tmp_path):
@@ -74,7 +107,7 @@ def test_a_split_without_a_gt_run_stands_beside_the_published_one(tmp_path):
     recs = [_rec(i, i < 3) for i in range(4)]
     (learned / "ms_val" / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
     gt = _write(tmp_path / "gt", [_rec(0, True)])  # another split: no pair
-    rows, traces = vd.compare(learned, [gt], PUBLISHED)
+    rows, traces, _ = vd.compare(learned, [gt], PUBLISHED)
     published, row = (dict(zip(vd.COLUMNS, r)) for r in rows)
     assert published["detector"] == "GT (published run)" and published["SR %"] == "92.0 [81.2, 96.8]"
     assert published["n"] == 50 and published["never detected"] is None
@@ -86,7 +119,7 @@ def test_a_split_without_a_gt_run_stands_beside_the_published_one(tmp_path):
 def test_bad_folders_are_one_line_errors(tmp_path, capsys):
     gt = _write(tmp_path / "gt", [_rec(0, True)])
     other = _write(tmp_path / "realistic", [{**_rec(0, True), "noise": "realistic"}])
-    rows, _ = vd.compare(other, [gt], PUBLISHED)  # another preset: not its pair
+    rows, _, _ = vd.compare(other, [gt], PUBLISHED)  # another preset: not its pair
     assert [r[2] for r in rows] == ["learned"]
     elsewhere = _write(tmp_path / "elsewhere", [{**_rec(0, True), "episode_id": "99"}])
     with pytest.raises(vd.RunsError, match="share no episodes"):
