@@ -45,7 +45,7 @@ import numpy as np
 from biovln_ms.episodes.dataset import EpisodeDataset
 from biovln_ms.errors import BioVLNError
 from biovln_ms.eval import paper
-from biovln_ms.eval.harness import episode_key, load_records, run_name
+from biovln_ms.eval.harness import dataset_digest, episode_key, load_records, run_name
 from biovln_ms.eval.methods import METHODS
 from biovln_ms.eval.stats import mcnemar, wilson_interval
 from biovln_ms.io_utils import atomic_write_text
@@ -82,28 +82,38 @@ def outcome(rec: dict, others: Sequence[Sequence[float]] = ()) -> str:
     return "STOP far from the target"
 
 
-def uncounted_goals(run_split: Path) -> dict[str, list[list[float]]]:
-    """{episode key: the Eq. 1 goals of the instances of its category that it does not count} for one split of
-    a results folder, from the dataset its ``manifest.json`` names; empty without one (no instance then
-    reads as another)."""
+def uncounted_goals(run_split: Path) -> dict[str, list[list[float]]] | None:
+    """{episode key: the Eq. 1 goals of the goal objects of its category that it does not count} for one
+    split of a results folder, from the dataset its ``manifest.json`` names (checked against the digest the
+    run recorded); None where no manifest names one (not checked: no STOP then reads as at another
+    instance)."""
     try:
         manifest = json.loads((run_split / "manifest.json").read_text())
     except (OSError, ValueError):
-        return {}
-    if not manifest.get("dataset") or not Path(manifest["dataset"]).is_dir():
-        return {}
+        return None
+    if not manifest.get("dataset"):
+        return None
+    root = Path(manifest["dataset"])
+    if not root.is_absolute() or not (root / "manifest.json").is_file():
+        raise RunsError(f"{run_split}: its manifest's dataset {str(root)!r} is not a dataset folder here "
+                        "(trace the run where it ran, or rebuild that dataset at that path)")  # fmt: skip
+    if manifest.get("dataset_sha256") not in (None, dataset_digest(root, run_split.name)):
+        raise RunsError(f"{run_split}: {root} has changed since the run (its digest differs); trace the run "
+                        "against the dataset it played")  # fmt: skip
     try:
-        ds = EpisodeDataset(manifest["dataset"], verify=False, robot=manifest.get("robot", DEFAULT_ROBOT))
-        episodes = list(ds.episodes(run_split.name))
+        ds = EpisodeDataset(root, verify=False, robot=manifest.get("robot", DEFAULT_ROBOT))
     except BioVLNError as e:
-        raise RunsError(f"{run_split}: its dataset does not read ({e}); give the folder biovln-ms eval wrote")
+        raise RunsError(f"{run_split}: its dataset does not read ({e})")
+    if run_split.name not in ds.split_names():
+        raise RunsError(f"{run_split}: {root} has no split {run_split.name!r} (a results folder's subfolders "
+                        "are named by their split)")  # fmt: skip
     out, specs = {}, {}
-    for ep in episodes:
+    for ep in ds.episodes(run_split.name):
         spec = specs.get(ep["scene_id"]) or specs.setdefault(ep["scene_id"], ds.spec(ep["scene_id"]))
         counted = {g["object_id"] for g in ep["goals"]}
         others = [
             list(o.goal)
-            for o in spec.instruments
+            for o in spec.goal_objects()
             if o.category == ep["object_category"] and o.id not in counted
         ]
         if others:
@@ -154,8 +164,9 @@ def _traced(split: str, noise: str, name: str, recs: list[dict], others: dict[st
 
 def compare(learned_dir: Path, gt_dirs: list[Path], published: dict) -> tuple[list[list], dict, dict]:
     """Rows (per split of ``learned_dir``: the GT detector's, then the learned one's), the episodes whose
-    outcome differs where a GT run of the same split and noise is among ``gt_dirs``, and per split the
-    episodes that do not count an instance of their category ({split: (n, Counter of categories)});
+    outcome differs where a GT run of the same split and noise is among ``gt_dirs``, and per split checked
+    against its dataset the episodes that do not count an instance of their category ({split: (n, Counter
+    of categories)});
     ``published``: the reproduction data's runs."""
     learned = runs_by_split(learned_dir)
     gts = [(d, runs_by_split(d)) for d in gt_dirs]
@@ -163,9 +174,11 @@ def compare(learned_dir: Path, gt_dirs: list[Path], published: dict) -> tuple[li
     rows, traces, twins = [], {}, {}
     for split in sorted(learned):
         b_all = list(learned[split].values())
-        others = uncounted_goals(learned_dir / split)
+        checked = uncounted_goals(learned_dir / split)
+        others = checked or {}
         played = [k for k in others if k in learned[split]]
-        twins[split] = (len(played), Counter(learned[split][k]["object_category"] for k in played))
+        if checked is not None:
+            twins[split] = (len(played), Counter(learned[split][k]["object_category"] for k in played))
         noise = _noise(b_all)
         paper_sr = paper_row.get(split, {}).get("sr") if noise == "ideal" else None
         pair = next(
@@ -188,18 +201,18 @@ def compare(learned_dir: Path, gt_dirs: list[Path], published: dict) -> tuple[li
         ratio = round(float(np.median([y / x for x, y in both])), 2) if both else None
         rows.append(_traced(split, noise, "GT", a, others) + [None, None, None])
         rows.append(_traced(split, noise, "learned", b, others) + [round(p, 4), ratio, paper_sr])
-        traces[f"{split} ({noise})"] = {
-            k: {
-                "category": y["object_category"],
-                "gt": outcome(x, others.get(k, ())),
-                "learned": outcome(y, others.get(k, ())),
-                "dtg": [round(x["dtg"], 2), round(y["dtg"], 2)],
-                "steps": [x["steps"], y["steps"]],
-                "learned_detections": y.get("policy_stats", {}).get("detections"),
-            }
-            for k, x, y in zip(keys, a, b)
-            if outcome(x) != outcome(y)
-        }
+        traces[f"{split} ({noise})"] = {}
+        for k, x, y in zip(keys, a, b):
+            ox, oy = outcome(x, others.get(k, ())), outcome(y, others.get(k, ()))
+            if ox != oy:
+                traces[f"{split} ({noise})"][k] = {
+                    "category": y["object_category"],
+                    "gt": ox,
+                    "learned": oy,
+                    "dtg": [round(x["dtg"], 2), round(y["dtg"], 2)],
+                    "steps": [x["steps"], y["steps"]],
+                    "learned_detections": y.get("policy_stats", {}).get("detections"),
+                }
     return rows, traces, twins
 
 
@@ -225,7 +238,9 @@ def main(argv: list[str] | None = None) -> None:
             ap.error(f"{learned} holds no split's episodes")
         rows += more
         traces.update(more_traces)
-        twins.update(more_twins)
+        for split, t in more_twins.items():  # each preset's run of a split plays the same episodes
+            if twins.setdefault(split, t) != t:
+                ap.error(f"{learned}/{split}: other episodes than another run of {split}")
     for r in rows:
         print("  ".join(map(str, r)))
     notes = [
@@ -244,8 +259,11 @@ def main(argv: list[str] | None = None) -> None:
         + "); a STOP at another is a failure (only the named instance's goal counts)"
         for split, (n, cats) in named.items()
     ]
-    if twins and len(named) < len(twins):
+    if len(named) < len(twins):
         notes.append("No such episode on " + ", ".join(sorted(set(twins) - set(named))) + " (as played).")
+    unchecked = sorted({r[0] for r in rows} - set(twins))
+    if unchecked:
+        notes.append("Not checked for such episodes (no run manifest): " + ", ".join(unchecked) + ".")
     for key, differs in traces.items():
         changed = Counter(t["category"] for t in differs.values())
         notes.append(

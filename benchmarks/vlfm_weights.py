@@ -97,7 +97,7 @@ def compare(folders: list[Path], published: dict) -> tuple[list[list], list[str]
                     f"{folder}/{split}: {len(recs)} episodes, the shipped weights' run {n0} "
                     "(finish the run: biovln-ms eval resumes it)"
                 )
-            others = uncounted_goals(folder / split)
+            others = uncounted_goals(folder / split) or {}
             rows.append(row(split, noise, published[(split, noise)], recs, others))
             pool = pooled.setdefault(noise, [0, 0, [], {}])
             pool[0] += published[(split, noise)][1]

@@ -44,31 +44,91 @@ def test_each_failure_is_traced_to_one_outcome():
     assert vd.outcome(near, [[3.0, 1.0]]) == "STOP near the target"  # near the named one wins
 
 
-def test_episodes_that_name_one_of_two_instances_are_found(tmp_path):
-    """uncounted_goals reads the dataset a run's manifest names: seed 150's scene holds two centrifuges and
-    a paper-style episode counts only the one it names."""
+@pytest.fixture(scope="module")
+def two_centrifuges(tmp_path_factory):
+    """A dataset of seed 150's MS DEV scene, which holds two centrifuges; each episode names one."""
     from biovln_ms.episodes.writer import SplitPlan, write_dataset
     from biovln_ms.scene.generator import generate_scene
     from biovln_ms.splits import FOUR_CATEGORIES
 
     scene = generate_scene("single_room", 150, required_categories=FOUR_CATEGORIES)
-    root = tmp_path / "ds"
+    root = tmp_path_factory.mktemp("twins") / "ds"
     write_dataset(root, [SplitPlan("ms_dev", [(scene, 12, False)])], progress=False)
-    run = tmp_path / "run" / "ms_dev"
-    run.mkdir(parents=True)
-    assert vd.uncounted_goals(run) == {}  # no manifest: nothing reads as another instance
-    (run / "manifest.json").write_text(json.dumps({"dataset": str(root), "robot": "biovln_base"}))
-    others = vd.uncounted_goals(run)
-    centrifuges = {o.id: list(o.goal) for o in scene.instruments if o.category == "centrifuge"}
-    assert len(centrifuges) == 2 and others
+    return root
+
+
+def _manifest(run_split: Path, root: Path, **extra) -> None:
+    run_split.mkdir(parents=True, exist_ok=True)
+    (run_split / "manifest.json").write_text(
+        json.dumps({"dataset": str(root), "robot": "biovln_base", **extra})
+    )
+
+
+def test_episodes_that_name_one_of_two_instances_are_found(tmp_path, two_centrifuges):
+    """uncounted_goals reads the dataset a run's manifest names: an episode counts only the centrifuge it
+    names, and the other's goal is the one the episodes naming that other centrifuge count."""
     from biovln_ms.episodes.dataset import EpisodeDataset
 
-    for ep in EpisodeDataset(root).episodes("ms_dev"):
+    run = tmp_path / "run" / "ms_dev"
+    run.mkdir(parents=True)
+    assert vd.uncounted_goals(run) is None  # no manifest: not checked
+    _manifest(run, two_centrifuges)
+    others = vd.uncounted_goals(run)
+    episodes = list(EpisodeDataset(two_centrifuges).episodes("ms_dev"))
+    named = {
+        ep["object_id"]: ep["goals"][0]["eq1_goal"]
+        for ep in episodes
+        if ep["object_category"] == "centrifuge"
+    }
+    assert len(named) == 2, "both centrifuges named by some episode"
+    for ep in episodes:
         key = f"{ep['scene_id']}/{ep['episode_id']}"
         if ep["object_category"] == "centrifuge":
-            assert others[key] == [g for i, g in centrifuges.items() if i != ep["object_id"]]
+            (other,) = [g for i, g in named.items() if i != ep["object_id"]]
+            assert len(others[key]) == 1 and others[key][0] == pytest.approx(other)
         else:
             assert key not in others
+
+
+def test_a_dataset_that_is_gone_or_changed_is_refused(tmp_path, two_centrifuges):
+    run = tmp_path / "run" / "ms_dev"
+    _manifest(run, tmp_path / "nowhere")
+    with pytest.raises(vd.RunsError, match="is not a dataset folder here"):
+        vd.uncounted_goals(run)
+    _manifest(run, two_centrifuges, dataset_sha256="0" * 64)
+    with pytest.raises(vd.RunsError, match="has changed since the run"):
+        vd.uncounted_goals(run)
+    other = tmp_path / "run" / "ms_val"
+    _manifest(other, two_centrifuges)
+    with pytest.raises(vd.RunsError, match="has no split 'ms_val'"):
+        vd.uncounted_goals(other)
+
+
+def test_a_stop_at_the_other_instance_is_its_own_outcome_in_the_comparison(tmp_path, two_centrifuges):
+    """GT stops at the other centrifuge, the learned detector somewhere else: their outcomes differ."""
+    from biovln_ms.episodes.dataset import EpisodeDataset
+
+    eps = EpisodeDataset(two_centrifuges).episodes("ms_dev")
+    ep = next(e for e in eps if e["object_category"] == "centrifuge")
+    key = f"{ep['scene_id']}/{ep['episode_id']}"
+    folders = {}
+    for name in ("gt", "learned"):
+        _manifest(tmp_path / name / "ms_dev", two_centrifuges)
+        folders[name] = tmp_path / name
+    (other,) = vd.uncounted_goals(folders["gt"] / "ms_dev")[key]
+    base = {**_rec(0, False, dtg=4.0), "scene_id": ep["scene_id"], "episode_id": ep["episode_id"]}
+    base["object_category"] = "centrifuge"
+    at_other = {**base, "positions": [[0.0, 0.0], [other[0] + 0.3, other[1]]]}
+    elsewhere = {**base, "positions": [[0.0, 0.0], [other[0] + 3.0, other[1] + 3.0]]}
+    for name, rec in (("gt", at_other), ("learned", elsewhere)):
+        (folders[name] / "ms_dev" / "episodes.jsonl").write_text(json.dumps(rec) + "\n")
+    rows, traces, twins = vd.compare(folders["learned"], [folders["gt"]], PUBLISHED)
+    gt_row, row = (dict(zip(vd.COLUMNS, r)) for r in rows)
+    assert (gt_row["STOP at another instance"], gt_row["STOP far from the target"]) == (1, 0)
+    assert (row["STOP at another instance"], row["STOP far from the target"]) == (0, 1)
+    assert traces["ms_dev (ideal)"][key]["gt"] == "STOP at another instance"
+    assert traces["ms_dev (ideal)"][key]["learned"] == "STOP far from the target"
+    assert twins == {"ms_dev": (1, vd.Counter({"centrifuge": 1}))}
 
 
 def _write(folder: Path, records: list[dict]) -> Path:
@@ -98,7 +158,7 @@ def test_two_runs_are_compared_on_the_episodes_both_played(tmp_path):
     assert 0 < row["McNemar p"] <= 1 and gt_row["McNemar p"] is None
     assert row["paper SR %"] is gt_row["paper SR %"] is None  # the paper's VLFM has no MS TEST row
     assert set(traces["ms_test (ideal)"]) == {"lab_s1_v0/2", "lab_s1_v0/3", "lab_s1_v0/4"}
-    assert row["STOP at another instance"] == 0 and twins == {"ms_test": (0, vd.Counter())}  # no manifest
+    assert row["STOP at another instance"] == 0 and twins == {}  # no manifest: not checked
 
 
 def test_a_split_without_a_gt_run_stands_beside_the_published_one(tmp_path):

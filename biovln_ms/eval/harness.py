@@ -621,7 +621,7 @@ def _run_on_ray(address: str, wcfg: dict, todo: list[int], workers: int, write) 
 MANIFEST = "manifest.json"  # in a run's split folder: who the run is (the report reads it)
 
 
-def _dataset_digest(root: Path, split: str) -> str:
+def dataset_digest(root: Path, split: str) -> str:
     """SHA-256 over the dataset's manifest and the split's files (names and bytes)."""
     h = hashlib.sha256()
     files = [root / "manifest.json", *sorted(p for p in (root / split).rglob("*") if p.is_file())]
@@ -649,7 +649,7 @@ def write_manifest(cfg: EvalConfig, root: Path) -> dict:
         "noise": cfg.noise,
         "split": cfg.split,
         "dataset": str(root),
-        "dataset_sha256": _dataset_digest(Path(root), cfg.split),
+        "dataset_sha256": dataset_digest(Path(root), cfg.split),
         "package_version": version,
         "commit": source_commit(),
         "arguments": {
