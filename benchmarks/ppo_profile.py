@@ -40,24 +40,14 @@ PARTS = (
 
 
 class _Clocked(gym.Wrapper):
-    """Seconds spent in the env's own ``step`` and ``reset``, read back with ``env_method("clock")``."""
+    """The env with its own ``step`` and ``reset`` timed (:func:`timed`), read back with
+    ``env_method("clock")``."""
 
     def __init__(self, env: gym.Env) -> None:
         super().__init__(env)
-        self.spent = {"step": 0.0, "reset": 0.0, "resets": 0}
-
-    def step(self, action):
-        t = time.perf_counter()
-        out = self.env.step(action)
-        self.spent["step"] += time.perf_counter() - t
-        return out
-
-    def reset(self, **kwargs):
-        t = time.perf_counter()
-        out = self.env.reset(**kwargs)
-        self.spent["reset"] += time.perf_counter() - t
-        self.spent["resets"] += 1
-        return out
+        self.spent = {"step": 0.0, "reset": 0.0}
+        self.step = timed(env.step, self.spent, "step")
+        self.reset = timed(env.reset, self.spent, "reset")
 
     def clock(self) -> dict:
         return dict(self.spent)

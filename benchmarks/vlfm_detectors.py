@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
@@ -76,8 +77,7 @@ def outcome(rec: dict, others: Sequence[Sequence[float]] = ()) -> str:
         return "step limit"
     if rec["dtg"] <= FAR:
         return "STOP near the target"
-    end = np.asarray(rec["positions"][-1][:2], dtype=float) if others else None
-    if others and min(np.hypot(*(end - np.asarray(g[:2], dtype=float))) for g in others) <= FAR:
+    if any(math.dist(rec["positions"][-1][:2], g[:2]) <= FAR for g in others):
         return "STOP at another instance"
     return "STOP far from the target"
 
@@ -107,9 +107,9 @@ def uncounted_goals(run_split: Path) -> dict[str, list[list[float]]] | None:
     if run_split.name not in ds.split_names():
         raise RunsError(f"{run_split}: {root} has no split {run_split.name!r} (a results folder's subfolders "
                         "are named by their split)")  # fmt: skip
-    out, specs = {}, {}
+    out = {}
     for ep in ds.episodes(run_split.name):
-        spec = specs.get(ep["scene_id"]) or specs.setdefault(ep["scene_id"], ds.spec(ep["scene_id"]))
+        spec = ds.spec(ep["scene_id"])  # cached by the dataset
         counted = {g["object_id"] for g in ep["goals"]}
         others = [
             list(o.goal)
