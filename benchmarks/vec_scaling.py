@@ -10,14 +10,19 @@ Rows: one env in this process (the reference); ``gym.make_vec(..., vectorization
 so an update sees the same 2,048 steps as with 2) in 8 processes and in 2 (rollouts and updates:
 ``learn``'s time, after the worker processes have started; PPO with 1 env steps it in the trainer's
 process, as ``train ppo`` does). The two 8-env PPO runs see the same transitions: the note says whether
-their learning curves are identical. Writes ``docs/data/benchmarks/vec_scaling.json``, the PPO runs'
-training success per 5,000 env steps in ``vec_scaling_curves.json`` beside it and their plot in
-``docs/images/vec_scaling_ppo.png`` (the published run: ``--ppo-steps 100352``, long enough to learn).
+their learning curves are identical. A note times the full ``gc.collect()`` ManiSkill runs at each scene
+change in a fresh process of 4 envs, when they share the split's episodes (as ``gym.make`` gives them,
+``DatasetEpisodes.shared``) and when each reads its own copy. Writes
+``docs/data/benchmarks/vec_scaling.json``, the PPO runs' training success per 5,000 env steps in
+``vec_scaling_curves.json`` beside it and their plot in ``docs/images/vec_scaling_ppo.png`` (the published
+run: ``--ppo-steps 100352``, long enough to learn).
 """
 
 from __future__ import annotations
 
 import argparse
+import gc
+import multiprocessing as mp
 import time
 from functools import partial
 from pathlib import Path
@@ -77,6 +82,36 @@ def grouped(n: int, steps: int, processes: int = 2) -> float:
     from biovln_ms.learning.grouped_vec_env import GroupedSubprocVecEnv
 
     return vec_step_rate(GroupedSubprocVecEnv(_factories(n), processes), steps // n, n, seed=True)
+
+
+def _collect(shared: bool, envs: int = 4) -> tuple[float, int]:
+    """In this (fresh) process: ``envs`` RL envs sharing the split's episodes or each with its own copy;
+    the median ms of a full collection (ManiSkill's at a scene change) and the objects it walks."""
+    from biovln_ms.episodes.source import DatasetEpisodes
+    from biovln_ms.splits import dataset_root
+
+    def own() -> dict:
+        return {"episodes": DatasetEpisodes(ENV["split"], dataset_root(None))}
+
+    made = [make_gym_env(RL_ENV, obs_mode="state", **({"split": ENV["split"]} if shared else own()))
+            for _ in range(envs)]  # fmt: skip
+    for env in made:
+        env.reset(seed=0)
+    times = []
+    for _ in range(7):
+        t = time.perf_counter()
+        gc.collect()
+        times.append(time.perf_counter() - t)
+    walked = len(gc.get_objects())
+    for env in made:
+        env.close()
+    return float(np.median(times)) * 1e3, walked
+
+
+def collection(shared: bool) -> tuple[float, int]:
+    """:func:`_collect` in a spawned process, as a worker of ``GroupedSubprocVecEnv`` starts."""
+    with mp.get_context("spawn").Pool(1) as pool:
+        return pool.apply(_collect, (shared,))
 
 
 def ppo(n: int, timesteps: int, out: Path, envs_per_process: int = 1) -> tuple[float, list[dict]]:
@@ -155,6 +190,8 @@ def main() -> None:
     log8 = ppo_row("8 envs, 8 processes", label + ", n_steps 256", 8)
     glog8 = ppo_row("8 envs, 2 processes of 4", label + ", n_steps 256, --envs-per-process 4", 8, 4)
     same = "identical" if log8 == glog8 else "different"
+    (shared_ms, shared_objects), (own_ms, own_objects) = collection(True), collection(False)
+    print(f"4 envs in a process, a full collection: {shared_ms:.1f} ms shared, {own_ms:.1f} ms own copies")
     r8, g8 = runs[-2]["steps_per_second"], runs[-1]["steps_per_second"]
     print(f"PPO with 8 envs: {r8:.0f} (8 processes) and {g8:.0f} (2 processes) env steps/s; curves {same}")
     write_table(
@@ -166,6 +203,9 @@ def main() -> None:
             f"{args.steps} random steps per row (state observations, {RL_ENV}); "
             f"PPO {args.ppo_steps} timesteps.",
             f"The two 8-env PPO runs' episode logs (returns, lengths, successes, in order) are {same}.",
+            f"4 envs in one fresh process: the full collection ManiSkill runs at each scene change takes "
+            f"{shared_ms:.1f} ms ({shared_objects:,} objects walked) with the split's episodes shared, as "
+            f"gym.make gives them; {own_ms:.1f} ms ({own_objects:,}) with a copy per env.",
         ],
     )
     write_runs(args.data_out.with_name("vec_scaling_curves.json"), runs, window_steps=CURVE_WINDOW)

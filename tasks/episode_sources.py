@@ -43,7 +43,7 @@ def resolve_episodes(env_cls: type[BioVLNNavEnv], kwargs: dict) -> dict:
     robot = robot_spec(kwargs.get("robot_uids", DEFAULT_ROBOT)).uid
     split, dataset = given.get("split") or cfg.default_split, given.get("dataset")
     if split:
-        kwargs["episodes"] = DatasetEpisodes(split, dataset_root(dataset, robot), robot)
+        kwargs["episodes"] = DatasetEpisodes.shared(split, dataset_root(dataset, robot), robot)
         crowd = max((e["people"]["count"] for e in kwargs["episodes"].episodes if "people" in e), default=0)
         if crowd and "people" not in kwargs:  # a busy split: figures for its largest crowd
             kwargs["people"] = max(crowd, cfg.people)

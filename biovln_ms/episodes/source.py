@@ -4,6 +4,8 @@ sampler (:mod:`biovln_ms.episodes.samplers`) draws in it. Either way they are
 
 from __future__ import annotations
 
+import os
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -136,6 +138,8 @@ class EpisodeCursor:
 class DatasetEpisodes(EpisodeSource):
     """A split of a dataset built for ``robot`` (another robot's is refused)."""
 
+    _signature: tuple | None = None  # the files as :meth:`shared` read them
+
     def __init__(self, split: str, root: str | Path, robot: str = DEFAULT_ROBOT) -> None:
         root = Path(root)
         self.dataset = EpisodeDataset(root, robot=robot)
@@ -146,6 +150,46 @@ class DatasetEpisodes(EpisodeSource):
 
     def spec(self, scene_id: str) -> SceneSpec:
         return self.dataset.spec(scene_id)
+
+    @classmethod
+    def shared(cls, split: str, root: str | Path, robot: str = DEFAULT_ROBOT) -> DatasetEpisodes:
+        """The split as this process read it for an env that still lives, while the manifest and every
+        file it lists keep their inode, size and modification time; else read and verified afresh. The
+        envs of one process then share one copy of the episodes and scene specs. When the process's first
+        env is made from it, :func:`~biovln_ms.sim.maniskill_compat.freeze_live_objects` freezes that copy,
+        so ManiSkill's full ``gc.collect()`` at each scene change does not walk a copy per env."""
+        base = Path(root).resolve()
+        key = (str(base), split, robot)
+        held = _SHARED.get(key)
+        if held is not None and held._signature == _file_signature(held.dataset, base):
+            return held
+        manifest = _stat(base / "manifest.json")
+        source = cls(split, root, robot)
+        signature = _file_signature(source.dataset, base)
+        if signature[0] == manifest and None not in signature:  # nothing replaced or removed meanwhile
+            source._signature = signature
+            _SHARED[key] = source
+        return source
+
+
+#: sources read by :meth:`DatasetEpisodes.shared`, while something else holds them
+_SHARED: weakref.WeakValueDictionary[tuple, DatasetEpisodes] = weakref.WeakValueDictionary()
+
+
+def _stat(path: Path) -> tuple[int, int, int] | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _file_signature(dataset: EpisodeDataset, base: Path) -> tuple:
+    """The stat of the manifest and of every file it lists, under the dataset's resolved folder."""
+    m = dataset.manifest
+    rels = [info["file"] for info in m["scenes"].values()]
+    rels += [info["file"] for split in m["splits"].values() for info in split["files"].values()]
+    return (_stat(base / "manifest.json"), *(_stat(base / rel) for rel in rels))
 
 
 class GeneratedEpisodes(EpisodeSource):
