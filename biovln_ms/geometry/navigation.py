@@ -81,6 +81,16 @@ def _through_any(p, q, v, tol):
     return out
 
 
+def load_kernels() -> None:
+    """Dispatch the crossing kernels once, loading them from Numba's cache. A process's first dispatch
+    builds Numba's typing registries: tens of thousands of objects that live as long as the process.
+    :func:`~biovln_ms.sim.maniskill_compat.freeze_live_objects` calls this before it freezes, so the full
+    collection ManiSkill runs at each scene change does not walk them."""
+    z = np.zeros((1, 2))
+    _crossing_any(z, z, z, z, 1e-9)
+    _through_any(z, z, z, 1e-9)
+
+
 @dataclass(frozen=True)
 class OccupancyGrid:
     """A raster of the navigable polygons: ``free`` (cell centre navigable), ``inner`` (whole cell

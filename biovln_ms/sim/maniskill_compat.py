@@ -32,6 +32,7 @@ import mani_skill.envs.sapien_env as _sapien_env
 import mani_skill.sensors.camera as _camera
 
 from biovln_ms.errors import BioVLNError
+from biovln_ms.geometry.navigation import load_kernels
 
 #: ManiSkill's sensor-config helpers: ``parse_sensor_configs`` (a config, list or dict of configs -> a dict
 #: by uid) and ``update_sensor_configs_from_dict`` (configs updated in place from a ``sensor_configs``-style
@@ -98,15 +99,17 @@ _LIVE: weakref.WeakSet = weakref.WeakSet()  # the envs made through FreezesLiveO
 
 
 def freeze_live_objects(episodes: int) -> None:
-    """Collect, then freeze what is alive (``gc.freeze``): the imported libraries and the episodes.
-    ManiSkill's ``BaseEnv._clear`` ends every scene change with a full ``gc.collect()`` (to free GPU
-    memory), which would otherwise walk all of them each time; frozen, it walks only the envs, their scenes
-    and what came after. Done when nothing is frozen yet (the first env of a process), and for a source of
-    over ``FREEZE_EPISODES`` episodes when no other env lives (a living env would be frozen with it). What is
-    frozen is never collected as a reference cycle: objects the caller holds then and drops later in a
-    cycle stay in memory."""
+    """Collect, then freeze what is alive (``gc.freeze``): the imported libraries, Numba's typing
+    registries (built first, :func:`~biovln_ms.geometry.navigation.load_kernels`: the env's geometry would
+    build them after the freeze) and the episodes. ManiSkill's ``BaseEnv._clear`` ends every scene change
+    with a full ``gc.collect()`` (to free GPU memory), which would otherwise walk all of them each time;
+    frozen, it walks only the envs, their scenes and what came after. Done when nothing is frozen yet (the
+    first env of a process), and for a source of over ``FREEZE_EPISODES`` episodes when no other env lives
+    (a living env would be frozen with it). What is frozen is never collected as a reference cycle: objects
+    the caller holds then and drops later in a cycle stay in memory."""
     if gc.get_freeze_count() and (episodes <= FREEZE_EPISODES or len(_LIVE)):
         return
+    load_kernels()
     gc.collect()
     gc.freeze()
 
