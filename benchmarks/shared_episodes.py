@@ -10,12 +10,13 @@ adds its episodes to each walk. Each pair runs ``train ppo``'s SB3 PPO with 8 en
 (``n_steps`` 256, ``vec_scaling.py``'s ``--envs-per-process 4`` row) once each way, in alternating order;
 early training has the shortest episodes (a random STOP), hence the most resets and scene changes.
 Beside them, the resident memory of a fresh process of 4 envs both ways. The full collection's own time
-is in ``vec_scaling.py``'s notes. Writes ``docs/data/benchmarks/shared_episodes.json``.
+(:func:`collection`) is in ``vec_scaling.py``'s notes. Writes ``docs/data/benchmarks/shared_episodes.json``.
 """
 
 from __future__ import annotations
 
 import argparse
+import gc
 import multiprocessing as mp
 import resource
 import time
@@ -23,12 +24,15 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from stable_baselines3.common.vec_env import VecMonitor
 
 from biovln_ms.cluster import closing_vec_env
+from biovln_ms.episodes.source import DatasetEpisodes
 from biovln_ms.learning.algorithms import algo_class
 from biovln_ms.learning.grouped_vec_env import GroupedSubprocVecEnv
 from biovln_ms.learning.rl import RLConfig
 from biovln_ms.measured import docs_data_dir, write_table
+from biovln_ms.splits import dataset_root
 from biovln_ms.variants import RL_ENV
 from biovln_ms.wrappers import make_gym_env
 
@@ -43,9 +47,6 @@ def shared_env():
 
 def own_env():
     """The same env with its own read of the split."""
-    from biovln_ms.episodes.source import DatasetEpisodes
-    from biovln_ms.splits import dataset_root
-
     episodes = DatasetEpisodes(SPLIT, dataset_root(None))
     return make_gym_env(RL_ENV, episodes=episodes, obs_mode="state", control_mode="discrete")
 
@@ -56,8 +57,6 @@ FACTORIES = {"shared": shared_env, "own copy": own_env}
 def ppo_rate(way: str, timesteps: int) -> float:
     """Env steps/s of ``learn`` (after the workers started): 8 envs in 2 processes, ``n_steps`` 256."""
     torch.set_num_threads(1)
-    from stable_baselines3.common.vec_env import VecMonitor
-
     venv = VecMonitor(GroupedSubprocVecEnv([FACTORIES[way]] * 8, processes=2), info_keywords=("success",))
     venv.seed(0)
     with closing_vec_env(venv):
@@ -68,17 +67,47 @@ def ppo_rate(way: str, timesteps: int) -> float:
         return model.num_timesteps / (time.perf_counter() - t)
 
 
-def _resident(way: str) -> float:
-    """In this (fresh) process: 4 envs made and reset; the peak resident memory in MiB."""
-    made = [FACTORIES[way]() for _ in range(4)]
+def in_fresh_process(fn, *args):
+    """``fn(*args)`` in a spawned process, as a worker of ``GroupedSubprocVecEnv`` starts."""
+    with mp.get_context("spawn").Pool(1) as pool:
+        return pool.apply(fn, args)
+
+
+def _made(way: str, envs: int = 4) -> list:
+    """``envs`` envs made ``way`` and reset."""
+    made = [FACTORIES[way]() for _ in range(envs)]
     for env in made:
         env.reset(seed=0)
+    return made
+
+
+def _resident(way: str) -> float:
+    """The peak resident memory in MiB of this process after :func:`_made`."""
+    _made(way)
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
+def _collect(way: str) -> tuple[float, int]:
+    """After :func:`_made` in this process: the median ms of a full collection (ManiSkill's at a scene
+    change) and the objects it walks."""
+    made = _made(way)
+    times = []
+    for _ in range(7):
+        t = time.perf_counter()
+        gc.collect()
+        times.append(time.perf_counter() - t)
+    walked = len(gc.get_objects())
+    for env in made:
+        env.close()
+    return float(np.median(times)) * 1e3, walked
+
+
 def resident(way: str) -> float:
-    with mp.get_context("spawn").Pool(1) as pool:
-        return pool.apply(_resident, (way,))
+    return in_fresh_process(_resident, way)
+
+
+def collection(way: str) -> tuple[float, int]:
+    return in_fresh_process(_collect, way)
 
 
 def main() -> None:

@@ -21,8 +21,6 @@ run: ``--ppo-steps 100352``, long enough to learn).
 from __future__ import annotations
 
 import argparse
-import gc
-import multiprocessing as mp
 import time
 from functools import partial
 from pathlib import Path
@@ -30,6 +28,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import torch
+from shared_episodes import collection
 
 import biovln_ms  # noqa: F401
 from biovln_ms.io_utils import save_figure
@@ -82,36 +81,6 @@ def grouped(n: int, steps: int, processes: int = 2) -> float:
     from biovln_ms.learning.grouped_vec_env import GroupedSubprocVecEnv
 
     return vec_step_rate(GroupedSubprocVecEnv(_factories(n), processes), steps // n, n, seed=True)
-
-
-def _collect(shared: bool, envs: int = 4) -> tuple[float, int]:
-    """In this (fresh) process: ``envs`` RL envs sharing the split's episodes or each with its own copy;
-    the median ms of a full collection (ManiSkill's at a scene change) and the objects it walks."""
-    from biovln_ms.episodes.source import DatasetEpisodes
-    from biovln_ms.splits import dataset_root
-
-    def own() -> dict:
-        return {"episodes": DatasetEpisodes(ENV["split"], dataset_root(None))}
-
-    made = [make_gym_env(RL_ENV, obs_mode="state", **({"split": ENV["split"]} if shared else own()))
-            for _ in range(envs)]  # fmt: skip
-    for env in made:
-        env.reset(seed=0)
-    times = []
-    for _ in range(7):
-        t = time.perf_counter()
-        gc.collect()
-        times.append(time.perf_counter() - t)
-    walked = len(gc.get_objects())
-    for env in made:
-        env.close()
-    return float(np.median(times)) * 1e3, walked
-
-
-def collection(shared: bool) -> tuple[float, int]:
-    """:func:`_collect` in a spawned process, as a worker of ``GroupedSubprocVecEnv`` starts."""
-    with mp.get_context("spawn").Pool(1) as pool:
-        return pool.apply(_collect, (shared,))
 
 
 def ppo(n: int, timesteps: int, out: Path, envs_per_process: int = 1) -> tuple[float, list[dict]]:
@@ -190,7 +159,7 @@ def main() -> None:
     log8 = ppo_row("8 envs, 8 processes", label + ", n_steps 256", 8)
     glog8 = ppo_row("8 envs, 2 processes of 4", label + ", n_steps 256, --envs-per-process 4", 8, 4)
     same = "identical" if log8 == glog8 else "different"
-    (shared_ms, shared_objects), (own_ms, own_objects) = collection(True), collection(False)
+    (shared_ms, shared_objects), (own_ms, own_objects) = collection("shared"), collection("own copy")
     print(f"4 envs in a process, a full collection: {shared_ms:.1f} ms shared, {own_ms:.1f} ms own copies")
     r8, g8 = runs[-2]["steps_per_second"], runs[-1]["steps_per_second"]
     print(f"PPO with 8 envs: {r8:.0f} (8 processes) and {g8:.0f} (2 processes) env steps/s; curves {same}")
