@@ -57,7 +57,7 @@ def _registries() -> list[tuple[object, str]]:
     import biovln_ms.metrics.measures as measures
     import biovln_ms.registration as registration
     import biovln_ms.scene.templates as templates
-    import tasks.sensors as sensors
+    import biovln_ms.tasks.sensors as sensors
 
     return [
         (methods, "METHODS"),

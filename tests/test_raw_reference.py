@@ -1,4 +1,5 @@
-"""The speed benchmarks' raw SAPIEN reference at a walk's views renders the frames the env rendered."""
+"""The speed benchmarks' raw SAPIEN reference at a walk's views renders the frames the env rendered, in the
+env itself or in a second env made alike (``env_speed.py`` replays each block of its walk in one)."""
 
 import gymnasium as gym
 import numpy as np
@@ -10,11 +11,17 @@ from biovln_ms.render import sapien_utils
 pytestmark = pytest.mark.render
 
 
-def test_the_raw_reference_renders_the_walks_own_frames(monkeypatch):
-    env = gym.make(
+def _make():
+    return gym.make(
         "BioVLN-OpFace-v0", split="ms_val", obs_mode="rgbd", camera_width=96, camera_height=72,
         sim_backend="physx_cpu", render_backend="cpu",
     )  # fmt: skip
+
+
+@pytest.mark.parametrize("where", ["the env", "a second env"])
+def test_the_raw_reference_renders_the_walks_own_frames(monkeypatch, where):
+    env = _make()
+    ref = env if where == "the env" else _make()
     try:
         u = env.unwrapped
         env.reset(options={"episode_index": 0})
@@ -38,7 +45,7 @@ def test_the_raw_reference_renders_the_walks_own_frames(monkeypatch):
             return recorded
 
         monkeypatch.setattr(sapien_utils, "_head_frame", spied)
-        assert sapien_utils.raw_camera_rate_at(env, views) > 0
+        assert sapien_utils.raw_camera_rate_at(ref, views) > 0
         episodes = len({v[0] for v in views})
         assert len(rendered) == len(views) + episodes  # a warm-up frame per episode's scene
         replayed = [p for k, p in enumerate(rendered) if k not in _warm_ups(views)]
@@ -47,6 +54,8 @@ def test_the_raw_reference_renders_the_walks_own_frames(monkeypatch):
         assert same >= 0.8 * len(frames) and diff <= 2  # a pose set from joints may differ in its last bit
     finally:
         env.close()
+        if ref is not env:
+            ref.close()
 
 
 def _warm_ups(views) -> set[int]:
