@@ -1,5 +1,6 @@
 """`pip wheel .` gives a wheel that installs into a fresh venv and works from any directory."""
 
+import ast
 import subprocess
 import sys
 import sysconfig
@@ -31,6 +32,26 @@ def wheel(tmp_path_factory):
     )
     (whl,) = out.glob("biovln_ms-*.whl")
     return whl
+
+
+def test_no_code_imports_tasks_or_agents_by_their_folder_names():
+    """``tasks/`` and ``agents/`` are ``biovln_ms.tasks`` and ``biovln_ms.agents``; imported as top-level
+    ``tasks`` / ``agents`` (possible from the repository root) a module would load a second time, with
+    registries of its own."""
+    found = []
+    folders = ("biovln_ms", "tasks", "agents", "assets", "tests", "benchmarks", "scripts", "docs")
+    paths = [*ROOT.glob("*.py"), *(p for f in folders for p in (ROOT / f).rglob("*.py"))]
+    for path in paths:
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and not node.level:
+                names = [node.module or ""]
+            else:
+                continue
+            if any(n.split(".")[0] in ("tasks", "agents") for n in names):
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not found, f"imports of top-level tasks/agents: {found}"
 
 
 def test_wheel_maps_tasks_and_agents_into_the_package(wheel):
