@@ -16,3 +16,5 @@ SUPPORT_EDGE_MARGIN = 0.05
 SCENE_GENERATOR_VERSION = 2  # 2: wall interior normals fixed (walls stood inside the floor)
 #: The number of visits (goals) K a lab protocol may have: the range ``BioVLN-Protocol-v0`` episodes use.
 MIN_VISITS, MAX_VISITS = 2, 5
+#: Timesteps between the atomic checkpoints ``biovln-ms train`` writes (``RLConfig.checkpoint_every``).
+CHECKPOINT_EVERY = 50_000

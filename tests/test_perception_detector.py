@@ -312,15 +312,19 @@ def test_instances_under_the_operating_point_are_dropped(monkeypatch):
     assert [round(i.score, 2) for i in seg.instances(frame)] == [0.9]
 
 
-def test_bad_weights_and_frames_are_one_line_errors(tmp_path):
+def test_bad_weights_and_frames_are_one_line_errors(tmp_path, monkeypatch):
     import torch
 
     path = tmp_path / "fresh.safetensors"  # an untrained net: the checks are the same for any weights
     torch.manual_seed(0)
     S.save_weights(path, S.build_net(len(CATS) + 1, pretrained=False), S.header_of(CATS, 0, None))
-    with pytest.raises(PerceptionError, match="weights file missing.*perception train") as e:
+    with pytest.raises(PerceptionError, match="weights file missing.*check the path.*perception train") as e:
         S.Segmenter(tmp_path / "absent.safetensors")
-    assert "\n" not in str(e.value)
+    assert "\n" not in str(e.value) and "reinstall" not in str(e.value)
+    gone = tmp_path / "assets" / "detector.safetensors"
+    monkeypatch.setattr(S, "shipped_weights", lambda: gone)
+    with pytest.raises(PerceptionError, match="missing.*reinstall biovln-ms"):  # the shipped file gone
+        S.read_header(gone)
     bad = tmp_path / "bad.safetensors"
     bad.write_bytes(path.read_bytes()[:5000])  # truncated
     with pytest.raises(PerceptionError, match="corrupt|not a safetensors"):

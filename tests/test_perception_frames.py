@@ -112,6 +112,20 @@ def test_bad_resolution_and_split_through_the_cli(held_out_dataset, tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+def test_a_held_out_part_without_frames_is_named(held_out_dataset, tmp_path, monkeypatch):
+    import biovln_ms.perception.frame_dataset as FD
+    from biovln_ms.cli import app
+
+    row = {"frames": 8, "instances": {"centrifuge": 3}, "scenes": ["s"]}
+    parts = {"train": row, "test_scenes": row, "test_looks": {**row, "frames": 0}}
+    monkeypatch.setattr(FD, "build_frames_dataset", lambda *a, **k: {"parts": parts})
+    data = held_out_dataset(ms_val=2)
+    r = runner.invoke(app, ["perception", "dataset", data, "-o", str(tmp_path / "x"), "--split", "ms_val"])
+    assert r.exit_code == 0, r.output
+    warned = [line for line in r.output.splitlines() if line.startswith("warning:")]
+    assert len(warned) == 1 and "test_looks has no frames" in warned[0] and "--frames" in warned[0]
+
+
 def _camera_rays(w: int, h: int, hfov: float, yaw: float, pitch: float) -> np.ndarray:
     """(H, W, 3) world directions with unit depth along the optical axis (SAPIEN: x forward, y left, z up)."""
     f = w / (2 * math.tan(hfov / 2))

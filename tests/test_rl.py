@@ -38,6 +38,22 @@ def test_train_writes_logs_checkpoints_curve_and_evaluates(dataset, tmp_path, al
     assert (tmp_path / "eval" / f"{algo}@opface-rl" / "ms_val" / "episodes.jsonl").is_file()
 
 
+def test_on_policy_training_says_it_runs_whole_rollouts(dataset, tmp_path):
+    said = []
+    cfg = RLConfig(
+        timesteps=100,
+        n_envs=1,
+        dataset=dataset,
+        eval_split=None,
+        hyperparams={"n_steps": 64, "batch_size": 32},
+    )
+    r = train_rl(cfg, tmp_path, echo=said.append, progress=False)
+    assert r.timesteps == 128  # what SB3 runs for 100: two rollouts of 64, told up front
+    assert any(
+        "whole rollouts of n_steps x n_envs = 64 steps: training 128 timesteps, not 100" in s for s in said
+    )
+
+
 def test_learned_method_errors(dataset, tmp_path):
     with pytest.raises(BioVLNError, match="needs a checkpoint"):
         evaluate(EvalConfig("ppo", "ms_val", str(tmp_path), dataset, workers=1), progress=False)

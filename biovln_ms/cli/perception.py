@@ -39,7 +39,7 @@ def perception_dataset(
     (test_looks)."""
     from biovln_ms.episodes.dataset import EpisodeDataset
     from biovln_ms.perception.frame_dataset import build_frames_dataset, check_request, parse_resolution
-    from biovln_ms.perception.frames import split_sources
+    from biovln_ms.perception.frames import FRAMES_PER_GROUP, split_sources
     from biovln_ms.splits import dataset_root, held_out_seeds
 
     size = parse_resolution(frame_size)
@@ -62,6 +62,12 @@ def perception_dataset(
         typer.echo(
             f"{part}: {row['frames']} frames, {sum(row['instances'].values())} instances, "
             f"{seen}/{len(row['instances'])} categories, {len(row['scenes'])} scenes"
+        )
+    for part in (p for p, row in manifest["parts"].items() if not row["frames"]):
+        typer.echo(
+            f"warning: {part} has no frames: each group of {FRAMES_PER_GROUP} frames draws its part from the "
+            "seed; render more (--frames) to measure on it",
+            err=True,
         )
     typer.echo(f"wrote {target}")
 

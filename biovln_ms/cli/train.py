@@ -8,6 +8,7 @@ from typing import Optional
 import typer
 
 from biovln_ms.cli.common import app
+from biovln_ms.constants import CHECKPOINT_EVERY
 from biovln_ms.learning.algorithms import SB3_CONTROL_MODES
 from biovln_ms.variants import RL_ENV
 
@@ -106,7 +107,11 @@ def _train_rl(
 
 def _rl_command(algo: str):
     def command(
-        timesteps: int = typer.Option(200_000, "--timesteps", help="Environment steps to train for."),
+        timesteps: int = typer.Option(
+            200_000,
+            "--timesteps",
+            help="Environment steps to train for (PPO, A2C: rounded up to whole rollouts, n_steps x n-envs).",
+        ),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help=f"Run folder (default runs/{algo})."),
         n_envs: int = typer.Option(
             2, help="Parallel envs (one process or Ray actor each; see --envs-per-process)."
@@ -165,8 +170,8 @@ def _rl_command(algo: str):
         )
 
     command.__doc__ = (
-        f"{algo.upper()} with Stable-Baselines3 on the RL env.\n\n{RL_ENV}: TensorBoard logs, checkpoints, "
-        "learning curve, then evaluation through the harness."
+        f"{algo.upper()} with Stable-Baselines3 on the RL env.\n\n{RL_ENV}: TensorBoard logs, a checkpoint "
+        f"every {CHECKPOINT_EVERY:,} timesteps, learning curve, then evaluation through the harness."
     )
     return command
 

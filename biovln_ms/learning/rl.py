@@ -23,8 +23,10 @@ from typing import Callable
 import numpy as np
 import torch
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
 from biovln_ms.cluster import check_address, closing_vec_env, exit_on_sigterm
+from biovln_ms.constants import CHECKPOINT_EVERY
 from biovln_ms.episodes.source import SEED_RULE
 from biovln_ms.tasks.config_checks import is_gpu_backend
 from biovln_ms.errors import BioVLNError
@@ -42,7 +44,7 @@ class RLConfig:
     dataset: str | None = None
     n_envs: int = 2
     seed: int = 0
-    checkpoint_every: int = 50_000  # timesteps
+    checkpoint_every: int = CHECKPOINT_EVERY  # timesteps
     eval_split: str | None = "ms_val"  # evaluated through the harness after training (None: skip)
     eval_episodes: int | None = None
     ray_address: str | None = None  # run the envs on Ray actors ("local", "auto", "ray://host:port")
@@ -262,9 +264,17 @@ def train_rl(
                     [EndStopPenalty(cfg.stop_penalty_steps)] if cfg.stop_penalty_steps else []
                 )
                 callbacks += [FreezeAtStart()] if in_process else []
+                on_policy = isinstance(model, OnPolicyAlgorithm)  # learns in whole rollouts
+                rollout = model.n_steps * model.n_envs if on_policy else 1
+                total = -(-cfg.timesteps // rollout) * rollout
+                if total != cfg.timesteps:
+                    echo(
+                        f"{cfg.algo} learns in whole rollouts of n_steps x n_envs = {rollout:,} steps: "
+                        f"training {total:,} timesteps, not {cfg.timesteps:,}"
+                    )
                 t0 = time.perf_counter()
                 model.learn(
-                    total_timesteps=cfg.timesteps,
+                    total_timesteps=total,
                     callback=callbacks,
                     progress_bar=progress,
                     tb_log_name=cfg.algo,

@@ -227,13 +227,13 @@ def save_weights(path: str | Path, net, header: dict) -> Path:
 
 
 def _bad(path: Path, message: str, field: str | None = None) -> PerceptionError:
-    return PerceptionError(
-        message,
-        source=str(path),
-        field=field,
-        fix="reinstall biovln-ms (pip install -e .) or rebuild the weights with "
-        "`biovln-ms perception train -o DIR --frame-data FRAMES` and pass DIR/detector.safetensors",
-    )
+    """A bad weights file: the shipped one is mended by a reinstall, a path someone passed by checking it."""
+    rebuild = "`biovln-ms perception train -o DIR --frame-data FRAMES` and pass DIR/detector.safetensors"
+    if path.resolve() == shipped_weights().resolve():
+        fix = f"reinstall biovln-ms (pip install -e .) or rebuild the weights with {rebuild}"
+    else:
+        fix = f"check the path (none: the shipped weights), or rebuild the weights with {rebuild}"
+    return PerceptionError(message, source=str(path), field=field, fix=fix)
 
 
 def read_header(path: str | Path) -> tuple[dict, bytes]:
