@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import multiprocessing as mp
 import resource
 import time
 from pathlib import Path
@@ -31,7 +30,7 @@ from biovln_ms.episodes.source import DatasetEpisodes
 from biovln_ms.learning.algorithms import algo_class
 from biovln_ms.learning.grouped_vec_env import GroupedSubprocVecEnv
 from biovln_ms.learning.rl import RLConfig
-from biovln_ms.measured import docs_data_dir, write_table
+from biovln_ms.measured import docs_data_dir, in_fresh_process, write_table
 from biovln_ms.splits import dataset_root
 from biovln_ms.variants import RL_ENV
 from biovln_ms.wrappers import make_gym_env
@@ -65,12 +64,6 @@ def ppo_rate(way: str, timesteps: int) -> float:
         t = time.perf_counter()
         model.learn(total_timesteps=timesteps)
         return model.num_timesteps / (time.perf_counter() - t)
-
-
-def in_fresh_process(fn, *args):
-    """``fn(*args)`` in a spawned process, as a worker of ``GroupedSubprocVecEnv`` starts."""
-    with mp.get_context("spawn").Pool(1) as pool:
-        return pool.apply(fn, args)
 
 
 def _made(way: str, envs: int = 4) -> list:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import datetime
 import json
+import multiprocessing as mp
 import os
 import platform
 import shlex
@@ -50,6 +51,13 @@ def timed(fn, spent: dict, key: str):
             spent[key] += time.perf_counter() - t
 
     return run
+
+
+def in_fresh_process(fn, *args):
+    """``fn(*args)`` in a spawned process, as a vector env's worker starts (nothing inherited from this
+    one: no simulator state, no frozen objects); ``fn`` must be importable (a module-level function)."""
+    with mp.get_context("spawn").Pool(1) as pool:
+        return pool.apply(fn, args)
 
 
 def vec_step_rate(vec, steps: int, n: int, actions: tuple[int, int] = (1, 4), seed: bool = False) -> float:

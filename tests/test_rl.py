@@ -50,7 +50,7 @@ def test_on_policy_training_says_it_runs_whole_rollouts(dataset, tmp_path):
     r = train_rl(cfg, tmp_path, echo=said.append, progress=False)
     assert r.timesteps == 128  # what SB3 runs for 100: two rollouts of 64, told up front
     assert any(
-        "whole rollouts of n_steps x n_envs = 64 steps: training 128 timesteps, not 100" in s for s in said
+        "whole rollouts of 64 steps over its 1 env(s): training 128 timesteps, not 100" in s for s in said
     )
 
 

@@ -66,7 +66,7 @@ def perception_dataset(
     for part in (p for p, row in manifest["parts"].items() if not row["frames"]):
         typer.echo(
             f"warning: {part} has no frames: each group of {FRAMES_PER_GROUP} frames draws its part from the "
-            "seed; render more (--frames) to measure on it",
+            "seed; render more (--frames)",
             err=True,
         )
     typer.echo(f"wrote {target}")

@@ -110,7 +110,8 @@ def _rl_command(algo: str):
         timesteps: int = typer.Option(
             200_000,
             "--timesteps",
-            help="Environment steps to train for (PPO, A2C: rounded up to whole rollouts, n_steps x n-envs).",
+            help="Environment steps to train for, rounded up to whole rollouts over all envs (PPO, A2C: "
+            "n_steps x n-envs; SAC: n-envs).",
         ),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help=f"Run folder (default runs/{algo})."),
         n_envs: int = typer.Option(

@@ -24,6 +24,7 @@ import numpy as np
 import torch
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from stable_baselines3.common.type_aliases import TrainFrequencyUnit
 
 from biovln_ms.cluster import check_address, closing_vec_env, exit_on_sigterm
 from biovln_ms.constants import CHECKPOINT_EVERY
@@ -211,6 +212,17 @@ class RLResult:
     eval_summary: dict | None = None  # set by biovln_ms.eval.learned.train_and_evaluate
 
 
+def rollout_steps(model) -> int:
+    """The timesteps SB3 collects between two checks of ``total_timesteps``, so a run ends at a multiple:
+    ``n_steps`` per env for PPO and A2C, ``train_freq`` steps per env for SAC (1 if it counts episodes)."""
+    if isinstance(model, OnPolicyAlgorithm):
+        return model.n_steps * model.n_envs
+    freq = getattr(model, "train_freq", None)
+    if freq is not None and freq.unit == TrainFrequencyUnit.STEP:
+        return freq.frequency * model.n_envs
+    return 1  # counted in episodes: not known ahead
+
+
 def train_rl(
     cfg: RLConfig, out: str | Path, echo: Callable[[str], None] = print, progress: bool = True
 ) -> RLResult:
@@ -264,13 +276,12 @@ def train_rl(
                     [EndStopPenalty(cfg.stop_penalty_steps)] if cfg.stop_penalty_steps else []
                 )
                 callbacks += [FreezeAtStart()] if in_process else []
-                on_policy = isinstance(model, OnPolicyAlgorithm)  # learns in whole rollouts
-                rollout = model.n_steps * model.n_envs if on_policy else 1
+                rollout = rollout_steps(model)
                 total = -(-cfg.timesteps // rollout) * rollout
                 if total != cfg.timesteps:
                     echo(
-                        f"{cfg.algo} learns in whole rollouts of n_steps x n_envs = {rollout:,} steps: "
-                        f"training {total:,} timesteps, not {cfg.timesteps:,}"
+                        f"{cfg.algo} learns in whole rollouts of {rollout:,} steps over its {model.n_envs} "
+                        f"env(s): training {total:,} timesteps, not {cfg.timesteps:,}"
                     )
                 t0 = time.perf_counter()
                 model.learn(
