@@ -159,14 +159,21 @@ def same_path_overhead(steps: int, block: int = 20) -> float:
             env.close()
 
 
-def step_rate(env, steps: int) -> float:
-    """Steps/s of a seeded random walk (FORWARD, LEFT, RIGHT), resetting at episode ends."""
+def walk_actions(env, steps: int) -> np.ndarray:
+    """The seeded random walk (FORWARD, LEFT, RIGHT) of :func:`step_rate` and :func:`walk_against_raw`:
+    ``env`` reset to episode 0 and 10 untimed warm-up steps taken, the ``steps`` actions to time."""
     rng = np.random.default_rng(0)
     env.reset(options={"episode_index": 0})
     for a in rng.integers(1, 4, 10):
         env.step(int(a))
+    return rng.integers(1, 4, steps)
+
+
+def step_rate(env, steps: int) -> float:
+    """Steps/s of :func:`walk_actions`' walk, resetting at episode ends."""
+    actions = walk_actions(env, steps)
     t = time.perf_counter()
-    for a in rng.integers(1, 4, steps):
+    for a in actions:
         _, _, term, trunc, _ = env.step(int(a))
         if bool(term) or bool(trunc):
             env.reset()
@@ -174,15 +181,11 @@ def step_rate(env, steps: int) -> float:
 
 
 def walk_against_raw(env, ref, steps: int) -> tuple[float, float, float]:
-    """:func:`step_rate`'s walk in :data:`BLOCKS` blocks, each followed by raw SAPIEN frames of that
+    """:func:`walk_actions`' walk in :data:`BLOCKS` blocks, each followed by raw SAPIEN frames of that
     block's own views (:func:`raw_camera_rate_at`) in ``ref``, an env made alike (the walk's state stays
     untouched): env steps/s, raw frames/s, and the median over blocks of the env's rate over raw's, which a
     change of the machine's speed during the run moves less than two rates measured one after the other."""
-    rng = np.random.default_rng(0)
-    env.reset(options={"episode_index": 0})
-    for a in rng.integers(1, 4, 10):
-        env.step(int(a))
-    actions, u = rng.integers(1, 4, steps), env.unwrapped
+    actions, u = walk_actions(env, steps), env.unwrapped
     ref.reset(seed=0)
     env_s, raw_s, ratios = 0.0, 0.0, []
     for block in np.array_split(actions, BLOCKS):
